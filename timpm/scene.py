@@ -1,0 +1,314 @@
+"""Scene description: the grid, the particles, the material, loads and boundaries.
+
+A :class:`Scene` is a checked, immutable description of one simulation.  Every value is
+validated when the scene is built, with an error that names the parameter, so a solver
+never starts on bad input.  The solver derives its feature set (which fields to allocate,
+which kernel code to compile) from the scene.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import taichi as ti
+
+from .basis import get_basis
+
+__all__ = [
+    "Material", "Grid1D", "Traction", "Constant", "Sine", "Ramp", "Scene",
+    "equidistant_particles", "PLACEMENTS", "critical_time_step",
+]
+
+
+def _positive(name: str, value) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
+    if not math.isfinite(value) or value <= 0.0:
+        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    return value
+
+
+def _positive_int(name: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    return int(value)
+
+
+STRESS_UPDATES = ("study", "small")
+
+
+@dataclass(frozen=True)
+class Material:
+    """Linear elastic material of the study.
+
+    ``stress_update="study"`` is the update of section 2.2.4,
+    sigma += (E - sigma) * d_eps, which integrates to sigma = E (1 - 1/stretch) and gives
+    the large-deformation oedometer strain ln(1 + p0/E) (A.4); ``"small"`` is the plain
+    small-strain update sigma += E * d_eps.
+    """
+
+    E: float
+    density: float
+    stress_update: str = "study"
+
+    def __post_init__(self):
+        object.__setattr__(self, "E", _positive("Young's modulus E", self.E))
+        object.__setattr__(self, "density", _positive("density", self.density))
+        if self.stress_update not in STRESS_UPDATES:
+            raise ValueError(f"unknown stress_update {self.stress_update!r}: choose one of "
+                             f"{', '.join(STRESS_UPDATES)}")
+
+    @property
+    def wave_speed(self) -> float:
+        return math.sqrt(self.E / self.density)
+
+
+@dataclass(frozen=True)
+class Grid1D:
+    """A uniform 1D background grid of ``n_elements`` elements of size ``h`` from ``origin``."""
+
+    n_elements: int
+    h: float
+    origin: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "n_elements", _positive_int("number of elements", self.n_elements))
+        object.__setattr__(self, "h", _positive("element size h", self.h))
+        if not math.isfinite(float(self.origin)):
+            raise ValueError(f"grid origin must be finite, got {self.origin!r}")
+
+    @property
+    def length(self) -> float:
+        return self.n_elements * self.h
+
+    @property
+    def end(self) -> float:
+        return self.origin + self.length
+
+
+# ---- time functions of a load: each evaluates in Python and inside a kernel ----------------
+
+@ti.data_oriented
+class Constant:
+    """f(t) = 1 for t >= 0 (a step load, H(t))."""
+
+    def __call__(self, t):
+        return np.ones_like(np.asarray(t, dtype=float))
+
+    @ti.func
+    def value(self, t):
+        return 1.0
+
+    def __repr__(self):
+        return "Constant()"
+
+
+@ti.data_oriented
+class Sine:
+    """f(t) = sin(omega t)."""
+
+    def __init__(self, omega: float):
+        self.omega = float(omega)
+
+    def __call__(self, t):
+        return np.sin(self.omega * np.asarray(t, dtype=float))
+
+    @ti.func
+    def value(self, t):
+        return ti.sin(self.omega * t)
+
+    def __repr__(self):
+        return f"Sine(omega={self.omega!r})"
+
+
+@ti.data_oriented
+class Ramp:
+    """f(t) = min(t / duration, 1): a load brought on smoothly."""
+
+    def __init__(self, duration: float):
+        self.duration = _positive("ramp duration", duration)
+
+    def __call__(self, t):
+        return np.minimum(np.asarray(t, dtype=float) / self.duration, 1.0)
+
+    @ti.func
+    def value(self, t):
+        return ti.min(t / self.duration, 1.0)
+
+    def __repr__(self):
+        return f"Ramp(duration={self.duration!r})"
+
+
+@dataclass(frozen=True)
+class Traction:
+    """A force ``amplitude * time_function(t)`` (per unit area) applied on one particle (3.5)."""
+
+    particle: int
+    amplitude: float
+    time_function: object = field(default_factory=Constant)
+
+    def __post_init__(self):
+        if not math.isfinite(float(self.amplitude)):
+            raise ValueError(f"traction amplitude must be finite, got {self.amplitude!r}")
+        if not callable(getattr(self.time_function, "value", None)):
+            raise ValueError("traction time_function must be Constant, Sine, Ramp or alike")
+
+
+# ---- particle placement --------------------------------------------------------------------
+
+def _study_positions(ppc):
+    return (np.arange(ppc) + 1.0) / (ppc + 1.0)
+
+
+def _centered_positions(ppc):
+    return (np.arange(ppc) + 0.5) / ppc
+
+
+def _gauss_positions(ppc):
+    return (np.polynomial.legendre.leggauss(ppc)[0] + 1.0) / 2.0
+
+
+#: local positions of ``ppc`` particles in an element, in [0, 1]
+PLACEMENTS = {"study": _study_positions, "centered": _centered_positions, "gauss": _gauss_positions}
+
+
+def equidistant_particles(n_elements: int, ppc: int, h: float, start: float = 0.0,
+                          placement: str = "study"):
+    """Particle positions and volumes filling ``n_elements`` elements from ``start``.
+
+    ``placement="study"`` puts the particles of an element at ``(k + 1) / (ppc + 1)``, equal
+    gaps between neighbours and to the element edges; this is the spacing that reproduces
+    the study's Table 3.2.  ``"centered"`` uses ``(k + 1/2) / ppc`` (each particle in the
+    middle of an equal sub-cell), ``"gauss"`` the Gauss-Legendre points with their weights
+    as volumes.  Volumes sum to the filled length in every case.
+    """
+    n_elements = _positive_int("number of elements", n_elements)
+    ppc = _positive_int("particles per element", ppc)
+    h = _positive("element size h", h)
+    if placement not in PLACEMENTS:
+        raise ValueError(f"unknown placement {placement!r}: choose one of {', '.join(PLACEMENTS)}")
+    local = PLACEMENTS[placement](ppc)
+    x = start + (np.arange(n_elements)[:, None] + local[None, :]).ravel() * h
+    if placement == "gauss":
+        weights = np.polynomial.legendre.leggauss(ppc)[1] / 2.0
+    else:
+        weights = np.full(ppc, 1.0 / ppc)
+    volume = np.tile(weights, n_elements) * h
+    return x, volume
+
+
+def critical_time_step(h: float, material: Material) -> float:
+    """Eq. 2.4 of the study: dt <= h / sqrt(E / rho)."""
+    return h / material.wave_speed
+
+
+MASS_KINDS = ("lumped", "consistent")
+
+
+@dataclass(frozen=True)
+class Scene:
+    """One 1D MPM simulation, checked on construction.
+
+    Positions are absolute coordinates; ``volume`` the initial particle volumes (length
+    times a unit cross-section); ``fixed_nodes`` the grid nodes held at zero velocity;
+    ``gravity`` the signed acceleration along x (negative points down); ``damping`` the
+    local damping factor alpha of A.4.
+    """
+
+    grid: Grid1D
+    material: Material
+    positions: np.ndarray
+    volume: np.ndarray
+    dt: float
+    velocity: np.ndarray | None = None
+    basis: str = "linear"
+    mass: str = "lumped"
+    gravity: float = 0.0
+    traction: Traction | None = None
+    fixed_nodes: tuple = ()
+    damping: float = 0.0
+    allow_unstable_dt: bool = False
+    name: str = "scene"
+
+    def __post_init__(self):
+        basis = get_basis(self.basis)
+        object.__setattr__(self, "basis", basis.name)
+        x = np.array(self.positions, dtype=np.float64).ravel()
+        n = len(x)
+        if n == 0:
+            raise ValueError("a scene needs at least one particle")
+        if not np.all(np.isfinite(x)):
+            bad = int(np.flatnonzero(~np.isfinite(x))[0])
+            raise ValueError(f"particle {bad} has a non-finite position {x[bad]!r}")
+        lo, hi = self.grid.origin, self.grid.end
+        outside = np.flatnonzero((x < lo) | (x > hi))
+        if len(outside):
+            p = int(outside[0])
+            raise ValueError(f"particle {p} at x = {x[p]!r} lies outside the grid [{lo}, {hi}]"
+                             f" ({len(outside)} particle(s) outside)")
+        vol = np.array(self.volume, dtype=np.float64).ravel()
+        if vol.shape != x.shape:
+            raise ValueError(f"volume has {len(vol)} entries for {n} particles")
+        if not np.all(np.isfinite(vol) & (vol > 0)):
+            p = int(np.flatnonzero(~(np.isfinite(vol) & (vol > 0)))[0])
+            raise ValueError(f"particle volume must be positive, particle {p} has {vol[p]!r}")
+        v = np.zeros(n) if self.velocity is None else np.array(self.velocity, np.float64).ravel()
+        if v.shape != x.shape:
+            raise ValueError(f"velocity has {len(v)} entries for {n} particles")
+        if not np.all(np.isfinite(v)):
+            raise ValueError(f"particle {int(np.flatnonzero(~np.isfinite(v))[0])} has a "
+                             "non-finite initial velocity")
+        for arr in (x, vol, v):
+            arr.setflags(write=False)
+        object.__setattr__(self, "positions", x)
+        object.__setattr__(self, "volume", vol)
+        object.__setattr__(self, "velocity", v)
+
+        if self.grid.n_elements < basis.min_elements:
+            raise ValueError(f"the {basis.name} basis needs at least {basis.min_elements} "
+                             f"elements, the grid has {self.grid.n_elements}")
+        if self.mass not in MASS_KINDS:
+            raise ValueError(f"unknown mass {self.mass!r}: choose one of {', '.join(MASS_KINDS)}")
+        if self.mass == "lumped" and not basis.lumpable:
+            raise ValueError(f"the {basis.name} basis takes negative values, so its mass matrix "
+                             "cannot be lumped (study 5.1): use mass='consistent'")
+        if not math.isfinite(float(self.gravity)):
+            raise ValueError(f"gravity must be finite, got {self.gravity!r}")
+        if not (0.0 <= float(self.damping) < 1.0):
+            raise ValueError(f"damping factor alpha must lie in [0, 1), got {self.damping!r}")
+        nn = basis.n_nodes(self.grid.n_elements)
+        fixed = tuple(int(i) for i in self.fixed_nodes)
+        for i in fixed:
+            if not 0 <= i < nn:
+                raise ValueError(f"fixed node {i} does not exist: the grid has nodes 0..{nn - 1}")
+        object.__setattr__(self, "fixed_nodes", fixed)
+        if self.traction is not None and not 0 <= self.traction.particle < n:
+            raise ValueError(f"traction particle {self.traction.particle} does not exist "
+                             f"({n} particles)")
+        dt = _positive("time step dt", self.dt)
+        object.__setattr__(self, "dt", dt)
+        dt_crit = self.critical_dt
+        if dt > dt_crit and not self.allow_unstable_dt:
+            raise ValueError(
+                f"time step dt = {dt:g} s exceeds the critical time step {dt_crit:g} s "
+                f"(Eq. 2.4: h / sqrt(E / rho) with h = {self.grid.h:g} m); choose a smaller dt "
+                "or pass allow_unstable_dt=True (--allow-unstable-dt) to run anyway")
+
+    @property
+    def n_particles(self) -> int:
+        return len(self.positions)
+
+    @property
+    def mass_per_particle(self) -> np.ndarray:
+        return self.material.density * self.volume
+
+    @property
+    def critical_dt(self) -> float:
+        return critical_time_step(self.grid.h, self.material)
+
+    @property
+    def basis_class(self):
+        return get_basis(self.basis)

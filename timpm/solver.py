@@ -1,0 +1,681 @@
+"""The MPM time step in Taichi: P2G, grid solve and G2P kernels.
+
+One step is the study's Modified Lagrangian algorithm with Euler-Cromer time stepping
+(section 2.2.4, Figure 2.7; 2.2.5):
+
+1. P2G: mass matrix M (lumped or consistent) and forces F = F_grav + F_trac - F_int
+2. grid: accelerations a = M^-1 F (Dirichlet nodes held at zero; local damping of A.4)
+3. G2P: particle velocities v_p += dt sum_i phi_i a_i; P2G of the new momentum P
+4. grid: nodal velocities v = M^-1 P
+5. G2P: displacement and position u_p, x_p += sum_i phi_i v_i dt; strain increment
+   d_eps = sum_i dphi_i v_i dt; stress, volume and density updates
+
+Every phase is a ``ti.func`` whose outermost loop runs over particles or nodes.  The same
+phases compile into two kernels: ``_step`` (one launch per step, the loops parallel over
+the CPU threads with atomic scatter) and ``_advance`` (many steps in one launch, the step
+loop serialised, for small problems that would otherwise be dominated by launch cost).
+The basis and the spatial dimension are compile-time parameters; fields a scene does not
+need are not allocated and the code that would use them is not compiled.
+
+Nothing is ever read or written out of bounds: a particle outside the grid, a NaN, an
+inverted volume or a singular mass matrix sets an error record (code, step, particle or
+node) and the run stops with a :class:`SimulationError` that names them.
+"""
+
+import sys
+import time
+
+import numpy as np
+import taichi as ti
+
+from .runtime import ensure_init
+from .scene import Scene
+
+__all__ = ["Solver", "SimulationError", "ERRORS"]
+
+ERRORS = {
+    1: "left the grid",
+    2: "has a non-finite (NaN or infinite) state",
+    3: "has a non-positive volume (the material inverted)",
+    4: "the consistent mass matrix is singular",
+}
+
+
+class SimulationError(RuntimeError):
+    """A run stopped because the state became invalid; the message names step and where."""
+
+    def __init__(self, message, code=0, step=-1, particle=-1, node=-1):
+        super().__init__(message)
+        self.code, self.step, self.particle, self.node = code, step, particle, node
+
+
+@ti.data_oriented
+class Solver:
+    """Particles and grid of one :class:`Scene` and the kernels that advance them.
+
+    ``track`` lists particle indices whose state is recorded every ``record_every`` steps
+    together with the energies; ``mode`` is ``"parallel"``, ``"serial"`` (fused steps, one
+    thread, bit-reproducible) or ``"auto"`` (serial below ``serial_threshold`` particles).
+    """
+
+    dim = 1
+
+    def __init__(self, scene: Scene, track=(), record_every: int = 1, energies: bool = True,
+                 mode: str = "auto", serial_threshold: int = 4096, history_chunk: int = 512,
+                 track_crossings: bool = True):
+        ensure_init()
+        if mode not in ("auto", "parallel", "serial"):
+            raise ValueError(f"unknown mode {mode!r}: choose auto, parallel or serial")
+        if record_every < 1:
+            raise ValueError(f"record_every must be a positive integer, got {record_every!r}")
+        self.scene = scene
+        self.basis = scene.basis_class
+        self.material = scene.material
+        n = scene.n_particles
+        track = [int(p) for p in track]
+        for p in track:
+            if not 0 <= p < n:
+                raise ValueError(f"tracked particle {p} does not exist ({n} particles)")
+        self.mode = ("serial" if n <= serial_threshold else "parallel") if mode == "auto" else mode
+        self.record_every = int(record_every)
+        self.history_chunk = int(history_chunk)
+        self.n_particles = n
+        self.n_elements = scene.grid.n_elements
+        self.n_nodes = self.basis.n_nodes(self.n_elements)
+        self.h = scene.grid.h
+        self.inv_h = 1.0 / scene.grid.h
+        self.origin = scene.grid.origin
+        self.dt = scene.dt
+        self.gravity = float(scene.gravity)
+        self.E = scene.material.E
+        # compile-time feature set, frozen here
+        self.consistent = scene.mass == "consistent"
+        self.study_stress = scene.material.stress_update == "study"
+        self.damping = float(scene.damping)
+        self.has_traction = scene.traction is not None
+        self.traction_particle = scene.traction.particle if self.has_traction else -1
+        self.traction_amplitude = float(scene.traction.amplitude) if self.has_traction else 0.0
+        self.traction_fn = scene.traction.time_function if self.has_traction else None
+        self.track_crossings = bool(track_crossings)
+        self.n_tracked = len(track)
+        self.recording = energies or self.n_tracked > 0
+        self.record_energies = bool(energies)
+        self.bandwidth = self.basis.support - 1
+        mass_scale = float(np.mean(scene.mass_per_particle))
+        self.mass_tol = 1e-14 * mass_scale
+        self._allocate(scene, track)
+        self.history = {"t": [], "step": []}
+        self.crossing_steps = []
+        self.compile_seconds = 0.0
+        self._compiled = set()
+
+    # ---- fields ------------------------------------------------------------------------
+    def _allocate(self, scene: Scene, track):
+        d, n, nn = self.dim, self.n_particles, self.n_nodes
+        fb = ti.FieldsBuilder()
+        vec, f64 = ti.types.vector(d, ti.f64), ti.f64
+        self.x = ti.Vector.field(d, f64)
+        self.u = ti.Vector.field(d, f64)
+        self.v = ti.Vector.field(d, f64)
+        self.m = ti.field(f64)
+        self.vol = ti.field(f64)
+        self.sigma = ti.Matrix.field(d, d, f64)
+        self.eps = ti.Matrix.field(d, d, f64)
+        particle_fields = [self.x, self.u, self.v, self.m, self.vol, self.sigma, self.eps]
+        if self.record_energies:
+            self.work = ti.field(f64)  # strain energy, integrated along the path
+            particle_fields.append(self.work)
+        if self.track_crossings:
+            self.elem = ti.Vector.field(d, ti.i32)
+            particle_fields.append(self.elem)
+        fb.dense(ti.i, n).place(*particle_fields)
+        # grid: mass, force then acceleration, momentum then velocity, Dirichlet mask
+        self.gm = ti.field(f64)
+        self.gf = ti.Vector.field(d, f64)
+        self.gp = ti.Vector.field(d, f64)
+        self.fixed = ti.field(ti.i32)
+        fb.dense(ti.axes(*range(d)), (nn,) * d).place(
+            self.gm, self.gf, self.gp, self.fixed)
+        if self.consistent:
+            if d != 1:
+                raise ValueError("the consistent mass matrix is implemented for 1D scenes only")
+            self.band = ti.field(f64)  # M[i, i + k - b] stored at band[i, k]
+            self.inactive = ti.field(ti.i32)  # fixed or untouched rows of M
+            fb.dense(ti.ij, (nn, 2 * self.bandwidth + 1)).place(self.band)
+            fb.dense(ti.i, nn).place(self.inactive)
+        # run state and the first error
+        self.step_count = ti.field(ti.i64)
+        self.time = ti.field(f64)
+        self.crossings = ti.field(ti.i64)
+        self.err = ti.field(ti.i32)
+        self.err_step = ti.field(ti.i64)
+        self.err_where = ti.field(ti.i32)
+        self.neg_pivots = ti.field(ti.i64)
+        fb.place(self.step_count, self.time, self.crossings, self.err, self.err_step,
+                 self.err_where, self.neg_pivots)
+        if self.recording:
+            cap = self.history_chunk
+            self.rec_count = ti.field(ti.i32)
+            self.h_t = ti.field(f64)
+            self.h_step = ti.field(ti.i64)
+            fb.place(self.rec_count)
+            fb.dense(ti.i, cap).place(self.h_t, self.h_step)
+            if self.record_energies:
+                self.h_energy = ti.Vector.field(4, f64)  # kinetic, strain, gravity, external
+                fb.dense(ti.i, cap).place(self.h_energy)
+            if self.n_tracked:
+                self.track_ids = ti.field(ti.i32)
+                fb.dense(ti.i, self.n_tracked).place(self.track_ids)
+                self.h_x = ti.Vector.field(d, f64)
+                self.h_u = ti.Vector.field(d, f64)
+                self.h_v = ti.Vector.field(d, f64)
+                self.h_s = ti.Matrix.field(d, d, f64)
+                fb.dense(ti.ij, (cap, self.n_tracked)).place(self.h_x, self.h_u, self.h_v, self.h_s)
+        if self.record_energies and self.has_traction:
+            self.ext_work = ti.field(f64)
+            fb.place(self.ext_work)
+        self._tree = fb.finalize()
+
+        x = scene.positions.reshape(n, d)
+        self.x.from_numpy(x)
+        self.u.from_numpy(np.zeros((n, d)))
+        self.v.from_numpy(scene.velocity.reshape(n, d))
+        self.m.from_numpy(scene.mass_per_particle)
+        self.vol.from_numpy(scene.volume)
+        fixed = np.zeros((nn,) * d, dtype=np.int32)
+        for i in scene.fixed_nodes:
+            fixed[i] = 1
+        self.fixed.from_numpy(fixed)
+        if self.track_crossings:
+            self.elem.from_numpy(self._element_of(x))
+        if self.n_tracked:
+            self.track_ids.from_numpy(np.asarray(track, dtype=np.int32))
+
+    def _element_of(self, x):
+        xi = (x - self.origin) * self.inv_h
+        return np.clip(np.floor(xi), 0, self.n_elements - 1).astype(np.int32)
+
+    def release(self):
+        """Free the fields of this solver (it cannot be used afterwards)."""
+        if getattr(self, "_tree", None) is not None:
+            self._tree.destroy()
+            self._tree = None
+
+    # ---- stencil -----------------------------------------------------------------------
+    @ti.func
+    def _stencil(self, p):
+        """Node base, weights and gradients of particle p, and whether p is on the grid."""
+        xi = (self.x[p] - self.origin) * self.inv_h
+        base = ti.Vector.zero(ti.i32, self.dim)
+        w = ti.Matrix.zero(ti.f64, self.basis.support, self.dim)
+        dw = ti.Matrix.zero(ti.f64, self.basis.support, self.dim)
+        inside = 1
+        for k in ti.static(range(self.dim)):
+            # NaN fails both comparisons, so it is caught here too
+            if not (xi[k] >= 0.0 and xi[k] <= self.n_elements):
+                inside = 0
+            b, wk, dwk = self.basis.stencil(xi[k], self.n_elements)
+            base[k] = b
+            if b < 0 or b + self.basis.support > self.n_nodes:
+                inside = 0
+            for a in ti.static(range(self.basis.support)):
+                w[a, k] = wk[a]
+                dw[a, k] = dwk[a] * self.inv_h
+        return base, w, dw, inside
+
+    @ti.func
+    def _weight(self, w, dw, offset):
+        """Tensor-product value and gradient of the basis function at stencil ``offset``."""
+        phi = 1.0
+        grad = ti.Vector.zero(ti.f64, self.dim)
+        for k in ti.static(range(self.dim)):
+            phi *= w[offset[k], k]
+        for j in ti.static(range(self.dim)):
+            g = 1.0
+            for k in ti.static(range(self.dim)):
+                if ti.static(j == k):
+                    g *= dw[offset[k], k]
+                else:
+                    g *= w[offset[k], k]
+            grad[j] = g
+        return phi, grad
+
+    @ti.func
+    def _fail(self, code, where):
+        """Record the first error of the run: its code, step and particle or node."""
+        if ti.atomic_max(self.err[None], code) == 0:
+            self.err_step[None] = self.step_count[None]
+            self.err_where[None] = where
+
+    # ---- phases of one step ------------------------------------------------------------
+    @ti.func
+    def _clear_grid(self):
+        for I in ti.grouped(ti.ndrange(*((self.n_nodes,) * self.dim))):
+            self.gm[I] = 0.0
+            self.gf[I] = ti.Vector.zero(ti.f64, self.dim)
+            self.gp[I] = ti.Vector.zero(ti.f64, self.dim)
+        if ti.static(self.consistent):
+            for i, k in ti.ndrange(self.n_nodes, 2 * self.bandwidth + 1):
+                self.band[i, k] = 0.0
+
+    @ti.func
+    def _p2g(self):
+        # P2G (2.2.4): M_ij = sum m_p phi_i phi_j (A.1) or M_ii = sum m_p phi_i (A.2);
+        # F_i = sum phi_i (m_p g + f_trac(t)) - sigma_p V_p dphi_i
+        t = self.time[None]
+        for p in range(self.n_particles):
+            base, w, dw, inside = self._stencil(p)
+            if not inside:
+                self._fail(1, p)
+            else:
+                mp = self.m[p]
+                fp = ti.Vector.zero(ti.f64, self.dim)
+                fp[0] += mp * self.gravity
+                if ti.static(self.has_traction):
+                    if p == self.traction_particle:
+                        fp[0] += self.traction_amplitude * self.traction_fn.value(t)
+                stress_volume = self.sigma[p] * self.vol[p]
+                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                    phi, grad = self._weight(w, dw, offset)
+                    node = base + offset
+                    self.gm[node] += mp * phi
+                    self.gf[node] += phi * fp - stress_volume @ grad
+                    if ti.static(self.damping > 0.0):
+                        self.gp[node] += mp * phi * self.v[p]
+                if ti.static(self.consistent):
+                    for a, c in ti.static(ti.ndrange(self.basis.support, self.basis.support)):
+                        self.band[base[0] + a, c - a + self.bandwidth] += mp * w[a, 0] * w[c, 0]
+
+    @ti.func
+    def _grid_acceleration(self):
+        # grid: local damping F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F
+        for I in ti.grouped(ti.ndrange(*((self.n_nodes,) * self.dim))):
+            if ti.static(self.damping > 0.0):
+                self.gf[I] -= self.damping * ti.math.sign(self.gp[I]) * ti.abs(self.gf[I])
+            self.gp[I] = ti.Vector.zero(ti.f64, self.dim)
+        self._solve_mass(self.gf)
+
+    @ti.func
+    def _g2p_velocity(self):
+        # G2P: v_p += dt sum_i phi_i(x_p) a_i; P2G: P_i = sum m_p phi_i(x_p) v_p (2.2.4)
+        for p in range(self.n_particles):
+            base, w, dw, inside = self._stencil(p)
+            if inside:
+                acc = ti.Vector.zero(ti.f64, self.dim)
+                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                    phi, grad = self._weight(w, dw, offset)
+                    acc += phi * self.gf[base + offset]
+                vp = self.v[p] + self.dt * acc
+                self.v[p] = vp
+                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                    phi, grad = self._weight(w, dw, offset)
+                    self.gp[base + offset] += self.m[p] * phi * vp
+
+    @ti.func
+    def _g2p_update(self):
+        # G2P: du_p = sum_i phi_i v_i dt (u_p, x_p); d_eps = sum_i dphi_i v_i dt;
+        # sigma += (E - sigma) d_eps (2.2.4) or E d_eps; V *= 1 + d_eps; rho = m / V
+        for p in range(self.n_particles):
+            base, w, dw, inside = self._stencil(p)
+            if inside:
+                du = ti.Vector.zero(ti.f64, self.dim)
+                grad_du = ti.Matrix.zero(ti.f64, self.dim, self.dim)
+                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                    phi, grad = self._weight(w, dw, offset)
+                    dui = self.gp[base + offset] * self.dt
+                    du += phi * dui
+                    grad_du += dui.outer_product(grad)
+                deps = 0.5 * (grad_du + grad_du.transpose())
+                vol_old = self.vol[p]
+                sig_old = self.sigma[p]
+                sig_new = sig_old + self.E * deps
+                if ti.static(self.study_stress):
+                    sig_new = sig_old + (self.E - sig_old) * deps
+                jac = 1.0 + deps.trace()
+                self.sigma[p] = sig_new
+                self.eps[p] += deps
+                self.vol[p] = vol_old * jac
+                if ti.static(self.record_energies):
+                    # strain energy: trapezoidal path integral of sigma : d_eps V
+                    self.work[p] += 0.5 * ((sig_old * vol_old + sig_new * vol_old * jac) * deps).sum()
+                    if ti.static(self.has_traction):
+                        if p == self.traction_particle:
+                            self.ext_work[None] += self.traction_amplitude * self.traction_fn.value(
+                                self.time[None]) * du[0]
+                self.u[p] += du
+                self.x[p] += du
+                if ti.static(self.track_crossings):
+                    xi = (self.x[p] - self.origin) * self.inv_h
+                    e = ti.Vector.zero(ti.i32, self.dim)
+                    for k in ti.static(range(self.dim)):
+                        e[k] = ti.min(ti.max(ti.floor(xi[k], ti.i32), 0), self.n_elements - 1)
+                    if (e != self.elem[p]).any():
+                        self.crossings[None] += 1
+                        self.elem[p] = e
+                if not (jac > 0.0):
+                    self._fail(3, p)
+                state = self.x[p].sum() + self.v[p].sum() + sig_new.sum() + self.vol[p]
+                if not (ti.abs(state) < 1e300):  # NaN fails this comparison
+                    self._fail(2, p)
+
+    @ti.func
+    def _solve_mass(self, rhs: ti.template()):
+        """rhs <- M^-1 rhs with Dirichlet nodes held at zero and empty nodes left at zero."""
+        if ti.static(not self.consistent):
+            for I in ti.grouped(ti.ndrange(*((self.n_nodes,) * self.dim))):
+                if self.fixed[I] or self.gm[I] <= self.mass_tol:
+                    rhs[I] = ti.Vector.zero(ti.f64, self.dim)
+                else:
+                    rhs[I] = rhs[I] / self.gm[I]
+        else:
+            self._banded_substitute(rhs)
+
+    @ti.func
+    def _banded_factorise(self):
+        # consistent mass (A.1): banded LU without pivoting, in place, on one thread; fixed
+        # and empty rows become identity rows (their right-hand sides are zeroed)
+        b, nn = self.bandwidth, self.n_nodes
+        for _ in range(1):
+            for i in range(nn):
+                self.inactive[i] = 0
+                if self.fixed[i] or self.band[i, b] <= self.mass_tol:
+                    self.inactive[i] = 1
+                    for k in ti.static(range(2 * b + 1)):
+                        self.band[i, k] = 0.0
+                    for r in ti.static(range(1, b + 1)):
+                        if i - r >= 0:
+                            self.band[i - r, b + r] = 0.0
+                        if i + r < nn:
+                            self.band[i + r, b - r] = 0.0
+                    self.band[i, b] = 1.0
+            for k in range(nn):
+                pivot = self.band[k, b]
+                if ti.abs(pivot) <= self.mass_tol:
+                    self._fail(4, k)
+                    pivot = 1.0
+                    self.band[k, b] = 1.0
+                if pivot < 0.0:
+                    self.neg_pivots[None] += 1
+                for r in ti.static(range(1, b + 1)):
+                    i = k + r
+                    if i < nn:
+                        lik = self.band[i, b - r] / pivot
+                        self.band[i, b - r] = lik  # the multiplier, kept for substitution
+                        for c in ti.static(range(1, b + 1)):
+                            if c - r <= b:
+                                self.band[i, b - r + c] -= lik * self.band[k, b + c]
+
+    @ti.func
+    def _banded_substitute(self, rhs: ti.template()):
+        b, nn = self.bandwidth, self.n_nodes
+        for _ in range(1):
+            for i in range(nn):
+                if self.inactive[i]:
+                    rhs[i] = ti.Vector.zero(ti.f64, self.dim)
+            for i in range(nn):  # forward: L y = rhs
+                acc = rhs[i]
+                for r in ti.static(range(1, b + 1)):
+                    if i - r >= 0:
+                        acc -= self.band[i, b - r] * rhs[i - r]
+                rhs[i] = acc
+            for j in range(nn):  # backward: U x = y
+                i = nn - 1 - j
+                acc = rhs[i]
+                for c in ti.static(range(1, b + 1)):
+                    if i + c < nn:
+                        acc -= self.band[i, b + c] * rhs[i + c]
+                rhs[i] = acc / self.band[i, b]
+
+    @ti.func
+    def _one_step(self):
+        self._clear_grid()
+        self._p2g()
+        if ti.static(self.consistent):
+            self._banded_factorise()
+        self._grid_acceleration()
+        self._g2p_velocity()
+        self._solve_mass(self.gp)
+        self._g2p_update()
+        self.step_count[None] += 1
+        self.time[None] = self.step_count[None] * self.dt
+
+    # ---- recording ---------------------------------------------------------------------
+    @ti.func
+    def _record(self):
+        slot = self.rec_count[None]
+        self.h_t[slot] = self.time[None]
+        self.h_step[slot] = self.step_count[None]
+        if ti.static(self.n_tracked > 0):
+            for j in range(self.n_tracked):
+                p = self.track_ids[j]
+                self.h_x[slot, j] = self.x[p]
+                self.h_u[slot, j] = self.u[p]
+                self.h_v[slot, j] = self.v[p]
+                self.h_s[slot, j] = self.sigma[p]
+        if ti.static(self.record_energies):
+            self.h_energy[slot] = ti.Vector.zero(ti.f64, 4)
+            for p in range(self.n_particles):
+                e = ti.Vector([0.5 * self.m[p] * self.v[p].norm_sqr(), self.work[p],
+                               -self.m[p] * self.gravity * self.u[p][0], 0.0])
+                self.h_energy[slot] += e
+            if ti.static(self.has_traction):
+                self.h_energy[slot][3] = self.ext_work[None]
+        self.rec_count[None] = slot + 1
+
+    # ---- kernels -----------------------------------------------------------------------
+    @ti.kernel
+    def _step(self):
+        self._one_step()
+
+    @ti.kernel
+    def _record_kernel(self):
+        self._record()
+
+    @ti.kernel
+    def _advance(self, n_steps: ti.i64, every: ti.i64) -> ti.i64:
+        done = ti.i64(0)
+        ti.loop_config(serialize=True)
+        for _ in range(n_steps):
+            self._one_step()
+            done += 1
+            if ti.static(self.recording):
+                if self.step_count[None] % every == 0:
+                    self._record()
+            if self.err[None] != 0:
+                break
+        return done
+
+    # ---- Python driver -----------------------------------------------------------------
+    @property
+    def step(self) -> int:
+        return int(self.step_count[None])
+
+    @property
+    def t(self) -> float:
+        return float(self.time[None])
+
+    def steps_for(self, t_end: float) -> int:
+        """Number of steps of size dt that reach ``t_end`` (rounded to the nearest step)."""
+        if not np.isfinite(t_end) or t_end < 0:
+            raise ValueError(f"t_end must be a non-negative finite time, got {t_end!r}")
+        return int(round(t_end / self.dt))
+
+    def run(self, t_end: float | None = None, n_steps: int | None = None, progress=None):
+        """Advance to ``t_end`` (or by ``n_steps``); returns self.
+
+        Raises :class:`SimulationError` at the first step whose state is invalid.  A
+        progress line is drawn on stderr for runs that last more than two seconds when
+        stderr is a terminal (``progress=True`` forces it, ``False`` turns it off).
+        """
+        if (t_end is None) == (n_steps is None):
+            raise ValueError("give exactly one of t_end and n_steps")
+        total = self.steps_for(t_end) - self.step if n_steps is None else int(n_steps)
+        if total < 0:
+            raise ValueError(f"t_end = {t_end} lies before the current time {self.t}")
+        if self.recording and self.step == 0 and not self.history["t"]:
+            self._record_now()
+        bar = _Progress(total, progress)
+        done = 0
+        while done < total:
+            if self.mode == "serial":
+                chunk = min(total - done, self.history_chunk * self.record_every,
+                            bar.suggested_chunk(done))
+                t0 = time.perf_counter()
+                ran = int(self._advance(chunk, self.record_every))
+                self._note_compile("advance", time.perf_counter() - t0, ran, chunk)
+                self._drain()
+                done += ran
+                self._check()
+            else:
+                t0 = time.perf_counter()
+                self._step()
+                self._note_compile("step", time.perf_counter() - t0, 1, 1)
+                done += 1
+                self._check()
+                if self.recording and self.step % self.record_every == 0:
+                    self._record_kernel()
+                    if self.rec_count[None] == self.history_chunk:
+                        self._drain()
+            bar.update(done)
+        bar.close()
+        if self.recording:
+            self._drain()
+            if self.history["step"][-1] != self.step:
+                self._record_now()
+        return self
+
+    def _note_compile(self, name, seconds, ran, planned):
+        # the first launch of a kernel includes its compilation: book it apart, estimating
+        # the run part from the next chunk is not worth it for these short first calls
+        if name not in self._compiled:
+            self._compiled.add(name)
+            self.compile_seconds += seconds
+
+    def _record_now(self):
+        self._record_kernel()
+        self._drain()
+
+    def _drain(self):
+        if not self.recording:
+            return
+        n = int(self.rec_count[None])
+        if n == 0:
+            return
+        h = self.history
+        h["t"].extend(self.h_t.to_numpy()[:n])
+        h["step"].extend(self.h_step.to_numpy()[:n])
+        if self.record_energies:
+            h.setdefault("energy", []).extend(self.h_energy.to_numpy()[:n])
+        if self.n_tracked:
+            for key, fld in (("x", self.h_x), ("u", self.h_u), ("v", self.h_v), ("stress", self.h_s)):
+                h.setdefault(key, []).extend(fld.to_numpy()[:n])
+        self.rec_count[None] = 0
+
+    def _check(self):
+        code = int(self.err[None])
+        if code == 0:
+            return
+        step, where = int(self.err_step[None]) + 1, int(self.err_where[None])
+        if code == 4:
+            msg = f"step {step} (t = {step * self.dt:g} s): {ERRORS[code]} at node {where}"
+            raise SimulationError(msg, code, step, node=where)
+        x = float(self.x[where][0])
+        msg = (f"step {step} (t = {step * self.dt:g} s): particle {where} {ERRORS[code]} "
+               f"(x = {x:g}, grid [{self.origin:g}, {self.origin + self.n_elements * self.h:g}])")
+        if code == 2:
+            msg += "; the run is unstable: check the time step and the mass matrix"
+        raise SimulationError(msg, code, step, particle=where)
+
+    # ---- results -----------------------------------------------------------------------
+    def positions(self) -> np.ndarray:
+        return self._component(self.x)
+
+    def displacements(self) -> np.ndarray:
+        return self._component(self.u)
+
+    def velocities(self) -> np.ndarray:
+        return self._component(self.v)
+
+    def stresses(self) -> np.ndarray:
+        return self.sigma.to_numpy()[:, 0, 0] if self.dim == 1 else self.sigma.to_numpy()
+
+    def strains(self) -> np.ndarray:
+        """Accumulated (logarithmic) strain, sum of the increments d_eps."""
+        return self.eps.to_numpy()[:, 0, 0] if self.dim == 1 else self.eps.to_numpy()
+
+    def volumes(self) -> np.ndarray:
+        return self.vol.to_numpy()
+
+    def densities(self) -> np.ndarray:
+        return self.m.to_numpy() / self.vol.to_numpy()
+
+    def grid_crossings(self) -> int:
+        if not self.track_crossings:
+            raise RuntimeError("this solver was built with track_crossings=False")
+        return int(self.crossings[None])
+
+    def negative_pivots(self) -> int:
+        """Steps x nodes at which the consistent mass matrix had a negative pivot."""
+        return int(self.neg_pivots[None])
+
+    def energies(self) -> dict:
+        """Recorded energies over time: kinetic, strain, gravity (potential), external work
+        and total = kinetic + strain + gravity - external work."""
+        if not self.record_energies:
+            raise RuntimeError("this solver was built with energies=False")
+        e = np.asarray(self.history["energy"])
+        out = {"t": np.asarray(self.history["t"]), "kinetic": e[:, 0], "strain": e[:, 1],
+               "gravity": e[:, 2], "external_work": e[:, 3]}
+        out["total"] = out["kinetic"] + out["strain"] + out["gravity"] - out["external_work"]
+        return out
+
+    def tracked(self) -> dict:
+        """Recorded time series of the tracked particles: arrays of shape (records, tracked)."""
+        h = self.history
+        out = {"t": np.asarray(h["t"])}
+        for key in ("x", "u", "v"):
+            a = np.asarray(h.get(key, np.zeros((0, 0, self.dim))))
+            out[key] = a[..., 0] if self.dim == 1 else a
+        s = np.asarray(h.get("stress", np.zeros((0, 0, self.dim, self.dim))))
+        out["stress"] = s[..., 0, 0] if self.dim == 1 else s
+        return out
+
+    def _component(self, fld):
+        a = fld.to_numpy()
+        return a[:, 0] if self.dim == 1 else a
+
+
+class _Progress:
+    """A one-line progress bar on stderr for runs longer than a couple of seconds."""
+
+    def __init__(self, total, enabled):
+        self.total, self.enabled = max(int(total), 1), enabled
+        self.start = time.perf_counter()
+        self.shown = False
+
+    def suggested_chunk(self, done):
+        # small first chunks let the bar appear; later chunks cover about half a second
+        if self.enabled is False:
+            return self.total
+        elapsed = time.perf_counter() - self.start
+        if done == 0 or elapsed <= 0:
+            return max(1, min(self.total, 2000))
+        return max(1, int(done / elapsed * 0.5))
+
+    def update(self, done):
+        if self.enabled is False:
+            return
+        elapsed = time.perf_counter() - self.start
+        if self.enabled is None and (elapsed < 2.0 or not sys.stderr.isatty()):
+            return
+        frac = done / self.total
+        eta = elapsed / max(frac, 1e-12) - elapsed
+        bar = "#" * int(30 * frac)
+        sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}%  {elapsed:6.1f} s  eta {eta:6.1f} s")
+        sys.stderr.flush()
+        self.shown = True
+
+    def close(self):
+        if self.shown:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
