@@ -1,0 +1,33 @@
+"""Error measures, convergence rates and energy diagnostics."""
+import numpy as np
+
+__all__ = ["rms_error", "observed_rates", "energy_drift"]
+
+
+def rms_error(u_numerical, u_exact) -> float:
+    """The study's RMS error (3.2): sqrt(sum_p (u_h(x_p) - u(x_p))^2 / n_p)."""
+    d = np.asarray(u_numerical, dtype=float) - np.asarray(u_exact, dtype=float)
+    return float(np.sqrt(np.mean(d ** 2)))
+
+
+def observed_rates(elements, errors):
+    """Rates between successive refinements: log(e1 / e2) / log(n2 / n1).
+
+    For doubled element counts this is the study's log2(e(h) / e(h/2)) (Table 3.2).
+    """
+    rows = []
+    for (n1, e1), (n2, e2) in zip(zip(elements, errors), zip(elements[1:], errors[1:])):
+        ratio = e1 / e2 if e2 > 0 else float("inf")
+        rate = float(np.log(ratio) / np.log(n2 / n1)) if e2 > 0 and e1 > 0 else float("nan")
+        rows.append({"from": int(n1), "to": int(n2), "ratio": float(ratio), "rate": rate})
+    return rows
+
+
+def energy_drift(energies: dict) -> float:
+    """max_t |E(t) - E(0)| / max_t (kinetic + strain), with E = kinetic + strain +
+    gravity - external work: the change of total energy relative to the energy in motion."""
+    total = energies["total"]
+    scale = float(np.max(energies["kinetic"] + np.abs(energies["strain"])))
+    if scale == 0.0:
+        return 0.0
+    return float(np.max(np.abs(total - total[0])) / scale)

@@ -1,0 +1,23 @@
+"""The study's benchmark problems, each a scene builder with its exact solution."""
+from .base import Problem
+from .oedometer import Oedometer
+from .soil_column import LargeColumn, SoilColumn
+from .vibrating_bar import VibratingBar
+from .vibrating_string import VibratingString
+
+PROBLEMS = {cls.name: cls for cls in (VibratingString, SoilColumn, VibratingBar, Oedometer,
+                                      LargeColumn)}
+
+__all__ = ["Problem", "VibratingString", "SoilColumn", "LargeColumn", "VibratingBar",
+           "Oedometer", "PROBLEMS", "get_problem"]
+
+
+def get_problem(name, **params) -> Problem:
+    """A problem by name, with physical parameters overridden by ``params``."""
+    if isinstance(name, Problem):
+        return name.with_params(**params) if params else name
+    try:
+        cls = PROBLEMS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown problem {name!r}: choose one of {', '.join(PROBLEMS)}") from None
+    return cls().with_params(**params) if params else cls()

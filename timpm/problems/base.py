@@ -1,0 +1,110 @@
+"""Common frame of the study's benchmark problems: a scene builder and an exact solution."""
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+
+from ..basis import get_basis
+from ..scene import Grid1D, Material, Scene, equidistant_particles
+
+__all__ = ["Problem"]
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A benchmark: physical parameters (a frozen dataclass) plus numerical defaults.
+
+    Subclasses set ``name``, the defaults ``elements``, ``ppc``, ``dt``, ``t_end`` and
+    implement :meth:`scene` and, where one exists, :meth:`displacement` (the exact
+    solution at initial positions ``x0`` and time ``t``).
+    """
+
+    name = ""
+    title = ""
+    section = ""
+    elements = 16
+    ppc = 2
+    dt = 1e-3
+    t_end = 1.0
+    has_exact = True
+
+    def with_params(self, **params):
+        """A copy with some physical parameters changed (names are checked)."""
+        known = {f.name for f in fields(self)}
+        unknown = set(params) - known
+        if unknown:
+            raise ValueError(f"{self.name} has no parameter {', '.join(sorted(unknown))}; "
+                             f"its parameters are {', '.join(sorted(known))}")
+        return replace(self, **params)
+
+    @property
+    def material(self) -> Material:
+        raise NotImplementedError
+
+    def domain_length(self) -> float:
+        """Length of the body along x (the part filled with particles)."""
+        raise NotImplementedError
+
+    def grid(self, elements: int, basis) -> Grid1D:
+        """The background grid: ``elements`` elements over the body (more where needed)."""
+        if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements <= 0:
+            raise ValueError(f"number of elements must be a positive integer, got {elements!r}")
+        return Grid1D(int(elements), self.domain_length() / elements)
+
+    def particles(self, elements: int, ppc: int, placement: str):
+        h = self.domain_length() / elements
+        return equidistant_particles(elements, ppc, h, placement=placement)
+
+    def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
+              placement="study", stress_update="study", allow_unstable_dt=False,
+              damping=None) -> Scene:
+        """The problem's scene with ``elements`` elements over the body and ``ppc``
+        particles per element placed by ``placement``; unset values take the defaults."""
+        elements = self.elements if elements is None else elements
+        ppc = self.ppc if ppc is None else ppc
+        dt = self.dt if dt is None else dt
+        basis_cls = get_basis(basis)
+        grid = self.grid(elements, basis_cls)
+        x, vol = self.particles(elements, ppc, placement)
+        material = replace(self.material, stress_update=stress_update)
+        extras = self.conditions(x, basis_cls, grid)
+        if damping is not None:
+            extras["damping"] = damping
+        return Scene(grid=grid, material=material, positions=x, volume=vol, dt=dt,
+                     basis=basis_cls.name, mass=mass, allow_unstable_dt=allow_unstable_dt,
+                     name=self.name, **extras)
+
+    def conditions(self, x0, basis, grid) -> dict:
+        """Initial velocity, boundary conditions and loads as Scene keyword arguments."""
+        raise NotImplementedError
+
+    def displacement(self, x0, t, stress_update="study"):
+        """Exact displacement at initial positions ``x0`` and time ``t`` (only the
+        oedometer's static solution depends on the stress update)."""
+        raise NotImplementedError(f"{self.name} has no exact solution")
+
+    def velocity(self, x0, t):
+        """Exact velocity at initial positions ``x0`` and time ``t``."""
+        raise NotImplementedError(f"{self.name} has no exact solution")
+
+    def summary(self, x0, solver, stress_update) -> dict:
+        """Problem-specific numbers added to a run's record."""
+        return {}
+
+    def monitored_particle(self, x0) -> int:
+        """The particle whose time series the study plots."""
+        return int(np.argmin(np.abs(np.asarray(x0) - 0.5 * self.domain_length())))
+
+
+def last_below(x0, y):
+    """Index of the particle with the largest initial position below ``y``."""
+    x0 = np.asarray(x0)
+    below = np.flatnonzero(x0 < y)
+    return int(below[np.argmax(x0[below])])
+
+
+def check_positive(problem, *names):
+    """Raise a clear error for a non-positive or non-finite physical parameter."""
+    for name in names:
+        value = getattr(problem, name)
+        if isinstance(value, bool) or not np.isfinite(value) or value <= 0:
+            raise ValueError(f"{problem.name}: parameter {name} must be positive, got {value!r}")

@@ -1,0 +1,99 @@
+"""Drivers: run a benchmark problem, compare with its exact solution, study convergence."""
+from dataclasses import dataclass, field
+import time
+
+import numpy as np
+
+from .analysis import energy_drift, observed_rates, rms_error
+from .problems import get_problem
+from .solver import Solver
+
+__all__ = ["RunResult", "run_problem", "convergence"]
+
+
+@dataclass
+class RunResult:
+    """One run: the JSON record, final particle state and the monitored time series."""
+
+    record: dict
+    x0: np.ndarray
+    displacement: np.ndarray
+    exact_displacement: np.ndarray | None
+    series: dict = field(default_factory=dict)
+    energies: dict | None = None
+
+
+def _default_record_every(steps: int) -> int:
+    return max(1, steps // 10000)
+
+
+def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="linear",
+                mass="lumped", dt=None, t_end=None, placement="study", stress_update="study",
+                damping=None, allow_unstable_dt=False, mode="auto", record_every=None,
+                progress=None, params=None, energies=True) -> RunResult:
+    """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
+
+    Unset numerical values take the problem's defaults; ``params`` overrides physical
+    parameters (e.g. ``{"p0": 5e4}``).  The record holds at least problem, elements, ppc,
+    basis, mass, dt, t_end, steps, rms_error, wall_seconds (stepping only; compilation is
+    ``compile_seconds``) and grid_crossings.
+    """
+    prob = get_problem(problem, **(params or {}))
+    elements = prob.elements if elements is None else elements
+    ppc = prob.ppc if ppc is None else ppc
+    t_end = prob.t_end if t_end is None else float(t_end)
+    scene = prob.scene(elements=elements, ppc=ppc, basis=basis, mass=mass, dt=dt,
+                       placement=placement, stress_update=stress_update,
+                       allow_unstable_dt=allow_unstable_dt, damping=damping)
+    x0 = scene.positions.copy()
+    monitor = prob.monitored_particle(x0)
+    steps = int(round(t_end / scene.dt))
+    every = _default_record_every(steps) if record_every is None else int(record_every)
+    t_build = time.perf_counter()
+    solver = Solver(scene, track=[monitor], record_every=every, energies=energies, mode=mode)
+    build_seconds = time.perf_counter() - t_build
+    try:
+        solver.run(t_end, progress=progress)
+        t = solver.t
+        u = solver.displacements()
+        exact = prob.displacement(x0, t, stress_update=stress_update) if prob.has_exact else None
+        series = solver.tracked()
+        series = {"t": series["t"], "particle": monitor, "x0": float(x0[monitor]),
+                  "u": series["u"][:, 0], "v": series["v"][:, 0], "stress": series["stress"][:, 0]}
+        if prob.has_exact:
+            series["u_exact"] = np.array([prob.displacement(x0[monitor:monitor + 1], s,
+                                                            stress_update=stress_update)[0]
+                                          for s in series["t"]])
+            series["v_exact"] = np.array([prob.velocity(x0[monitor:monitor + 1], s)[0]
+                                          for s in series["t"]])
+        en = solver.energies() if energies else None
+        record = {
+            "problem": prob.name, "elements": int(elements), "ppc": int(ppc),
+            "basis": scene.basis, "mass": scene.mass, "dt": scene.dt, "t_end": t,
+            "steps": solver.step, "rms_error": rms_error(u, exact) if exact is not None else None,
+            "wall_seconds": solver.run_seconds, "compile_seconds": solver.compile_seconds,
+            "build_seconds": build_seconds, "grid_crossings": solver.grid_crossings(),
+            "particles": scene.n_particles, "placement": placement,
+            "stress_update": stress_update, "mode": solver.mode,
+            "critical_dt": scene.critical_dt, "monitored_particle": monitor,
+            "energy_drift": energy_drift(en) if en is not None else None,
+        }
+        if scene.mass == "consistent":
+            record["negative_pivots"] = solver.negative_pivots()
+        record.update(prob.summary(x0, solver, stress_update))
+        return RunResult(record, x0, u, exact, series, en)
+    finally:
+        solver.release()
+
+
+def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), **kwargs) -> dict:
+    """Run the problem on each mesh; returns the records and the observed rates."""
+    if len(elements) == 0:
+        raise ValueError("give at least one number of elements")
+    results = [run_problem(problem, elements=n, **kwargs) for n in elements]
+    records = [r.record for r in results]
+    doc = {"problem": records[0]["problem"], "runs": records}
+    errors = [r["rms_error"] for r in records]
+    if all(e is not None for e in errors):
+        doc["rates"] = observed_rates([r["elements"] for r in records], errors)
+    return doc
