@@ -18,7 +18,7 @@ implement the same interface; see ``BASES``.
 import numpy as np
 import taichi as ti
 
-__all__ = ["Basis", "Linear", "BASES", "get_basis", "evaluate"]
+__all__ = ["Basis", "Linear", "BASES", "get_basis", "evaluate", "stencils"]
 
 
 class Basis:
@@ -34,6 +34,9 @@ class Basis:
     lumpable = True
     #: smallest number of elements the basis is defined on
     min_elements = 1
+    #: critical time step of the lumped mass over h / c (Euler-Cromer: dt <= 2 / w_max
+    #: of the element eigenproblem K x = w^2 M x with exact integration)
+    critical_factor = 1.0
 
     @classmethod
     def n_nodes(cls, n_elements: int) -> int:
@@ -97,10 +100,15 @@ class _Evaluator:
 
     def __init__(self, basis: type[Basis], n_points: int):
         self.basis = basis
-        self.xi = ti.field(ti.f64, n_points)
-        self.base = ti.field(ti.i32, n_points)
-        self.w = ti.field(ti.f64, (n_points, basis.support))
-        self.dw = ti.field(ti.f64, (n_points, basis.support))
+        fb = ti.FieldsBuilder()
+        self.xi, self.base = ti.field(ti.f64), ti.field(ti.i32)
+        self.w, self.dw = ti.field(ti.f64), ti.field(ti.f64)
+        fb.dense(ti.i, n_points).place(self.xi, self.base)
+        fb.dense(ti.ij, (n_points, basis.support)).place(self.w, self.dw)
+        self._tree = fb.finalize()
+
+    def release(self):
+        self._tree.destroy()
 
     @ti.kernel
     def run(self, n_elements: ti.i32):
@@ -112,21 +120,33 @@ class _Evaluator:
                 self.dw[i, a] = dw[a]
 
 
-def evaluate(basis, xi, n_elements: int):
-    """Values of every basis function at points ``xi`` (element units).
-
-    Returns ``(phi, dphi)``, arrays of shape ``(len(xi), n_nodes)``, computed by the very
-    ``ti.func`` the solver kernels use; ``dphi`` is per element length.
-    """
+def stencils(basis, xi, n_elements: int):
+    """``(base, w, dw)`` of every point ``xi`` (element units), arrays of shapes ``(n,)``,
+    ``(n, support)`` and ``(n, support)``, computed by the very ``ti.func`` the solver
+    kernels use; ``dw`` is per element length."""
     from .runtime import ensure_init
 
     ensure_init()
     basis = get_basis(basis)
     xi = np.ascontiguousarray(xi, dtype=np.float64).ravel()
     ev = _Evaluator(basis, len(xi))
-    ev.xi.from_numpy(xi)
-    ev.run(n_elements)
-    base, w, dw = ev.base.to_numpy(), ev.w.to_numpy(), ev.dw.to_numpy()
+    try:
+        ev.xi.from_numpy(xi)
+        ev.run(n_elements)
+        return ev.base.to_numpy(), ev.w.to_numpy(), ev.dw.to_numpy()
+    finally:
+        ev.release()
+
+
+def evaluate(basis, xi, n_elements: int):
+    """Values of every basis function at points ``xi`` (element units).
+
+    Returns ``(phi, dphi)``, arrays of shape ``(len(xi), n_nodes)``; ``dphi`` is per
+    element length.
+    """
+    basis = get_basis(basis)
+    xi = np.ascontiguousarray(xi, dtype=np.float64).ravel()
+    base, w, dw = stencils(basis, xi, n_elements)
     nn = basis.n_nodes(n_elements)
     phi = np.zeros((len(xi), nn))
     dphi = np.zeros((len(xi), nn))

@@ -200,15 +200,51 @@ def equidistant_particles(n_elements: int, ppc: int, h: float, start: float = 0.
     return x, volume
 
 
-def critical_time_step(h: float, material: Material) -> float:
-    """Eq. 2.4 of the study: dt <= h / sqrt(E / rho)."""
-    return h / material.wave_speed
+def critical_time_step(h: float, material: Material, basis="linear") -> float:
+    """Eq. 2.4 of the study, dt <= h / sqrt(E / rho), for the lumped mass of the linear
+    basis; other bases scale it by their ``critical_factor``."""
+    return get_basis(basis).critical_factor * h / material.wave_speed
+
+
+def consistent_critical_time_step(grid: Grid1D, material: Material, basis, positions,
+                                  volume) -> float:
+    """Critical step of the consistent mass assembled from the particles (A.1).
+
+    The global w_max is bounded by the largest w_max of the element eigenproblems
+    K_e x = w^2 M_e x (K_e = sum E V_p dphi dphi^T, M_e = sum m_p phi phi^T over the
+    particles of element e), so dt = 2 / max_e w_e is a safe step for Euler-Cromer.  With
+    exact integration and the linear basis this is Eq. 2.4 divided by sqrt(3); the particle
+    quadrature makes M_e smaller in some directions, and singular with one particle per
+    element (then the step is 0: no stable step exists).
+    """
+    from .basis import stencils
+
+    basis = get_basis(basis)
+    xi = (np.asarray(positions) - grid.origin) / grid.h
+    base, w, dw = stencils(basis, xi, grid.n_elements)
+    elem = np.clip(np.floor(xi), 0, grid.n_elements - 1).astype(int)
+    s = basis.support
+    M = np.zeros((grid.n_elements, s, s))
+    K = np.zeros((grid.n_elements, s, s))
+    np.add.at(M, elem, material.density * volume[:, None, None] * w[:, :, None] * w[:, None, :])
+    np.add.at(K, elem, material.E * volume[:, None, None] * dw[:, :, None] * dw[:, None, :]
+              / grid.h ** 2)
+    used = np.flatnonzero(np.abs(M).sum(axis=(1, 2)) > 0)
+    M, K = M[used], K[used]
+    # generalised eigenvalues through M^-1/2 K M^-1/2; a singular M_e has no stable step
+    lam_m, vec = np.linalg.eigh(M)
+    if np.any(lam_m <= 1e-12 * lam_m.max(axis=1, keepdims=True)):
+        return 0.0
+    inv_sqrt = vec / np.sqrt(lam_m)[:, None, :]
+    A = np.einsum("eji,ejk,ekl->eil", inv_sqrt, K, inv_sqrt)
+    w_max = np.sqrt(np.linalg.eigvalsh(A).max())
+    return float(2.0 / w_max)
 
 
 MASS_KINDS = ("lumped", "consistent")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Scene:
     """One 1D MPM simulation, checked on construction.
 
@@ -290,12 +326,24 @@ class Scene:
                              f"({n} particles)")
         dt = _positive("time step dt", self.dt)
         object.__setattr__(self, "dt", dt)
-        dt_crit = self.critical_dt
+        if self.mass == "consistent":
+            dt_crit = consistent_critical_time_step(self.grid, self.material, basis, x, vol)
+        else:
+            dt_crit = critical_time_step(self.grid.h, self.material, basis)
+        object.__setattr__(self, "_critical_dt", dt_crit)
+        if dt_crit == 0.0 and not self.allow_unstable_dt:
+            raise ValueError(
+                "the consistent mass matrix assembled from these particles is singular in "
+                "some element (too few particles per element for the basis): no time step is "
+                "stable; use more particles per element or mass='lumped'")
         if dt > dt_crit and not self.allow_unstable_dt:
+            rule = ("the element bound of the consistent mass matrix" if self.mass == "consistent"
+                    else "Eq. 2.4: h / sqrt(E / rho)")
             raise ValueError(
                 f"time step dt = {dt:g} s exceeds the critical time step {dt_crit:g} s "
-                f"(Eq. 2.4: h / sqrt(E / rho) with h = {self.grid.h:g} m); choose a smaller dt "
-                "or pass allow_unstable_dt=True (--allow-unstable-dt) to run anyway")
+                f"({rule}, h = {self.grid.h:g} m, {basis.name} basis, {self.mass} mass); "
+                "choose a smaller dt or pass allow_unstable_dt=True (--allow-unstable-dt) "
+                "to run anyway")
 
     @property
     def n_particles(self) -> int:
@@ -307,7 +355,8 @@ class Scene:
 
     @property
     def critical_dt(self) -> float:
-        return critical_time_step(self.grid.h, self.material)
+        """Eq. 2.4 (lumped mass) or the element bound of the particles' consistent mass."""
+        return self._critical_dt
 
     @property
     def basis_class(self):

@@ -38,6 +38,7 @@ ERRORS = {
     2: "has a non-finite (NaN or infinite) state",
     3: "has a non-positive volume (the material inverted)",
     4: "the consistent mass matrix is singular",
+    5: "energy grew without a source",
 }
 
 
@@ -56,13 +57,18 @@ class Solver:
     ``track`` lists particle indices whose state is recorded every ``record_every`` steps
     together with the energies; ``mode`` is ``"parallel"``, ``"serial"`` (fused steps, one
     thread, bit-reproducible) or ``"auto"`` (serial below ``serial_threshold`` particles).
+
+    With energies recorded, ``energy_guard`` stops an unstable run: kinetic + strain energy
+    may not exceed ``energy_guard`` times the energy put in so far (initial kinetic and
+    strain energy plus the magnitudes of the gravity and external work); ``None`` turns the
+    check off.
     """
 
     dim = 1
 
     def __init__(self, scene: Scene, track=(), record_every: int = 1, energies: bool = True,
                  mode: str = "auto", serial_threshold: int = 4096, history_chunk: int = 512,
-                 track_crossings: bool = True):
+                 track_crossings: bool = True, energy_guard: float | None = 2.0):
         ensure_init()
         if mode not in ("auto", "parallel", "serial"):
             raise ValueError(f"unknown mode {mode!r}: choose auto, parallel or serial")
@@ -100,6 +106,8 @@ class Solver:
         self.n_tracked = len(track)
         self.recording = energies or self.n_tracked > 0
         self.record_energies = bool(energies)
+        self.energy_guard = energy_guard if energies else None
+        self._energy_input = 0.0
         self.bandwidth = self.basis.support - 1
         mass_scale = float(np.mean(scene.mass_per_particle))
         self.mass_tol = 1e-14 * mass_scale
@@ -377,7 +385,7 @@ class Solver:
     def _banded_factorise(self):
         # consistent mass (A.1): banded LU without pivoting, in place, on one thread; fixed
         # and empty rows become identity rows (their right-hand sides are zeroed)
-        b, nn = self.bandwidth, self.n_nodes
+        b, nn = ti.static(self.bandwidth, self.n_nodes)
         for _ in range(1):
             for i in range(nn):
                 self.inactive[i] = 0
@@ -410,7 +418,7 @@ class Solver:
 
     @ti.func
     def _banded_substitute(self, rhs: ti.template()):
-        b, nn = self.bandwidth, self.n_nodes
+        b, nn = ti.static(self.bandwidth, self.n_nodes)
         for _ in range(1):
             for i in range(nn):
                 if self.inactive[i]:
@@ -584,11 +592,33 @@ class Solver:
         h["t"].extend(self.h_t.to_numpy()[:n])
         h["step"].extend(self.h_step.to_numpy()[:n])
         if self.record_energies:
-            h.setdefault("energy", []).extend(self.h_energy.to_numpy()[:n])
+            energy = self.h_energy.to_numpy()[:n]
+            h.setdefault("energy", []).extend(energy)
+            self._guard_energy(energy, self.h_step.to_numpy()[:n])
         if self.n_tracked:
             for key, fld in (("x", self.h_x), ("u", self.h_u), ("v", self.h_v), ("stress", self.h_s)):
                 h.setdefault(key, []).extend(fld.to_numpy()[:n])
         self.rec_count[None] = 0
+
+    def _guard_energy(self, energy, steps):
+        if self.energy_guard is None or not len(self.history["energy"]):
+            return
+        first = self.history["energy"][0]
+        base = first[0] + max(first[1], 0.0)
+        # energy put in: initial kinetic + strain, and the work of gravity and tractions
+        supplied = base + np.abs(energy[:, 2] - first[2]) + np.abs(energy[:, 3] - first[3])
+        supplied = np.maximum.accumulate(np.maximum(supplied, self._energy_input))
+        self._energy_input = float(supplied[-1])
+        moving = energy[:, 0] + energy[:, 1]
+        bad = np.flatnonzero(moving > self.energy_guard * supplied + 1e-300)
+        if len(bad):
+            i = int(bad[0])
+            raise SimulationError(
+                f"step {int(steps[i])} (t = {int(steps[i]) * self.dt:g} s): {ERRORS[5]}: "
+                f"kinetic + strain energy {moving[i]:.4g} J exceeds {self.energy_guard:g} x "
+                f"the {supplied[i]:.4g} J supplied; the run is unstable (too few particles per "
+                "element, too large a time step, or an indefinite mass matrix)",
+                5, int(steps[i]))
 
     def _check(self):
         code = int(self.err[None])

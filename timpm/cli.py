@@ -1,0 +1,142 @@
+"""The ``timpm`` command: run the study's benchmarks and convergence studies."""
+import argparse
+import json
+import sys
+
+from . import __version__
+from .basis import BASES
+from .problems import PROBLEMS, get_problem
+from .scene import PLACEMENTS, STRESS_UPDATES
+from .solver import SimulationError
+
+__all__ = ["main"]
+
+
+def _param(text):
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    try:
+        return name, float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"parameter {name}: {value!r} is not a number") from None
+
+
+def _positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {value}")
+    return value
+
+
+def _add_common(p):
+    p.add_argument("problem", help=f"one of: {', '.join(PROBLEMS)}")
+    p.add_argument("--ppc", type=int, help="particles per element (default: the problem's)")
+    p.add_argument("--basis", default="linear", help=f"one of: {', '.join(BASES)}")
+    p.add_argument("--mass", default="lumped", choices=["lumped", "consistent"])
+    p.add_argument("--dt", type=float, help="time step [s] (default: the problem's)")
+    p.add_argument("--t-end", type=float, help="end time [s] (default: the problem's)")
+    p.add_argument("--placement", default="study", choices=list(PLACEMENTS),
+                   help="particle positions in an element (study: (k+1)/(ppc+1))")
+    p.add_argument("--stress-update", default="study", choices=list(STRESS_UPDATES),
+                   help="study: sigma += (E - sigma) d_eps (2.2.4); small: sigma += E d_eps")
+    p.add_argument("--damping", type=float, help="local damping factor alpha (A.4)")
+    p.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
+                   help="override a physical parameter of the problem, e.g. p0=2e4")
+    p.add_argument("--allow-unstable-dt", action="store_true",
+                   help="run even if dt exceeds the critical time step of Eq. 2.4")
+    p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel"],
+                   help="serial: fused steps on one thread; parallel: one launch per step")
+    p.add_argument("--threads", type=_positive_int, help="CPU threads for Taichi")
+    p.add_argument("--json", metavar="FILE", help="write the records as JSON")
+    p.add_argument("--plot", metavar="FILE.png", help="draw a plot")
+    p.add_argument("--quiet", action="store_true", help="no table on stdout")
+
+
+def _parser():
+    ap = argparse.ArgumentParser(prog="timpm", description="High-order material point method "
+                                 "in Taichi: the study's 1D benchmarks and convergence studies.")
+    ap.add_argument("--version", action="version", version=f"timpm {__version__}")
+    sub = ap.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="run one benchmark and compare with its exact solution")
+    _add_common(run)
+    run.add_argument("--elements", type=int, help="number of elements over the body")
+    conv = sub.add_parser("convergence", help="RMS error and observed rates over meshes")
+    _add_common(conv)
+    conv.add_argument("--elements", type=int, nargs="+", default=[4, 8, 16, 32, 64],
+                      help="numbers of elements (default: 4 8 16 32 64)")
+    sub.add_parser("list", help="list problems and bases")
+    return ap
+
+
+def _options(args):
+    return dict(ppc=args.ppc, basis=args.basis, mass=args.mass, dt=args.dt, t_end=args.t_end,
+                placement=args.placement, stress_update=args.stress_update,
+                damping=args.damping, allow_unstable_dt=args.allow_unstable_dt,
+                mode=args.mode, params=dict(args.param))
+
+
+def _table(records, rates=None):
+    head = (f"{'elements':>8} {'ppc':>4} {'e_RMS':>12} {'ratio':>7} {'log2':>6} "
+            f"{'crossings':>9} {'steps':>7} {'wall [s]':>9} {'compile [s]':>11}")
+    lines = [head]
+    for i, r in enumerate(records):
+        ratio = log2 = ""
+        if rates and i > 0:
+            ratio, log2 = f"{rates[i - 1]['ratio']:7.3f}", f"{rates[i - 1]['rate']:6.3f}"
+        err = f"{r['rms_error']:12.4e}" if r["rms_error"] is not None else f"{'-':>12}"
+        lines.append(f"{r['elements']:>8} {r['ppc']:>4} {err} {ratio:>7} {log2:>6} "
+                     f"{r['grid_crossings']:>9} {r['steps']:>7} {r['wall_seconds']:9.3f} "
+                     f"{r['compile_seconds']:11.3f}")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
+    if args.command == "list":
+        for name, cls in PROBLEMS.items():
+            p = cls()
+            print(f"{name:18s} {p.title}; defaults: {p.elements} elements, {p.ppc} PPC, "
+                  f"dt = {p.dt:g} s, t_end = {p.t_end:g} s")
+        print("bases:", ", ".join(BASES))
+        return 0
+    from . import runtime
+    from .study import convergence, run_problem
+    from .viz import plot_convergence, plot_series
+
+    try:
+        get_problem(args.problem, **dict(args.param))
+        runtime.init(threads=args.threads)
+        opts = _options(args)
+        if args.command == "run":
+            result = run_problem(args.problem, elements=args.elements, **opts)
+            doc = {"command": "run", "problem": result.record["problem"], "runs": [result.record]}
+            if not args.quiet:
+                print(_table(doc["runs"]))
+                extra = {k: v for k, v in result.record.items() if k in
+                         ("strain", "exact_strain", "strain_relative_error", "energy_drift")}
+                if extra:
+                    print("  ".join(f"{k} = {v:.6g}" for k, v in extra.items() if v is not None))
+            if args.plot:
+                plot_series(result, args.plot)
+        else:
+            doc = convergence(args.problem, elements=args.elements, **opts)
+            doc["command"] = "convergence"
+            if not args.quiet:
+                print(_table(doc["runs"], doc.get("rates")))
+            if args.plot:
+                plot_convergence(doc, args.plot)
+    except (ValueError, SimulationError) as exc:
+        print(f"timpm: error: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(doc, fh, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

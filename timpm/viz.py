@@ -1,0 +1,71 @@
+"""Plots: convergence (like the study's Figures 3.2, 3.6, 3.12) and particle time series
+with the exact solution beside them (like Figures 3.3-3.4, 3.7-3.10)."""
+import numpy as np
+
+__all__ = ["plot_convergence", "plot_series"]
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_convergence(docs, path, title=None):
+    """RMS error against the number of elements, one line per convergence document."""
+    plt = _pyplot()
+    if isinstance(docs, dict):
+        docs = [docs]
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for doc in docs:
+        runs = [r for r in doc["runs"] if r["rms_error"] is not None]
+        n = np.array([r["elements"] for r in runs], dtype=float)
+        e = np.array([r["rms_error"] for r in runs])
+        r0 = runs[0]
+        label = doc.get("label") or f"{r0['basis']}, {r0['ppc']} PPC, {r0['mass']}"
+        ax.loglog(n, e, "o-", label=label)
+        crossed = [r["grid_crossings"] > 0 for r in runs]
+        if any(crossed):
+            ax.loglog(n[crossed], e[crossed], "x", color="k", ms=9)
+    if docs and len(docs[0]["runs"]) > 1:
+        runs = docs[0]["runs"]
+        n0, e0 = runs[0]["elements"], runs[0]["rms_error"]
+        nn = np.array([runs[0]["elements"], runs[-1]["elements"]], dtype=float)
+        ax.loglog(nn, e0 * (nn / n0) ** -2.0, "k:", lw=1, label="slope -2")
+    ax.set_xlabel("number of elements")
+    ax.set_ylabel("RMS displacement error [m]")
+    r0 = docs[0]["runs"][0]
+    ax.set_title(title or f"{r0['problem']}: t = {r0['t_end']:g} s, dt = {r0['dt']:g} s"
+                 + ("  (x: grid crossing)" if any(r["grid_crossings"] for d in docs for r in d["runs"]) else ""))
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_series(result, path, title=None):
+    """Displacement and velocity of the monitored particle against time, exact beside."""
+    plt = _pyplot()
+    s, rec = result.series, result.record
+    fig, axes = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    for ax, key, label in ((axes[0], "u", "displacement [m]"), (axes[1], "v", "velocity [m/s]")):
+        ax.plot(s["t"], s[key], "-", lw=1.2, label="MPM")
+        if f"{key}_exact" in s:
+            ax.plot(s["t"], s[f"{key}_exact"], "--", lw=1.2, label="exact")
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best")
+    axes[1].set_xlabel("time [s]")
+    axes[0].set_title(title or (
+        f"{rec['problem']}: particle {s['particle']} (x0 = {s['x0']:.4g} m), {rec['elements']} "
+        f"elements, {rec['ppc']} PPC, dt = {rec['dt']:g} s, {rec['grid_crossings']} grid crossings"),
+        fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
