@@ -278,19 +278,19 @@ class Scene:
             raise ValueError("a scene needs at least one particle")
         if not np.all(np.isfinite(x)):
             bad = int(np.flatnonzero(~np.isfinite(x))[0])
-            raise ValueError(f"particle {bad} has a non-finite position {x[bad]!r}")
+            raise ValueError(f"particle {bad} has a non-finite position {float(x[bad])!r}")
         lo, hi = self.grid.origin, self.grid.end
         outside = np.flatnonzero((x < lo) | (x > hi))
         if len(outside):
             p = int(outside[0])
-            raise ValueError(f"particle {p} at x = {x[p]!r} lies outside the grid [{lo}, {hi}]"
+            raise ValueError(f"particle {p} at x = {float(x[p])!r} lies outside the grid [{lo}, {hi}]"
                              f" ({len(outside)} particle(s) outside)")
         vol = np.array(self.volume, dtype=np.float64).ravel()
         if vol.shape != x.shape:
             raise ValueError(f"volume has {len(vol)} entries for {n} particles")
         if not np.all(np.isfinite(vol) & (vol > 0)):
             p = int(np.flatnonzero(~(np.isfinite(vol) & (vol > 0)))[0])
-            raise ValueError(f"particle volume must be positive, particle {p} has {vol[p]!r}")
+            raise ValueError(f"particle volume must be positive, particle {p} has {float(vol[p])!r}")
         v = np.zeros(n) if self.velocity is None else np.array(self.velocity, np.float64).ravel()
         if v.shape != x.shape:
             raise ValueError(f"velocity has {len(v)} entries for {n} particles")

@@ -159,10 +159,11 @@ class Solver:
         self.time = ti.field(f64)
         self.crossings = ti.field(ti.i64)
         self.err = ti.field(ti.i32)
+        self.err_count = ti.field(ti.i32)
         self.err_step = ti.field(ti.i64)
         self.err_where = ti.field(ti.i32)
         self.neg_pivots = ti.field(ti.i64)
-        fb.place(self.step_count, self.time, self.crossings, self.err, self.err_step,
+        fb.place(self.step_count, self.time, self.crossings, self.err, self.err_count, self.err_step,
                  self.err_where, self.neg_pivots)
         if self.recording:
             cap = self.history_chunk
@@ -254,7 +255,8 @@ class Solver:
     @ti.func
     def _fail(self, code, where):
         """Record the first error of the run: its code, step and particle or node."""
-        if ti.atomic_max(self.err[None], code) == 0:
+        if ti.atomic_add(self.err_count[None], 1) == 0:
+            self.err[None] = code
             self.err_step[None] = self.step_count[None]
             self.err_where[None] = where
 
@@ -355,19 +357,23 @@ class Solver:
                                 self.time[None]) * du[0]
                 self.u[p] += du
                 self.x[p] += du
+                # checks, the first failure of the run is the one reported
+                state = self.x[p].sum() + self.v[p].sum() + sig_new.sum() + self.vol[p]
+                if not (ti.abs(state) < 1e300):  # NaN fails this comparison
+                    self._fail(2, p)
+                if not (jac > 0.0):
+                    self._fail(3, p)
+                xi = (self.x[p] - self.origin) * self.inv_h
+                for k in ti.static(range(self.dim)):
+                    if not (xi[k] >= 0.0 and xi[k] <= self.n_elements):
+                        self._fail(1, p)
                 if ti.static(self.track_crossings):
-                    xi = (self.x[p] - self.origin) * self.inv_h
                     e = ti.Vector.zero(ti.i32, self.dim)
                     for k in ti.static(range(self.dim)):
                         e[k] = ti.min(ti.max(ti.floor(xi[k], ti.i32), 0), self.n_elements - 1)
                     if (e != self.elem[p]).any():
                         self.crossings[None] += 1
                         self.elem[p] = e
-                if not (jac > 0.0):
-                    self._fail(3, p)
-                state = self.x[p].sum() + self.v[p].sum() + sig_new.sum() + self.vol[p]
-                if not (ti.abs(state) < 1e300):  # NaN fails this comparison
-                    self._fail(2, p)
 
     @ti.func
     def _solve_mass(self, rhs: ti.template()):
@@ -473,7 +479,23 @@ class Solver:
                 self.h_energy[slot][3] = self.ext_work[None]
         self.rec_count[None] = slot + 1
 
+    @ti.func
+    def _project(self):
+        # P2G of mass and momentum alone: m_i = sum m_p phi_i, P_i = sum m_p phi_i v_p
+        for p in range(self.n_particles):
+            base, w, dw, inside = self._stencil(p)
+            if inside:
+                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                    phi, grad = self._weight(w, dw, offset)
+                    self.gm[base + offset] += self.m[p] * phi
+                    self.gp[base + offset] += self.m[p] * phi * self.v[p]
+
     # ---- kernels -----------------------------------------------------------------------
+    @ti.kernel
+    def _project_kernel(self):
+        self._clear_grid()
+        self._project()
+
     @ti.kernel
     def _step(self):
         self._one_step()
@@ -483,8 +505,8 @@ class Solver:
         self._record()
 
     @ti.kernel
-    def _advance(self, n_steps: ti.i64, every: ti.i64) -> ti.i64:
-        done = ti.i64(0)
+    def _advance(self, n_steps: ti.i32, every: ti.i32) -> ti.i32:
+        done = 0
         ti.loop_config(serialize=True)
         for _ in range(n_steps):
             self._one_step()
@@ -492,7 +514,7 @@ class Solver:
             if ti.static(self.recording):
                 if self.step_count[None] % every == 0:
                     self._record()
-            if self.err[None] != 0:
+            if self.err_count[None] != 0:
                 break
         return done
 
@@ -636,6 +658,14 @@ class Solver:
         raise SimulationError(msg, code, step, particle=where)
 
     # ---- results -----------------------------------------------------------------------
+    def project(self):
+        """Nodal mass and momentum projected from the particles now (P2G alone).
+
+        For inspection and tests; it overwrites the grid, so call it between steps only.
+        """
+        self._project_kernel()
+        return self.gm.to_numpy(), self._component(self.gp)
+
     def positions(self) -> np.ndarray:
         return self._component(self.x)
 

@@ -1,0 +1,65 @@
+"""Every basis: partition of unity, derivative against finite differences, linear fields."""
+import numpy as np
+import pytest
+
+from timpm.basis import BASES, evaluate, get_basis
+
+N_ELEMENTS = 6
+
+
+def _points(n_elements, n=997):
+    # points all over the domain, ends and element boundaries included
+    xi = np.linspace(0.0, n_elements, n)
+    return np.concatenate([xi, np.arange(n_elements + 1, dtype=float)])
+
+
+@pytest.mark.parametrize("name", sorted(BASES))
+def test_partition_of_unity(name):
+    phi, dphi = evaluate(name, _points(N_ELEMENTS), N_ELEMENTS)
+    np.testing.assert_allclose(phi.sum(axis=1), 1.0, atol=1e-13)
+    np.testing.assert_allclose(dphi.sum(axis=1), 0.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", sorted(BASES))
+def test_gradient_matches_finite_differences(name):
+    # central differences away from element boundaries (where the derivative may jump)
+    rng = np.random.default_rng(1)
+    elem = rng.integers(0, N_ELEMENTS, 200)
+    xi = elem + rng.uniform(0.05, 0.95, 200)
+    eps = 1e-6
+    phi_p, _ = evaluate(name, xi + eps, N_ELEMENTS)
+    phi_m, _ = evaluate(name, xi - eps, N_ELEMENTS)
+    _, dphi = evaluate(name, xi, N_ELEMENTS)
+    np.testing.assert_allclose(dphi, (phi_p - phi_m) / (2 * eps), atol=1e-7)
+
+
+@pytest.mark.parametrize("name", sorted(BASES))
+def test_reproduces_linear_fields(name):
+    basis = get_basis(name)
+    xi = _points(N_ELEMENTS)
+    phi, dphi = evaluate(name, xi, N_ELEMENTS)
+    nodes = basis.node_coordinates(N_ELEMENTS)
+    a, b = 0.3, -1.7
+    np.testing.assert_allclose(phi @ (a + b * nodes), a + b * xi, atol=1e-12)
+    np.testing.assert_allclose(dphi @ (a + b * nodes), b, atol=1e-11)
+
+
+@pytest.mark.parametrize("name", sorted(BASES))
+def test_support_is_local(name):
+    basis = get_basis(name)
+    phi, _ = evaluate(name, _points(N_ELEMENTS), N_ELEMENTS)
+    assert np.all((np.abs(phi) > 0).sum(axis=1) <= basis.support)
+
+
+def test_linear_hat_values():
+    # N1 = 1 - xi, N2 = xi on each element (study 2.2.3)
+    phi, dphi = evaluate("linear", np.array([0.25, 2.5, 6.0]), N_ELEMENTS)
+    assert phi[0, 0] == pytest.approx(0.75) and phi[0, 1] == pytest.approx(0.25)
+    assert phi[1, 2] == pytest.approx(0.5) and phi[1, 3] == pytest.approx(0.5)
+    assert phi[2, 6] == pytest.approx(1.0)
+    assert dphi[1, 2] == pytest.approx(-1.0) and dphi[1, 3] == pytest.approx(1.0)
+
+
+def test_unknown_basis_is_refused():
+    with pytest.raises(ValueError, match="unknown basis 'cubic'.*linear"):
+        get_basis("cubic")

@@ -1,0 +1,127 @@
+"""Bad input gets a clear error that names the parameter; bad states stop the run."""
+import numpy as np
+import pytest
+
+import timpm
+from timpm.problems import get_problem
+from timpm.study import run_problem
+
+
+@pytest.mark.parametrize("E,rho,match", [(0.0, 1.0, "Young's modulus E"), (-5.0, 1.0, "Young's modulus E"),
+                                         (1.0, 0.0, "density"), (1.0, -2.0, "density"),
+                                         (float("nan"), 1.0, "Young's modulus E")])
+def test_material_constants_must_be_positive(E, rho, match):
+    with pytest.raises(ValueError, match=match):
+        timpm.Material(E, rho)
+
+
+def test_problem_parameters_are_checked():
+    with pytest.raises(ValueError, match="parameter E must be positive"):
+        run_problem("vibrating-string", params={"E": -100.0})
+    with pytest.raises(ValueError, match="parameter density must be positive"):
+        run_problem("soil-column", params={"density": 0.0})
+    with pytest.raises(ValueError, match="parameter L must be positive"):
+        run_problem("vibrating-bar", params={"L": 0.0, "E": 100.0})
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(elements=0), "number of elements must be a positive integer"),
+    (dict(elements=-4), "number of elements must be a positive integer"),
+    (dict(elements=2.5), "number of elements must be a positive integer"),
+    (dict(ppc=0), "particles per element must be a positive integer"),
+    (dict(dt=0.0), "time step dt must be a positive"),
+    (dict(dt=-1e-3), "time step dt must be a positive"),
+    (dict(dt=1.0), r"exceeds the critical time step .*Eq\. 2\.4"),
+    (dict(basis="quintic"), "unknown basis 'quintic'"),
+    (dict(mass="diagonal"), "unknown mass 'diagonal'"),
+    (dict(placement="random"), "unknown placement 'random'"),
+    (dict(stress_update="hyper"), "unknown stress_update 'hyper'"),
+])
+def test_bad_numerical_settings(kw, match):
+    with pytest.raises(ValueError, match=match):
+        get_problem("vibrating-string").scene(**kw)
+
+
+def test_unknown_problem():
+    with pytest.raises(ValueError, match="unknown problem 'wobbly-string'.*vibrating-string"):
+        run_problem("wobbly-string")
+
+
+def test_critical_step_can_be_overridden_explicitly():
+    scene = get_problem("vibrating-string").scene(elements=8, dt=0.5, allow_unstable_dt=True)
+    assert scene.dt > scene.critical_dt
+
+
+def test_consistent_mass_with_one_particle_per_element_is_refused():
+    with pytest.raises(ValueError, match="consistent mass matrix .* singular"):
+        get_problem("vibrating-string").scene(elements=8, ppc=1, mass="consistent")
+
+
+def _scene(**kw):
+    x, vol = timpm.equidistant_particles(4, 2, 1.0, start=1.0)
+    args = dict(grid=timpm.Grid1D(6, 1.0), material=timpm.Material(1.0, 1.0), positions=x,
+                volume=vol, dt=0.1)
+    args.update(kw)
+    return timpm.Scene(**args)
+
+
+def test_scene_input_checks():
+    with pytest.raises(ValueError, match=r"particle 7 at x = 6.5 lies outside the grid \[0.0, 6.0\]"):
+        _scene(positions=np.r_[np.linspace(1.1, 4.9, 7), 6.5])
+    with pytest.raises(ValueError, match="particle 2 has a non-finite position"):
+        _scene(positions=[1.0, 2.0, np.nan, 3.0, 3.5, 4.0, 4.5, 5.0])
+    with pytest.raises(ValueError, match="particle 1 has a non-finite initial velocity"):
+        _scene(velocity=[0.0, np.inf, 0, 0, 0, 0, 0, 0])
+    with pytest.raises(ValueError, match="particle volume must be positive, particle 0"):
+        _scene(volume=[0.0] + [0.5] * 7)
+    with pytest.raises(ValueError, match="fixed node 9 does not exist"):
+        _scene(fixed_nodes=(0, 9))
+    with pytest.raises(ValueError, match="damping factor alpha"):
+        _scene(damping=1.5)
+    with pytest.raises(ValueError, match="traction particle 20 does not exist"):
+        _scene(traction=timpm.Traction(20, 1.0))
+    with pytest.raises(ValueError, match="number of elements must be a positive integer"):
+        timpm.Grid1D(0, 1.0)
+    with pytest.raises(ValueError, match="element size h must be a positive"):
+        timpm.Grid1D(4, -1.0)
+
+
+def test_particle_leaving_the_grid_stops_the_run_and_names_it():
+    # the bar flies to the right; its first particle to cross x = 6 is the last one
+    scene = _scene(velocity=np.full(8, 2.0), dt=0.05)
+    for mode in ("serial", "parallel"):
+        solver = timpm.Solver(scene, mode=mode)
+        with pytest.raises(timpm.SimulationError, match=r"step (\d+) .*particle 7 left the grid") as info:
+            solver.run(n_steps=1000)
+        # x = 4 + 2/3 + 0.1 n passes 6 in step n = 14 (t = 0.7 s)
+        assert info.value.step == 14 and info.value.particle == 7
+        assert solver.step == 14  # stopped there, nothing beyond
+        assert np.all(np.isfinite(solver.positions()))
+        m_nodes, _ = solver.project()  # the grid holds the mass of the particles inside
+        inside = solver.positions() <= 6.0
+        assert m_nodes.sum() == pytest.approx(scene.mass_per_particle[inside].sum())
+        solver.release()
+
+
+def test_nan_in_the_state_stops_the_run():
+    scene = _scene(fixed_nodes=(0,))
+    solver = timpm.Solver(scene, mode="serial")
+    solver.run(n_steps=3)
+    solver.sigma[2] = [[float("nan")]]
+    with pytest.raises(timpm.SimulationError, match=r"step 4 .*particle \d+ has a non-finite"):
+        solver.run(n_steps=10)
+    solver.release()
+
+
+def test_tracked_particle_must_exist():
+    with pytest.raises(ValueError, match="tracked particle 99 does not exist"):
+        timpm.Solver(_scene(), track=[99])
+
+
+def test_lagrange_like_basis_cannot_be_lumped():
+    class NegativeBasis(timpm.Linear):
+        name = "negative-test"
+        lumpable = False
+
+    with pytest.raises(ValueError, match="cannot be lumped.*consistent"):
+        _scene(basis=NegativeBasis)
