@@ -62,8 +62,9 @@ def plot_series(result, path, title=None):
         ax.legend(loc="best")
     axes[1].set_xlabel("time [s]")
     axes[0].set_title(title or (
-        f"{rec['problem']}: particle {s['particle']} (x0 = {s['x0']:.4g} m), {rec['elements']} "
-        f"elements, {rec['ppc']} PPC, dt = {rec['dt']:g} s, {rec['grid_crossings']} grid crossings"),
+        f"{rec['problem']}: particle {s['particle']} (x0 = {s['x0']:.4g} m)\n{rec['elements']} "
+        f"elements, {rec['ppc']} PPC, {rec['basis']}, dt = {rec['dt']:g} s, "
+        f"{rec['grid_crossings']} grid crossings"),
         fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
