@@ -52,9 +52,32 @@ def test_critical_step_can_be_overridden_explicitly():
     assert scene.dt > scene.critical_dt
 
 
-def test_consistent_mass_with_one_particle_per_element_is_refused():
-    with pytest.raises(ValueError, match="consistent mass matrix .* singular"):
-        get_problem("vibrating-string").scene(elements=8, ppc=1, mass="consistent")
+def test_consistent_mass_critical_step_shrinks_with_few_particles():
+    # the particle quadrature leaves the consistent mass nearly singular for the
+    # checkerboard mode: one particle per element needs a far smaller step
+    steps = [get_problem("vibrating-string").scene(elements=8, ppc=ppc, mass="consistent",
+                                                    dt=1e-6).critical_dt for ppc in (1, 2, 4)]
+    assert steps[0] < steps[1] < steps[2] and steps[0] < 0.5 * steps[2]
+    with pytest.raises(ValueError, match="exceeds the critical time step .*particle discretisation"):
+        get_problem("vibrating-string").scene(elements=8, ppc=1, mass="consistent", dt=0.1)
+
+
+def test_singular_mass_is_refused():
+    # two particles on one spot: the mass matrix of their element has rank one
+    x = np.array([0.5, 0.5, 1.5, 1.5])
+    with pytest.raises(ValueError, match="consistent mass matrix .* singular or indefinite"):
+        timpm.Scene(grid=timpm.Grid1D(2, 1.0), material=timpm.Material(1.0, 1.0), positions=x,
+                    volume=np.full(4, 0.5), dt=1e-3, mass="consistent")
+
+
+def test_too_few_particles_for_the_quadrature():
+    with pytest.raises(ValueError, match="bspline3 basis needs at least 2 particles per element"):
+        get_problem("vibrating-string").scene(elements=8, ppc=1, basis="bspline3")
+
+
+def test_mesh_too_coarse_for_the_basis():
+    with pytest.raises(ValueError, match="bspline3 basis needs at least 3 elements"):
+        get_problem("vibrating-string").scene(elements=2, basis="bspline3")
 
 
 def _scene(**kw):

@@ -1,4 +1,11 @@
 """timpm: high-order material point method in Taichi."""
+import os
+
+# Taichi's CPU workers spin for a while after each kernel; a multi-threaded BLAS started
+# right after them (the critical-step eigenproblems) then crawls.  The matrices timpm
+# hands to NumPy are small: one BLAS thread is the right choice (set before NumPy loads).
+for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 from .basis import BASES, Basis, Linear, get_basis
 from .runtime import init
 from .scene import (Constant, Grid1D, Material, Ramp, Scene, Sine, Traction,

@@ -18,7 +18,9 @@ implement the same interface; see ``BASES``.
 import numpy as np
 import taichi as ti
 
-__all__ = ["Basis", "Linear", "BASES", "get_basis", "evaluate", "stencils"]
+__all__ = ["Basis", "Linear", "QuadraticLagrange", "QuadraticBSpline", "CubicBSpline",
+           "UniformQuadraticBSpline", "UniformCubicBSpline", "bspline", "BASES", "get_basis",
+           "evaluate", "stencils"]
 
 
 class Basis:
@@ -34,9 +36,8 @@ class Basis:
     lumpable = True
     #: smallest number of elements the basis is defined on
     min_elements = 1
-    #: critical time step of the lumped mass over h / c (Euler-Cromer: dt <= 2 / w_max
-    #: of the element eigenproblem K x = w^2 M x with exact integration)
-    critical_factor = 1.0
+    #: fewest particles per element its quadrature needs (mass and stiffness of full rank)
+    min_ppc = 1
 
     @classmethod
     def n_nodes(cls, n_elements: int) -> int:
@@ -49,9 +50,9 @@ class Basis:
         raise NotImplementedError
 
     @classmethod
-    def boundary_nodes(cls, n_elements: int) -> tuple[int, int]:
-        """Indices of the coefficient that carries a Dirichlet value at each end."""
-        return 0, cls.n_nodes(n_elements) - 1
+    def boundary_nodes(cls, n_elements: int):
+        """Nodes to hold for a zero Dirichlet value at the left and at the right end."""
+        return (0,), (cls.n_nodes(n_elements) - 1,)
 
 
 class Linear(Basis):
@@ -80,44 +81,217 @@ class Linear(Basis):
         return e, w, dw
 
 
-BASES: dict[str, type[Basis]] = {cls.name: cls for cls in (Linear,)}
+class QuadraticLagrange(Basis):
+    """Quadratic Lagrange shape functions, three nodes per element (study 5.1):
+    N1 = 2 xi^2 - 3 xi + 1, N2 = -4 xi^2 + 4 xi, N3 = 2 xi^2 - xi.
+
+    The end-node functions are negative inside the element, so the mass matrix has
+    negative entries: it cannot be lumped, and the consistent mass may be indefinite.
+    """
+
+    name = "lagrange2"
+    support = 3
+    nodes_per_element = 2
+    lumpable = False
+    min_ppc = 2
+
+    @classmethod
+    def n_nodes(cls, n_elements: int) -> int:
+        return 2 * n_elements + 1
+
+    @classmethod
+    def node_coordinates(cls, n_elements: int) -> np.ndarray:
+        return np.arange(2 * n_elements + 1, dtype=np.float64) / 2.0
+
+    @staticmethod
+    @ti.func
+    def stencil(xi, n_elements):
+        e = ti.min(ti.max(ti.floor(xi, ti.i32), 0), n_elements - 1)
+        f = xi - e
+        w = ti.Vector([2.0 * f * f - 3.0 * f + 1.0, -4.0 * f * f + 4.0 * f, 2.0 * f * f - f])
+        dw = ti.Vector([4.0 * f - 3.0, -8.0 * f + 4.0, 4.0 * f - 1.0])
+        return 2 * e, w, dw
+
+
+@ti.func
+def _de_boor(x, knot, degree: ti.template()):
+    """Values and derivatives of the degree + 1 B-splines that are non-zero on a knot span.
+
+    ``knot`` holds the 2 degree + 2 knots around the span [knot[degree], knot[degree + 1]];
+    Cox-de Boor's triangular scheme (Piegl & Tiller, A2.2), the derivatives from the
+    degree - 1 values.  Fully unrolled: no loop or branch depends on run-time values.
+    """
+    n = ti.Vector.zero(ti.f64, degree + 1)
+    low = ti.Vector.zero(ti.f64, degree + 1)  # the degree - 1 values
+    n[0] = 1.0
+    for j in ti.static(range(1, degree + 1)):
+        if ti.static(j == degree):
+            low = n
+        saved = 0.0
+        for r in ti.static(range(j)):
+            right = knot[degree + r + 1] - x
+            left = x - knot[degree + r + 1 - j]
+            temp = n[r] / (right + left)
+            n[r] = saved + right * temp
+            saved = left * temp
+        n[j] = saved
+    dn = ti.Vector.zero(ti.f64, degree + 1)
+    for r in ti.static(range(degree + 1)):
+        # N'_{i,p} = p N_{i,p-1} / (t_{i+p} - t_i) - p N_{i+1,p-1} / (t_{i+p+1} - t_{i+1});
+        # a repeated knot makes a denominator zero exactly where N_{.,p-1} is zero
+        if ti.static(r > 0):
+            dn[r] += degree * low[r - 1] / ti.max(knot[r + degree] - knot[r], 1e-300)
+        if ti.static(r < degree):
+            dn[r] -= degree * low[r] / ti.max(knot[r + degree + 1] - knot[r + 1], 1e-300)
+    return n, dn
+
+
+class _ClampedBSpline(Basis):
+    """B-splines of ``degree`` on an open (clamped) knot vector 0 (x p+1), 1, ..., n-1, n (x p+1).
+
+    Partition of unity holds up to the boundary and only the first (last) function is
+    non-zero at the left (right) end, so a Dirichlet condition fixes one coefficient.
+    """
+
+    degree = 2
+
+    @classmethod
+    def n_nodes(cls, n_elements: int) -> int:
+        return n_elements + cls.degree
+
+    @classmethod
+    def node_coordinates(cls, n_elements: int) -> np.ndarray:
+        # Greville abscissae: where each coefficient acts; they reproduce linear fields
+        p = cls.degree
+        knots = np.clip(np.arange(n_elements + 2 * p + 1) - p, 0, n_elements).astype(float)
+        return np.array([knots[i + 1:i + p + 1].mean() for i in range(n_elements + p)])
+
+    @classmethod
+    def stencil_func(cls):
+        degree = cls.degree
+
+        @ti.func
+        def stencil(xi, n_elements):
+            e = ti.min(ti.max(ti.floor(xi, ti.i32), 0), n_elements - 1)
+            # knots t_{e+k} of the clamped vector t_j = clamp(j - p, 0, n), k = 0 .. 2p + 1
+            knot = ti.Vector.zero(ti.f64, 2 * degree + 2)
+            for k in ti.static(range(2 * degree + 2)):
+                knot[k] = ti.cast(ti.min(ti.max(e + k - degree, 0), n_elements), ti.f64)
+            w, dw = _de_boor(xi, knot, degree)
+            return e, w, dw
+
+        return stencil
+
+
+class _UniformBSpline(Basis):
+    """Uniform (cardinal) B-splines of ``degree`` centred on the grid nodes, the grid
+    padded beyond both ends by the basis support: the variant for multi-dimensional grids.
+
+    Partition of unity holds inside [0, n]; no function is interpolatory at the ends, so
+    a Dirichlet end fixes every node whose function is non-zero there.
+    """
+
+    degree = 2
+
+    @classmethod
+    def offset(cls):
+        """Padding nodes before x = 0 (node j stands at x = j - offset): ceil((p - 1) / 2)."""
+        return cls.degree // 2
+
+    @classmethod
+    def n_nodes(cls, n_elements: int) -> int:
+        # nodes from -offset to floor(n - (p - 1) / 2) + p: n + p + 1 of them
+        return n_elements + cls.degree + 1
+
+    @classmethod
+    def node_coordinates(cls, n_elements: int) -> np.ndarray:
+        return np.arange(cls.n_nodes(n_elements), dtype=np.float64) - cls.offset()
+
+    @classmethod
+    def boundary_nodes(cls, n_elements: int):
+        x = cls.node_coordinates(n_elements)
+        reach = (cls.degree + 1) / 2.0  # support half-width
+        left = tuple(int(i) for i in np.flatnonzero(np.abs(x) < reach))
+        right = tuple(int(i) for i in np.flatnonzero(np.abs(x - n_elements) < reach))
+        return left, right
+
+    @classmethod
+    def stencil_func(cls):
+        degree, offset = cls.degree, cls.offset()
+
+        @ti.func
+        def stencil(xi, n_elements):
+            # the function of node j is centred at x_j, knots j - (p + 1) / 2 + m: a
+            # particle touches the nodes from b = floor(xi - (p - 1) / 2) on
+            b = ti.floor(xi - 0.5 * (degree - 1), ti.i32)
+            knot = ti.Vector.zero(ti.f64, 2 * degree + 2)
+            for k in ti.static(range(2 * degree + 2)):
+                knot[k] = b + k - 0.5 * (degree + 1)
+            w, dw = _de_boor(xi, knot, degree)
+            return b + offset, w, dw
+
+        return stencil
+
+
+def _make(base, degree, name, **extra):
+    cls = type(f"{base.__name__.strip('_')}{degree}", (base,), dict(
+        name=name, degree=degree, support=degree + 1, __doc__=base.__doc__, **extra))
+    cls.stencil = staticmethod(cls.stencil_func())
+    return cls
+
+
+#: clamped (open knot vector) B-splines: the bases for boundary-fitted 1D problems
+QuadraticBSpline = _make(_ClampedBSpline, 2, "bspline2", min_ppc=2, min_elements=2)
+CubicBSpline = _make(_ClampedBSpline, 3, "bspline3", min_ppc=2, min_elements=3)
+#: uniform (padded) B-splines: the multi-dimensional grid variant
+UniformQuadraticBSpline = _make(_UniformBSpline, 2, "uniform-bspline2", min_ppc=2, min_elements=3)
+UniformCubicBSpline = _make(_UniformBSpline, 3, "uniform-bspline3", min_ppc=2, min_elements=4)
+
+
+def bspline(degree: int, clamped: bool = True) -> type[Basis]:
+    """The B-spline basis of any degree >= 1 (each degree compiles its own kernels)."""
+    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or degree < 1:
+        raise ValueError(f"B-spline degree must be an integer >= 1, got {degree!r}")
+    name = f"{'' if clamped else 'uniform-'}bspline{degree}"
+    if name not in BASES:
+        base = _ClampedBSpline if clamped else _UniformBSpline
+        BASES[name] = _make(base, int(degree), name, min_ppc=max(1, min(degree, 2)),
+                            min_elements=degree + (0 if clamped else 1))
+    return BASES[name]
+
+
+BASES: dict[str, type[Basis]] = {cls.name: cls for cls in (
+    Linear, QuadraticBSpline, CubicBSpline, QuadraticLagrange, UniformQuadraticBSpline,
+    UniformCubicBSpline)}
 
 
 def get_basis(name: str) -> type[Basis]:
-    """Look a basis up by name, with an error that lists the known ones."""
+    """Look a basis up by name (``bsplineN`` / ``uniform-bsplineN`` for any degree N),
+    with an error that lists the known ones."""
     if isinstance(name, type) and issubclass(name, Basis):
         return name
+    if isinstance(name, str) and name not in BASES:
+        for prefix, clamped in (("uniform-bspline", False), ("bspline", True)):
+            digits = name[len(prefix):]
+            if name.startswith(prefix) and digits.isdigit() and int(digits) >= 1:
+                return bspline(int(digits), clamped)
     try:
         return BASES[name]
     except (KeyError, TypeError):
         raise ValueError(
-            f"unknown basis {name!r}: choose one of {', '.join(sorted(BASES))}") from None
+            f"unknown basis {name!r}: choose one of {', '.join(BASES)} "
+            "(or bsplineN / uniform-bsplineN for degree N)") from None
 
 
-@ti.data_oriented
-class _Evaluator:
-    """Evaluates a basis' stencil at given points through its ``ti.func`` (tests, plots)."""
-
-    def __init__(self, basis: type[Basis], n_points: int):
-        self.basis = basis
-        fb = ti.FieldsBuilder()
-        self.xi, self.base = ti.field(ti.f64), ti.field(ti.i32)
-        self.w, self.dw = ti.field(ti.f64), ti.field(ti.f64)
-        fb.dense(ti.i, n_points).place(self.xi, self.base)
-        fb.dense(ti.ij, (n_points, basis.support)).place(self.w, self.dw)
-        self._tree = fb.finalize()
-
-    def release(self):
-        self._tree.destroy()
-
-    @ti.kernel
-    def run(self, n_elements: ti.i32):
-        for i in self.xi:
-            base, w, dw = self.basis.stencil(self.xi[i], n_elements)
-            self.base[i] = base
-            for a in ti.static(range(self.basis.support)):
-                self.w[i, a] = w[a]
-                self.dw[i, a] = dw[a]
+@ti.kernel
+def _stencil_kernel(basis: ti.template(), xi: ti.types.ndarray(), n_elements: ti.i32,
+                    base: ti.types.ndarray(), w: ti.types.ndarray(), dw: ti.types.ndarray()):
+    for i in range(xi.shape[0]):
+        b, wi, dwi = basis.stencil(xi[i], n_elements)
+        base[i] = b
+        for a in ti.static(range(basis.support)):
+            w[i, a] = wi[a]
+            dw[i, a] = dwi[a]
 
 
 def stencils(basis, xi, n_elements: int):
@@ -129,13 +303,12 @@ def stencils(basis, xi, n_elements: int):
     ensure_init()
     basis = get_basis(basis)
     xi = np.ascontiguousarray(xi, dtype=np.float64).ravel()
-    ev = _Evaluator(basis, len(xi))
-    try:
-        ev.xi.from_numpy(xi)
-        ev.run(n_elements)
-        return ev.base.to_numpy(), ev.w.to_numpy(), ev.dw.to_numpy()
-    finally:
-        ev.release()
+    base = np.zeros(len(xi), dtype=np.int32)
+    w = np.zeros((len(xi), basis.support))
+    dw = np.zeros((len(xi), basis.support))
+    if len(xi):
+        _stencil_kernel(basis, xi, int(n_elements), base, w, dw)
+    return base, w, dw
 
 
 def evaluate(basis, xi, n_elements: int):

@@ -200,45 +200,82 @@ def equidistant_particles(n_elements: int, ppc: int, h: float, start: float = 0.
     return x, volume
 
 
-def critical_time_step(h: float, material: Material, basis="linear") -> float:
-    """Eq. 2.4 of the study, dt <= h / sqrt(E / rho), for the lumped mass of the linear
-    basis; other bases scale it by their ``critical_factor``."""
-    return get_basis(basis).critical_factor * h / material.wave_speed
+def critical_time_step(h: float, material: Material) -> float:
+    """Eq. 2.4 of the study: dt <= h / sqrt(E / rho) (linear elements, lumped mass)."""
+    return h / material.wave_speed
 
 
-def consistent_critical_time_step(grid: Grid1D, material: Material, basis, positions,
-                                  volume) -> float:
-    """Critical step of the consistent mass assembled from the particles (A.1).
+#: above this many nodes the consistent-mass eigenproblem is bounded element by element
+DENSE_EIGEN_LIMIT = 1500
 
-    The global w_max is bounded by the largest w_max of the element eigenproblems
-    K_e x = w^2 M_e x (K_e = sum E V_p dphi dphi^T, M_e = sum m_p phi phi^T over the
-    particles of element e), so dt = 2 / max_e w_e is a safe step for Euler-Cromer.  With
-    exact integration and the linear basis this is Eq. 2.4 divided by sqrt(3); the particle
-    quadrature makes M_e smaller in some directions, and singular with one particle per
-    element (then the step is 0: no stable step exists).
-    """
+
+def particle_matrices(grid: Grid1D, material: Material, basis, positions, volume):
+    """Per-particle stencil contributions to K = sum_p E V_p dphi dphi^T and
+    M = sum_p m_p phi phi^T (A.1, A.3), from the basis' own stencil: returns the node base
+    of each particle and arrays k, m of shape (particles, support, support)."""
     from .basis import stencils
 
     basis = get_basis(basis)
     xi = (np.asarray(positions) - grid.origin) / grid.h
     base, w, dw = stencils(basis, xi, grid.n_elements)
-    elem = np.clip(np.floor(xi), 0, grid.n_elements - 1).astype(int)
-    s = basis.support
-    M = np.zeros((grid.n_elements, s, s))
-    K = np.zeros((grid.n_elements, s, s))
-    np.add.at(M, elem, material.density * volume[:, None, None] * w[:, :, None] * w[:, None, :])
-    np.add.at(K, elem, material.E * volume[:, None, None] * dw[:, :, None] * dw[:, None, :]
-              / grid.h ** 2)
-    used = np.flatnonzero(np.abs(M).sum(axis=(1, 2)) > 0)
-    M, K = M[used], K[used]
-    # generalised eigenvalues through M^-1/2 K M^-1/2; a singular M_e has no stable step
-    lam_m, vec = np.linalg.eigh(M)
-    if np.any(lam_m <= 1e-12 * lam_m.max(axis=1, keepdims=True)):
-        return 0.0
-    inv_sqrt = vec / np.sqrt(lam_m)[:, None, :]
-    A = np.einsum("eji,ejk,ekl->eil", inv_sqrt, K, inv_sqrt)
-    w_max = np.sqrt(np.linalg.eigvalsh(A).max())
-    return float(2.0 / w_max)
+    vol = np.asarray(volume)
+    m = material.density * vol[:, None, None] * w[:, :, None] * w[:, None, :]
+    k = material.E * vol[:, None, None] * dw[:, :, None] * dw[:, None, :] / grid.h ** 2
+    return base, k, m
+
+
+def _window(rows, blocks, lo, hi):
+    """Dense block [lo, hi) x [lo, hi) of the matrix assembled from per-particle blocks."""
+    r = np.broadcast_to(rows[:, :, None], blocks.shape)
+    c = np.broadcast_to(rows[:, None, :], blocks.shape)
+    inside = (r >= lo) & (r < hi) & (c >= lo) & (c < hi)
+    out = np.zeros((hi - lo, hi - lo))
+    np.add.at(out, (r[inside] - lo, c[inside] - lo), blocks[inside])
+    return out
+
+
+def discrete_critical_time_step(grid: Grid1D, material: Material, basis, positions, volume,
+                                mass: str, fixed_nodes=()) -> float:
+    """Critical Euler-Cromer step dt = 2 / w_max of the particle discretisation.
+
+    w_max^2 is the largest eigenvalue of K x = w^2 M x on the free, non-empty nodes.  For
+    the lumped mass (diagonal row sums) the Gershgorin bound max_i sum_j |K_ij| / M_ii is
+    used, which is Eq. 2.4 for linear elements.  For the consistent mass the eigenproblem
+    is solved, above DENSE_EIGEN_LIMIT nodes on overlapping windows of nodes (the highest
+    modes are local).  A singular or indefinite mass has no stable step: 0 is returned.
+    """
+    basis = get_basis(basis)
+    base, k, m = particle_matrices(grid, material, basis, positions, volume)
+    nn, s = basis.n_nodes(grid.n_elements), basis.support
+    free = np.ones(nn, dtype=bool)
+    free[list(fixed_nodes)] = False
+    rows = (base[:, None] + np.arange(s)[None, :])
+    if mass == "lumped":
+        lumped = np.bincount(rows.ravel(), m.sum(axis=2).ravel(), minlength=nn)
+        band = np.zeros((nn, 2 * s - 1))  # |K| row sums need K itself, assembled banded
+        cols = np.arange(s)[None, None, :] - np.arange(s)[None, :, None] + s - 1
+        np.add.at(band, (np.broadcast_to(rows[:, :, None], k.shape), np.broadcast_to(cols, k.shape)), k)
+        active = free & (lumped != 0)
+        if np.any(lumped[active] < 0):
+            return 0.0
+        w2 = np.max(np.abs(band[active]).sum(axis=1) / lumped[active])
+    else:
+        touched = np.bincount(rows.ravel(), minlength=nn) > 0
+        # the highest modes are local: above DENSE_EIGEN_LIMIT nodes, overlapping windows
+        size = nn if nn <= DENSE_EIGEN_LIMIT else DENSE_EIGEN_LIMIT // 3
+        w2 = 0.0
+        for lo in range(0, max(nn - size // 2, 1), max(size // 2, 1)):
+            hi = min(nn, lo + size)
+            keep = (free & touched)[lo:hi]
+            K, M = _window(rows, k, lo, hi), _window(rows, m, lo, hi)
+            K, M = K[np.ix_(keep, keep)], M[np.ix_(keep, keep)]
+            lam = np.linalg.eigvalsh(M)
+            if lam.min() <= 1e-12 * lam.max():
+                return 0.0
+            L = np.linalg.cholesky(M)
+            A = np.linalg.solve(L, np.linalg.solve(L, K).T)
+            w2 = max(w2, np.linalg.eigvalsh(0.5 * (A + A.T)).max())
+    return float(2.0 / np.sqrt(w2)) if w2 > 0 else float("inf")
 
 
 MASS_KINDS = ("lumped", "consistent")
@@ -326,19 +363,20 @@ class Scene:
                              f"({n} particles)")
         dt = _positive("time step dt", self.dt)
         object.__setattr__(self, "dt", dt)
-        if self.mass == "consistent":
-            dt_crit = consistent_critical_time_step(self.grid, self.material, basis, x, vol)
+        if self.mass == "lumped" and basis.name == "linear":
+            dt_crit = critical_time_step(self.grid.h, self.material)
         else:
-            dt_crit = critical_time_step(self.grid.h, self.material, basis)
+            dt_crit = discrete_critical_time_step(self.grid, self.material, basis, x, vol,
+                                                  self.mass, fixed)
         object.__setattr__(self, "_critical_dt", dt_crit)
         if dt_crit == 0.0 and not self.allow_unstable_dt:
             raise ValueError(
-                "the consistent mass matrix assembled from these particles is singular in "
-                "some element (too few particles per element for the basis): no time step is "
-                "stable; use more particles per element or mass='lumped'")
+                f"the {self.mass} mass matrix assembled from these particles with the "
+                f"{basis.name} basis is singular or indefinite: no time step is stable; use "
+                "more particles per element, another basis or mass, or allow_unstable_dt=True")
         if dt > dt_crit and not self.allow_unstable_dt:
-            rule = ("the element bound of the consistent mass matrix" if self.mass == "consistent"
-                    else "Eq. 2.4: h / sqrt(E / rho)")
+            rule = ("Eq. 2.4: h / sqrt(E / rho)" if self.mass == "lumped" and basis.name == "linear"
+                    else "2 / w_max of the particle discretisation")
             raise ValueError(
                 f"time step dt = {dt:g} s exceeds the critical time step {dt_crit:g} s "
                 f"({rule}, h = {self.grid.h:g} m, {basis.name} basis, {self.mass} mass); "

@@ -63,6 +63,9 @@ class Problem:
         ppc = self.ppc if ppc is None else ppc
         dt = self.dt if dt is None else dt
         basis_cls = get_basis(basis)
+        if isinstance(ppc, (int, np.integer)) and 0 < ppc < basis_cls.min_ppc:
+            raise ValueError(f"the {basis_cls.name} basis needs at least {basis_cls.min_ppc} "
+                             f"particles per element for its quadrature, got ppc = {ppc}")
         grid = self.grid(elements, basis_cls)
         x, vol = self.particles(elements, ppc, placement)
         material = replace(self.material, stress_update=stress_update)

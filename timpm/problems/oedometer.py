@@ -52,7 +52,7 @@ class Oedometer(Problem):
         return self.H
 
     def conditions(self, x0, basis, grid):
-        return dict(fixed_nodes=(basis.boundary_nodes(grid.n_elements)[0],),
+        return dict(fixed_nodes=basis.boundary_nodes(grid.n_elements)[0],
                     traction=Traction(int(np.argmax(x0)), -self.p0,
                                      Ramp(self.ramp) if self.ramp > 0 else Constant()),
                     damping=self.alpha)

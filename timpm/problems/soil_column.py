@@ -45,7 +45,7 @@ class SoilColumn(Problem):
         return self.H
 
     def conditions(self, x0, basis, grid):
-        kw = dict(gravity=self.gravity, fixed_nodes=(basis.boundary_nodes(grid.n_elements)[0],))
+        kw = dict(gravity=self.gravity, fixed_nodes=basis.boundary_nodes(grid.n_elements)[0])
         if self.p0 != 0.0:
             kw["traction"] = Traction(int(np.argmax(x0)), self.p0, Constant())
         return kw

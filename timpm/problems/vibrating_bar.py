@@ -48,7 +48,7 @@ class VibratingBar(Problem):
         return Grid1D(grid.n_elements + pad, grid.h)
 
     def conditions(self, x0, basis, grid):
-        return dict(fixed_nodes=(basis.boundary_nodes(grid.n_elements)[0],),
+        return dict(fixed_nodes=basis.boundary_nodes(grid.n_elements)[0],
                     traction=Traction(int(np.argmax(x0)), self.tau, Sine(np.pi / self.L)))
 
     def displacement(self, x0, t, stress_update="study"):

@@ -43,7 +43,7 @@ class VibratingString(Problem):
 
     def conditions(self, x0, basis, grid):
         return dict(velocity=self.v0 * np.sin(np.pi * x0 / self.L),
-                    fixed_nodes=basis.boundary_nodes(grid.n_elements))
+                    fixed_nodes=sum(basis.boundary_nodes(grid.n_elements), ()))
 
     def displacement(self, x0, t, stress_update="study"):
         return self.v0 / self.omega * np.sin(self.omega * t) * np.sin(np.pi * np.asarray(x0) / self.L)
