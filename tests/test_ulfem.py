@@ -154,6 +154,7 @@ def test_run_continues_from_the_current_state():
     (dict(stress_update="large"), "stress_update"),
     (dict(geometry="eulerian"), "geometry"),
     (dict(fixed_nodes=(11,)), "fixed_nodes"),
+    (dict(fixed_nodes=(0.5,)), "fixed_nodes"),
     (dict(load_node=-1), "load_node"),
 ])
 def test_bad_input_names_the_parameter(kwargs, name):

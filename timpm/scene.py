@@ -267,6 +267,8 @@ def discrete_critical_time_step(grid: Grid1D, material: Material, basis, positio
         for lo in range(0, max(nn - size // 2, 1), max(size // 2, 1)):
             hi = min(nn, lo + size)
             keep = (free & touched)[lo:hi]
+            if not keep.any():
+                continue
             K, M = _window(rows, k, lo, hi), _window(rows, m, lo, hi)
             K, M = K[np.ix_(keep, keep)], M[np.ix_(keep, keep)]
             lam = np.linalg.eigvalsh(M)

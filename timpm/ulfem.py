@@ -144,8 +144,10 @@ class ULFEM:
 
         n_nodes = self.n_elements + 1
         self.n_nodes = n_nodes
-        fixed = np.atleast_1d(np.asarray(fixed_nodes, dtype=int)) if len(fixed_nodes) else np.zeros(0, int)
-        if np.any((fixed < 0) | (fixed >= n_nodes)):
+        fixed = np.atleast_1d(np.asarray(fixed_nodes)).ravel()
+        if fixed.size == 0:
+            fixed = np.zeros(0, dtype=int)
+        if fixed.dtype.kind not in "iu" or np.any((fixed < 0) | (fixed >= n_nodes)):
             raise ValueError(f"fixed_nodes must be node indices in [0, {n_nodes - 1}], got {fixed_nodes!r}")
         self.fixed_nodes = np.unique(fixed)
         self.load_node = n_nodes - 1 if load_node is None else load_node
