@@ -58,6 +58,9 @@ class Solver:
     together with the energies; ``mode`` is ``"parallel"``, ``"serial"`` (fused steps, one
     thread, bit-reproducible) or ``"auto"`` (serial below ``serial_threshold`` particles).
 
+    ``grid_displacement=True`` accumulates the nodal displacements u_i += v_i dt, so that
+    the displacement field u_h(x) = sum_i phi_i(x) u_i can be drawn (study 5.2).
+
     With energies recorded, ``energy_guard`` stops an unstable run: kinetic + strain energy
     may not exceed ``energy_guard`` times the energy put in so far (initial kinetic and
     strain energy plus the magnitudes of the gravity and external work); ``None`` turns the
@@ -68,7 +71,8 @@ class Solver:
 
     def __init__(self, scene: Scene, track=(), record_every: int = 1, energies: bool = True,
                  mode: str = "auto", serial_threshold: int = 4096, history_chunk: int = 512,
-                 track_crossings: bool = True, energy_guard: float | None = 2.0):
+                 track_crossings: bool = True, energy_guard: float | None = 2.0,
+                 grid_displacement: bool = False, small_mass: float = 1e-3):
         ensure_init()
         if mode not in ("auto", "parallel", "serial"):
             raise ValueError(f"unknown mode {mode!r}: choose auto, parallel or serial")
@@ -103,6 +107,7 @@ class Solver:
         self.traction_amplitude = float(scene.traction.amplitude) if self.has_traction else 0.0
         self.traction_fn = scene.traction.time_function if self.has_traction else None
         self.track_crossings = bool(track_crossings)
+        self.grid_displacement = bool(grid_displacement)
         self.n_tracked = len(track)
         self.recording = energies or self.n_tracked > 0
         self.record_energies = bool(energies)
@@ -110,7 +115,10 @@ class Solver:
         self._energy_input = 0.0
         self.bandwidth = self.basis.support - 1
         mass_scale = float(np.mean(scene.mass_per_particle))
-        self.mass_tol = 1e-14 * mass_scale
+        # nodes with less mass than this are empty; the consistent mass drops nodes that a
+        # particle barely touches (their rows make M ill-conditioned: the small-mass problem)
+        self.mass_tol = (small_mass if self.consistent else 1e-14) * mass_scale
+        self.pivot_tol = 1e-14 * mass_scale
         self._allocate(scene, track)
         self.history = {"t": [], "step": []}
         self.crossing_steps = []
@@ -147,6 +155,9 @@ class Solver:
         self.fixed = ti.field(ti.i32)
         fb.dense(ti.axes(*range(d)), (nn,) * d).place(
             self.gm, self.gf, self.gp, self.fixed)
+        if self.grid_displacement:
+            self.gu = ti.Vector.field(d, f64)
+            fb.dense(ti.axes(*range(d)), (nn,) * d).place(self.gu)
         if self.consistent:
             if d != 1:
                 raise ValueError("the consistent mass matrix is implemented for 1D scenes only")
@@ -407,7 +418,7 @@ class Solver:
                     self.band[i, b] = 1.0
             for k in range(nn):
                 pivot = self.band[k, b]
-                if ti.abs(pivot) <= self.mass_tol:
+                if ti.abs(pivot) <= self.pivot_tol:
                     self._fail(4, k)
                     pivot = 1.0
                     self.band[k, b] = 1.0
@@ -452,6 +463,9 @@ class Solver:
         self._grid_acceleration()
         self._g2p_velocity()
         self._solve_mass(self.gp)
+        if ti.static(self.grid_displacement):
+            for I in ti.grouped(ti.ndrange(*((self.n_nodes,) * self.dim))):
+                self.gu[I] += self.gp[I] * self.dt  # u_i += v_i dt (5.2)
         self._g2p_update()
         self.step_count[None] += 1
         self.time[None] = self.step_count[None] * self.dt
@@ -671,6 +685,16 @@ class Solver:
 
     def displacements(self) -> np.ndarray:
         return self._component(self.u)
+
+    def displacement_field(self, x) -> np.ndarray:
+        """u_h(x) = sum_i phi_i(x) u_i at points x from the accumulated nodal displacements."""
+        if not self.grid_displacement:
+            raise RuntimeError("build the solver with grid_displacement=True")
+        from .basis import evaluate
+
+        phi, _ = evaluate(self.basis, (np.asarray(x, dtype=float) - self.origin) * self.inv_h,
+                          self.n_elements)
+        return phi @ self._component(self.gu)
 
     def velocities(self) -> np.ndarray:
         return self._component(self.v)
