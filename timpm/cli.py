@@ -68,8 +68,38 @@ def _parser():
     _add_common(conv)
     conv.add_argument("--elements", type=int, nargs="+", default=[4, 8, 16, 32, 64],
                       help="numbers of elements (default: 4 8 16 32 64)")
+    cmp = sub.add_parser("compare-ulfem", help="MPM against updated-Lagrangian FEM on the "
+                         "large-deformation column of A.5")
+    cmp.add_argument("--elements", type=_positive_int, default=30)
+    cmp.add_argument("--ppc", type=_positive_int, default=50)
+    cmp.add_argument("--dt", type=float, default=1e-3)
+    cmp.add_argument("--t-end", type=float, default=3.0)
+    cmp.add_argument("--basis", default="linear")
+    cmp.add_argument("--json", metavar="FILE")
+    cmp.add_argument("--plot", metavar="FILE.png")
     sub.add_parser("list", help="list problems and bases")
     return ap
+
+
+def _compare(args):
+    from .study import compare_large_column
+    from .viz import plot_comparison
+
+    cmp = compare_large_column(elements=args.elements, ppc=args.ppc, dt=args.dt,
+                               t_end=args.t_end, basis=args.basis)
+    print(f"{'':8} {'period [s]':>11} {'study [s]':>10}")
+    for key in ("mpm", "ulfem"):
+        print(f"{key.upper():8} {cmp[key]['period']:11.4f} {cmp['study_periods'][key]:10.3f}")
+    if args.plot:
+        plot_comparison(cmp, args.plot)
+    if args.json:
+        doc = {k: {"period": cmp[k]["period"], "t": list(map(float, cmp[k]["t"])),
+                   "position": list(map(float, cmp[k]["position"]))} for k in ("mpm", "ulfem")}
+        doc["mpm"]["record"] = cmp["mpm"]["record"]
+        doc["study_periods"] = cmp["study_periods"]
+        with open(args.json, "w") as fh:
+            json.dump(doc, fh, indent=2)
+    return 0
 
 
 def _options(args):
@@ -108,6 +138,8 @@ def main(argv=None):
     from .viz import plot_convergence, plot_series
 
     try:
+        if args.command == "compare-ulfem":
+            return _compare(args)
         get_problem(args.problem, **dict(args.param))
         runtime.init(threads=args.threads)
         opts = _options(args)

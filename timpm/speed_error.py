@@ -60,7 +60,7 @@ from .basis import BASES, get_basis
 from .problems import PROBLEMS, get_problem
 from .scene import MASS_KINDS, PLACEMENTS
 
-__all__ = ["speed_error_study", "choose_dt", "pareto_front", "cheapest_for", "default_targets",
+__all__ = ["speed_error_study", "merge_studies", "choose_dt", "pareto_front", "cheapest_for", "default_targets",
            "dt_rule_text", "format_report", "plot_speed_error", "add_parser", "main_from_args"]
 
 RECORD_KEYS = ("problem", "basis", "mass", "elements", "ppc", "placement", "dt", "steps",
@@ -296,6 +296,26 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
     }
 
 
+def merge_studies(docs) -> dict:
+    """One document from several sweeps of the same problem (e.g. one per placement):
+    runs and skipped notes concatenated, the Pareto front recomputed over all runs."""
+    docs = list(docs)
+    if not docs:
+        raise ValueError("nothing to merge")
+    if len({d["problem"] for d in docs}) > 1 or len({d["t_end"] for d in docs}) > 1:
+        raise ValueError("only sweeps of one problem to one t_end can be merged")
+    out = dict(docs[0])
+    out["runs"] = [dict(r) for d in docs for r in d["runs"]]
+    out["skipped"] = [s for d in docs for s in d["skipped"]]
+    out["sweep"] = [d["sweep"] for d in docs]
+    out["sweep_seconds"] = sum(d.get("sweep_seconds", 0.0) for d in docs)
+    bases = list(dict.fromkeys(b for d in docs for b in d["sweep"]["bases"]))
+    out["bases"] = bases
+    for rec, on in zip(out["runs"], pareto_front(out["runs"])):
+        rec["pareto"] = on
+    return out
+
+
 # ---- analysis -------------------------------------------------------------------------------
 
 def _valid(rec) -> bool:
@@ -444,7 +464,9 @@ def default_targets(records, most=5) -> list[float]:
 # ---- report -----------------------------------------------------------------------------------
 
 def _sorted_runs(doc):
-    order = {b: i for i, b in enumerate(doc.get("sweep", {}).get("bases", []))}
+    sweep = doc.get("sweep", {})
+    bases = doc.get("bases") or (sweep.get("bases", []) if isinstance(sweep, dict) else [])
+    order = {b: i for i, b in enumerate(bases)}
     morder = {m: i for i, m in enumerate(MASS_KINDS)}
     return sorted(doc["runs"], key=lambda r: (order.get(r["basis"], len(order)), r["basis"],
                                               morder.get(r["mass"], 9), r.get("placement", ""),

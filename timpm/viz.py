@@ -70,3 +70,24 @@ def plot_series(result, path, title=None):
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def plot_comparison(cmp, path):
+    """Positions of the y = 0.5 m point from MPM and ULFEM (like the study's Figure A.2)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for key, style in (("mpm", "-"), ("ulfem", "--")):
+        c = cmp[key]
+        ax.plot(c["t"], c["position"], style, lw=1.2,
+                label=f"{key.upper()}: period {c['period']:.4f} s")
+    rec = cmp["mpm"]["record"]
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("position of the point at y0 = 0.5 m [m]")
+    ax.set_title(f"A.5 column: {rec['elements']} elements, {rec['ppc']} PPC ({rec['basis']}), "
+                 f"dt = {rec['dt']:g} s", fontsize=9)
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

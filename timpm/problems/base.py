@@ -26,6 +26,9 @@ class Problem:
     dt = 1e-3
     t_end = 1.0
     has_exact = True
+    #: the body's end at x = L is free: the grid reaches beyond it so that the end may
+    #: move out without leaving the grid, and away from the boundary-fitted basis there
+    free_end = False
 
     def with_params(self, **params):
         """A copy with some physical parameters changed (names are checked)."""
@@ -48,7 +51,8 @@ class Problem:
         """The background grid: ``elements`` elements over the body (more where needed)."""
         if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements <= 0:
             raise ValueError(f"number of elements must be a positive integer, got {elements!r}")
-        return Grid1D(int(elements), self.domain_length() / elements)
+        pad = max(1, get_basis(basis).support - 1) if self.free_end else 0
+        return Grid1D(int(elements) + pad, self.domain_length() / elements)
 
     def particles(self, elements: int, ppc: int, placement: str):
         h = self.domain_length() / elements

@@ -38,6 +38,7 @@ class Oedometer(Problem):
     ppc = 64
     dt = 1e-3
     t_end = 6.0
+    free_end = True
 
     def __post_init__(self):
         check_positive(self, "density", "E", "H")

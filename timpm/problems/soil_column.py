@@ -33,6 +33,7 @@ class SoilColumn(Problem):
     ppc = 2
     dt = 1e-3
     t_end = 1.0
+    free_end = True
 
     def __post_init__(self):
         check_positive(self, "density", "E", "H", "n_terms")

@@ -3,7 +3,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene import Grid1D, Material, Sine, Traction
+from ..scene import Material, Sine, Traction
 from .base import Problem, check_positive
 
 
@@ -28,6 +28,7 @@ class VibratingBar(Problem):
     ppc = 3
     dt = 1e-3
     t_end = 1.0
+    free_end = True
 
     def __post_init__(self):
         check_positive(self, "density", "E", "L")
@@ -41,11 +42,6 @@ class VibratingBar(Problem):
 
     def domain_length(self):
         return self.L
-
-    def grid(self, elements, basis):
-        grid = super().grid(elements, basis)
-        pad = max(1, basis.support - 1)  # elements beyond the free end
-        return Grid1D(grid.n_elements + pad, grid.h)
 
     def conditions(self, x0, basis, grid):
         return dict(fixed_nodes=basis.boundary_nodes(grid.n_elements)[0],

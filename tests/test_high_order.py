@@ -1,0 +1,93 @@
+"""Higher-order bases on the three benchmarks: the orders theory gives, and the cure of
+grid-crossing errors (study 2.3, chapter 5, issue: high order)."""
+import numpy as np
+import pytest
+
+import timpm
+from timpm.problems import get_problem
+from timpm.scene import particle_matrices
+from timpm.study import convergence, run_problem
+
+
+@pytest.mark.parametrize("basis,elements,order", [("bspline2", (4, 8, 16, 32), 3.0),
+                                                  ("bspline3", (4, 8, 16), 4.0)])
+def test_string_bsplines_converge_at_order_p_plus_one(basis, elements, order):
+    # consistent mass (the L2 projection) and Gauss-point particles (exact quadrature of
+    # the mass matrix): the displacement converges at order p + 1 until the first-order
+    # Euler-Cromer error (about 1e-8 at dt = 1e-5) takes over
+    doc = convergence("vibrating-string", elements=elements, basis=basis, mass="consistent",
+                      placement="gauss", dt=1e-5, energies=False)
+    rates = [row["rate"] for row in doc["rates"]]
+    assert np.mean(rates) > order - 0.5
+    assert min(rates) > order - 1.0
+
+
+def test_string_lumped_mass_caps_bsplines_at_second_order():
+    doc = convergence("vibrating-string", elements=(8, 16, 32), basis="bspline2", dt=1e-5,
+                      energies=False)
+    rates = [row["rate"] for row in doc["rates"]]
+    assert max(rates) < 2.6
+
+
+def test_soil_column_cubic_bsplines_keep_converging_through_128_elements():
+    elements = (8, 16, 32, 64, 128)
+    cubic = convergence("soil-column", elements=elements, basis="bspline3", ppc=2, dt=1e-4,
+                        t_end=0.2, energies=False)
+    linear = convergence("soil-column", elements=(64, 128), ppc=2, dt=1e-4, t_end=0.2,
+                         energies=False)
+    e3 = np.array([r["rms_error"] for r in cubic["runs"]])
+    assert np.all(np.diff(e3) < 0)  # monotonically decreasing from 8 to 128 elements
+    assert cubic["runs"][-1]["grid_crossings"] > 0  # ... although particles cross
+    e1 = [r["rms_error"] for r in linear["runs"]]
+    assert e1[1] > 5 * e1[0]  # while linear loses convergence to grid crossing
+    assert e3[-1] < e1[1] / 5
+
+
+def test_vibrating_bar_bsplines_keep_decreasing_where_linear_stalls():
+    elements = (8, 16, 32, 64, 128)
+    quad = convergence("vibrating-bar", elements=elements, basis="bspline2", energies=False)
+    lin = convergence("vibrating-bar", elements=elements, energies=False)
+    e2 = np.array([r["rms_error"] for r in quad["runs"]])
+    e1 = np.array([r["rms_error"] for r in lin["runs"]])
+    assert np.all(np.diff(e2) < 0)
+    assert e1[-1] > e1.min() * 3 and e2[-1] < e1[-1] / 5
+
+
+def test_lagrange_mass_matrix_has_negative_entries():
+    scene = get_problem("vibrating-string").scene(elements=4, ppc=4, basis="lagrange2",
+                                                   mass="consistent", dt=1e-3)
+    base, k, m = particle_matrices(scene.grid, scene.material, "lagrange2", scene.positions,
+                                   scene.volume)
+    assert m.min() < 0  # entries m_p N_i N_j with N_i < 0 inside the element (5.1)
+    with pytest.raises(ValueError, match="cannot be lumped"):
+        get_problem("vibrating-string").scene(elements=4, basis="lagrange2")
+
+
+def test_lagrange_needs_a_much_smaller_step_and_is_diagnosed_above_it():
+    p = get_problem("vibrating-string")
+    lin = p.scene(elements=8, ppc=4, dt=1e-3)
+    lag = p.scene(elements=8, ppc=4, basis="lagrange2", mass="consistent", dt=1e-3)
+    assert lag.critical_dt < lin.critical_dt / 4
+    dt = 2.0 * lag.critical_dt
+    with pytest.raises(timpm.SimulationError, match=r"step \d+"):
+        run_problem("vibrating-string", elements=8, ppc=4, basis="lagrange2",
+                    mass="consistent", dt=dt, t_end=400 * dt, allow_unstable_dt=True)
+
+
+def test_lagrange_displacement_field_inside_elements():
+    # study 5.2 (Figures 5.5, 5.6): u_h(x) = sum phi_i(x) u_i at 4 elements, t = 0.5 s
+    p = get_problem("vibrating-string")
+    x = np.linspace(0.0, p.L, 2001)
+    errors = {}
+    for basis, mass in (("lagrange2", "consistent"), ("linear", "lumped")):
+        solver = timpm.Solver(p.scene(elements=4, ppc=4, basis=basis, mass=mass, dt=1e-3),
+                              grid_displacement=True, energies=False)
+        solver.run(0.5)
+        errors[basis] = np.abs(solver.displacement_field(x) - p.displacement(x, solver.t))
+        # the field at the particles is the particles' own displacement
+        np.testing.assert_allclose(solver.displacement_field(solver.positions()),
+                                   solver.displacements(), atol=0.05 * np.abs(solver.displacements()).max())
+        solver.release()
+    amplitude = np.abs(p.displacement(x, 0.5)).max()
+    assert errors["lagrange2"].max() < 0.1 * amplitude
+    assert errors["linear"].max() < 0.2 * amplitude
