@@ -91,3 +91,19 @@ def test_lagrange_displacement_field_inside_elements():
     amplitude = np.abs(p.displacement(x, 0.5)).max()
     assert errors["lagrange2"].max() < 0.1 * amplitude
     assert errors["linear"].max() < 0.2 * amplitude
+
+
+def test_mls_projection_converges_on_the_string():
+    doc = convergence("vibrating-string", elements=(8, 16, 32), projection="mls", energies=False)
+    rates = [row["rate"] for row in doc["rates"]]
+    assert min(rates) > 1.9
+    # it reconstructs the same solution as the standard projection, to within a third
+    std = convergence("vibrating-string", elements=(32,), energies=False)
+    assert doc["runs"][-1]["rms_error"] == pytest.approx(std["runs"][0]["rms_error"], rel=0.4)
+
+
+def test_mls_projection_needs_linear_lumped():
+    with pytest.raises(ValueError, match="MLS projection .* linear basis with lumped mass"):
+        get_problem("vibrating-string").scene(basis="bspline2", projection="mls")
+    with pytest.raises(ValueError, match="unknown projection 'kriging'"):
+        get_problem("vibrating-string").scene(projection="kriging")

@@ -216,3 +216,16 @@ def test_command_line(tmp_path, capsys):
     assert bad.func(bad) == 2
     assert "no exact solution" in capsys.readouterr().err
     assert math.isfinite(doc["runs"][0]["wall_seconds"])
+
+
+def test_cheapest_for_compares_with_linear_lumped_too():
+    recs = [_rec("linear", "lumped", 8, 0.02, 2.5e-4), _rec("linear", "lumped", 16, 0.04, 6e-5),
+            _rec("linear", "consistent", 8, 0.025, 3e-5),
+            _rec("bspline2", "consistent", 4, 0.01, 5e-5)]
+    a1, a2 = cheapest_for(recs, [1e-4, 4e-5])
+    assert a1["best"]["basis"] == "bspline2" and a1["linear"]["mass"] == "consistent"
+    assert a1["factor"] == pytest.approx(2.5) and a1["factor_vs_linear_lumped"] == pytest.approx(4.0)
+    assert "2.5x faster than linear; over linear with lumped mass" in a1["answer"]
+    assert a2["best"]["mass"] == "consistent" and a2["best"]["basis"] == "linear"
+    assert a2["linear_lumped"] is None and a2["factor_vs_linear_lumped"] is None
+    assert "linear with lumped mass cannot reach it" in a2["answer"]

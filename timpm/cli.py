@@ -6,7 +6,7 @@ import sys
 from . import __version__
 from .basis import BASES
 from .problems import PROBLEMS, get_problem
-from .scene import PLACEMENTS, STRESS_UPDATES
+from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .solver import SimulationError
 
 __all__ = ["main"]
@@ -44,6 +44,9 @@ def _add_common(p):
     p.add_argument("--stress-update", default="study", choices=list(STRESS_UPDATES),
                    help="study: sigma += (E - sigma) d_eps (2.2.4); small: sigma += E d_eps")
     p.add_argument("--damping", type=float, help="local damping factor alpha (A.4)")
+    p.add_argument("--projection", default="standard", choices=list(PROJECTIONS),
+                   help="mls: velocity, density and stress reconstructed by moving least "
+                        "squares, forces at Gauss points (4.4)")
     p.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
                    help="override a physical parameter of the problem, e.g. p0=2e4")
     p.add_argument("--allow-unstable-dt", action="store_true",
@@ -106,6 +109,7 @@ def _options(args):
     return dict(ppc=args.ppc, basis=args.basis, mass=args.mass, dt=args.dt, t_end=args.t_end,
                 placement=args.placement, stress_update=args.stress_update,
                 damping=args.damping, allow_unstable_dt=args.allow_unstable_dt,
+                projection=args.projection,
                 mode=args.mode, params=dict(args.param))
 
 

@@ -281,6 +281,9 @@ def discrete_critical_time_step(grid: Grid1D, material: Material, basis, positio
 
 
 MASS_KINDS = ("lumped", "consistent")
+#: "standard": particles are the integration points (2.2.4); "mls": nodal velocities,
+#: density and stress reconstructed by moving least squares, forces at Gauss points (4.4)
+PROJECTIONS = ("standard", "mls")
 
 
 @dataclass(frozen=True, eq=False)
@@ -290,7 +293,8 @@ class Scene:
     Positions are absolute coordinates; ``volume`` the initial particle volumes (length
     times a unit cross-section); ``fixed_nodes`` the grid nodes held at zero velocity;
     ``gravity`` the signed acceleration along x (negative points down); ``damping`` the
-    local damping factor alpha of A.4.
+    local damping factor alpha of A.4; ``projection`` the particle-to-grid projection
+    (``PROJECTIONS``).
     """
 
     grid: Grid1D
@@ -305,6 +309,7 @@ class Scene:
     traction: Traction | None = None
     fixed_nodes: tuple = ()
     damping: float = 0.0
+    projection: str = "standard"
     allow_unstable_dt: bool = False
     name: str = "scene"
 
@@ -350,6 +355,12 @@ class Scene:
         if self.mass == "lumped" and not basis.lumpable:
             raise ValueError(f"the {basis.name} basis takes negative values, so its mass matrix "
                              "cannot be lumped (study 5.1): use mass='consistent'")
+        if self.projection not in PROJECTIONS:
+            raise ValueError(f"unknown projection {self.projection!r}: choose one of "
+                             f"{', '.join(PROJECTIONS)}")
+        if self.projection == "mls" and (basis.name != "linear" or self.mass != "lumped"):
+            raise ValueError("the MLS projection (4.4) is implemented for the linear basis with "
+                             f"lumped mass, got the {basis.name} basis with {self.mass} mass")
         if not math.isfinite(float(self.gravity)):
             raise ValueError(f"gravity must be finite, got {self.gravity!r}")
         if not (0.0 <= float(self.damping) < 1.0):

@@ -42,6 +42,46 @@ ERRORS = {
 }
 
 
+#: two-point Gauss-Legendre rule on [0, 1] (MLS projection: integration points)
+GAUSS_POINTS = (0.5 - 0.5 / 3 ** 0.5, 0.5 + 0.5 / 3 ** 0.5)
+GAUSS_WEIGHTS = (0.5, 0.5)
+
+
+@ti.func
+def _quadratic_spline(r):
+    """Quadratic-spline MLS weight of 4.4, r = |x - x_p| / h (the continuous standard form)."""
+    w = 0.0
+    if r <= 0.5:
+        w = 0.75 - r * r
+    elif r <= 1.5:
+        w = 0.5 * (1.5 - r) ** 2
+    return w
+
+
+@ti.func
+def _cubic_spline(r):
+    """Cubic-spline MLS weight of 4.4, r = |x - x_p| / (2 h)."""
+    w = 0.0
+    if r <= 0.5:
+        w = 2.0 / 3.0 - 4.0 * r * r + 4.0 * r * r * r
+    elif r <= 1.0:
+        w = 4.0 / 3.0 * (1.0 - r) ** 3
+    return w
+
+
+@ti.func
+def _mls_value(mom, b):
+    """u_h(y) = p(y)^T A^-1 B u with p = [1, d]: the first coefficient of the 2x2 solve;
+    Shepard's value sum w u / sum w where A is singular (fewer than two points around)."""
+    det = mom[0] * mom[2] - mom[1] * mom[1]
+    value = 0.0
+    if det > 1e-10 * mom[0] * mom[0] and mom[0] > 0.0:
+        value = (mom[2] * b[0] - mom[1] * b[1]) / det
+    elif mom[0] > 0.0:
+        value = b[0] / mom[0]
+    return value
+
+
 class SimulationError(RuntimeError):
     """A run stopped because the state became invalid; the message names step and where."""
 
@@ -100,6 +140,7 @@ class Solver:
         self.E = scene.material.E
         # compile-time feature set, frozen here
         self.consistent = scene.mass == "consistent"
+        self.mls = scene.projection == "mls"
         self.study_stress = scene.material.stress_update == "study"
         self.damping = float(scene.damping)
         self.has_traction = scene.traction is not None
@@ -165,6 +206,17 @@ class Solver:
             self.inactive = ti.field(ti.i32)  # fixed or untouched rows of M
             fb.dense(ti.ij, (nn, 2 * self.bandwidth + 1)).place(self.band)
             fb.dense(ti.i, nn).place(self.inactive)
+        if self.mls:
+            ne, ng = self.n_elements, len(GAUSS_POINTS)
+            self.g_mom = ti.Vector.field(3, f64)  # MLS moments sum w [1, d, d^2] at Gauss points
+            self.g_rho = ti.Vector.field(2, f64)  # sum w rho_p [1, d]
+            self.g_sig = ti.Vector.field(2, f64)  # sum w sigma_p [1, d]
+            fb.dense(ti.ij, (ne, ng)).place(self.g_mom, self.g_rho, self.g_sig)
+            self.body = ti.Vector.field(2, f64)  # extent of the body: union of x_p -+ V_p / 2
+            fb.place(self.body)
+            self.n_mom = ti.Vector.field(3, f64)  # the same at the nodes, for the velocity
+            self.n_vel = ti.Vector.field(2, f64)
+            fb.dense(ti.i, nn).place(self.n_mom, self.n_vel)
         # run state and the first error
         self.step_count = ti.field(ti.i64)
         self.time = ti.field(f64)
@@ -281,6 +333,15 @@ class Solver:
         if ti.static(self.consistent):
             for i, k in ti.ndrange(self.n_nodes, 2 * self.bandwidth + 1):
                 self.band[i, k] = 0.0
+        if ti.static(self.mls):
+            for e, g in ti.ndrange(self.n_elements, ti.static(len(GAUSS_POINTS))):
+                self.g_mom[e, g] = ti.Vector.zero(ti.f64, 3)
+                self.g_rho[e, g] = ti.Vector.zero(ti.f64, 2)
+                self.g_sig[e, g] = ti.Vector.zero(ti.f64, 2)
+            self.body[None] = ti.Vector([1e300, -1e300])
+            for i in range(self.n_nodes):
+                self.n_mom[i] = ti.Vector.zero(ti.f64, 3)
+                self.n_vel[i] = ti.Vector.zero(ti.f64, 2)
 
     @ti.func
     def _p2g(self):
@@ -299,11 +360,17 @@ class Solver:
                     if p == self.traction_particle:
                         fp[0] += self.traction_amplitude * self.traction_fn.value(t)
                 stress_volume = self.sigma[p] * self.vol[p]
+                if ti.static(self.mls):
+                    fp[0] -= mp * self.gravity  # gravity and mass come from the Gauss points
+                    self._scatter_gauss_moments(p)
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
                     node = base + offset
-                    self.gm[node] += mp * phi
-                    self.gf[node] += phi * fp - stress_volume @ grad
+                    if ti.static(not self.mls):
+                        self.gm[node] += mp * phi
+                        self.gf[node] += phi * fp - stress_volume @ grad
+                    else:
+                        self.gf[node] += phi * fp
                     if ti.static(self.damping > 0.0):
                         self.gp[node] += mp * phi * self.v[p]
                 if ti.static(self.consistent):
@@ -331,9 +398,12 @@ class Solver:
                     acc += phi * self.gf[base + offset]
                 vp = self.v[p] + self.dt * acc
                 self.v[p] = vp
-                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
-                    phi, grad = self._weight(w, dw, offset)
-                    self.gp[base + offset] += self.m[p] * phi * vp
+                if ti.static(self.mls):
+                    self._scatter_node_moments(p, vp[0])
+                else:
+                    for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                        phi, grad = self._weight(w, dw, offset)
+                        self.gp[base + offset] += self.m[p] * phi * vp
 
     @ti.func
     def _g2p_update(self):
@@ -457,18 +527,101 @@ class Solver:
     @ti.func
     def _one_step(self):
         self._clear_grid()
+        if ti.static(self.mls):
+            self._body_extent()
         self._p2g()
+        if ti.static(self.mls):
+            self._integrate_gauss()
         if ti.static(self.consistent):
             self._banded_factorise()
         self._grid_acceleration()
         self._g2p_velocity()
-        self._solve_mass(self.gp)
+        if ti.static(self.mls):
+            self._mls_nodal_velocity()
+        else:
+            self._solve_mass(self.gp)
         if ti.static(self.grid_displacement):
             for I in ti.grouped(ti.ndrange(*((self.n_nodes,) * self.dim))):
                 self.gu[I] += self.gp[I] * self.dt  # u_i += v_i dt (5.2)
         self._g2p_update()
         self.step_count[None] += 1
         self.time[None] = self.step_count[None] * self.dt
+
+    # ---- moving-least-squares projection (study 4.4) -----------------------------------
+    @ti.func
+    def _scatter_gauss_moments(self, p):
+        # MLS moments at the Gauss points within 1.5 h of the particle, quadratic-spline
+        # weight, basis [1, d] with d = (x_p - y) / h
+        xi = (self.x[p][0] - self.origin) * self.inv_h
+        e0 = ti.floor(xi, ti.i32)
+        rho = self.m[p] / self.vol[p]
+        sig = self.sigma[p][0, 0]
+        for k in ti.static(range(-2, 3)):
+            e = e0 + k
+            if 0 <= e < self.n_elements:
+                for g in ti.static(range(len(GAUSS_POINTS))):
+                    y, jw = self._gauss_point(e, g)
+                    d = xi - y
+                    w = _quadratic_spline(ti.abs(d)) if jw > 0.0 else 0.0
+                    if w > 0.0:
+                        self.g_mom[e, g] += w * ti.Vector([1.0, d, d * d])
+                        self.g_rho[e, g] += w * rho * ti.Vector([1.0, d])
+                        self.g_sig[e, g] += w * sig * ti.Vector([1.0, d])
+
+    @ti.func
+    def _body_extent(self):
+        # the body is the union of the particle domains x_p -+ V_p / 2 (element units)
+        for p in range(self.n_particles):
+            xi = (self.x[p][0] - self.origin) * self.inv_h
+            half = 0.5 * self.vol[p] * self.inv_h
+            ti.atomic_min(self.body[None][0], xi - half)
+            ti.atomic_max(self.body[None][1], xi + half)
+
+    @ti.func
+    def _gauss_point(self, e, g: ti.template()):
+        """Gauss point g of element e's part of the body, and its weight times length."""
+        a = ti.max(ti.cast(e, ti.f64), self.body[None][0])
+        b = ti.min(ti.cast(e + 1, ti.f64), self.body[None][1])
+        return a + (b - a) * GAUSS_POINTS[g], GAUSS_WEIGHTS[g] * ti.max(b - a, 0.0) * self.h
+
+    @ti.func
+    def _integrate_gauss(self):
+        # M_ii = int rho phi_i, F_i = int (rho g phi_i - sigma dphi_i) by Gauss quadrature
+        # over each element's part of the body, rho and sigma reconstructed by MLS (4.4)
+        for e in range(self.n_elements):
+            for g in ti.static(range(len(GAUSS_POINTS))):
+                y, jw = self._gauss_point(e, g)
+                if jw > 0.0:
+                    rho = _mls_value(self.g_mom[e, g], self.g_rho[e, g])
+                    sig = _mls_value(self.g_mom[e, g], self.g_sig[e, g])
+                    base, w, dw = self.basis.stencil(y, self.n_elements)
+                    for a in ti.static(range(self.basis.support)):
+                        self.gm[base + a] += jw * rho * w[a]
+                        self.gf[base + a][0] += jw * (rho * self.gravity * w[a]
+                                                      - sig * dw[a] * self.inv_h)
+
+    @ti.func
+    def _scatter_node_moments(self, p, vp):
+        # MLS moments at the nodes within 2 h, cubic-spline weight (r = |d| / 2)
+        xi = (self.x[p][0] - self.origin) * self.inv_h
+        i0 = ti.floor(xi, ti.i32)
+        for k in ti.static(range(-1, 3)):
+            i = i0 + k
+            if 0 <= i < self.n_nodes:
+                d = xi - i
+                w = _cubic_spline(0.5 * ti.abs(d))
+                if w > 0.0:
+                    self.n_mom[i] += w * ti.Vector([1.0, d, d * d])
+                    self.n_vel[i] += w * vp * ti.Vector([1.0, d])
+
+    @ti.func
+    def _mls_nodal_velocity(self):
+        # v_i = sum_p Phi_p(x_i) v_p: the MLS reconstruction of the velocity field (4.4)
+        for i in range(self.n_nodes):
+            v = 0.0
+            if not self.fixed[i]:
+                v = _mls_value(self.n_mom[i], self.n_vel[i])
+            self.gp[i][0] = v
 
     # ---- recording ---------------------------------------------------------------------
     @ti.func

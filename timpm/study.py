@@ -30,7 +30,7 @@ def _default_record_every(steps: int) -> int:
 def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="linear",
                 mass="lumped", dt=None, t_end=None, placement="study", stress_update="study",
                 damping=None, allow_unstable_dt=False, mode="auto", record_every=None,
-                progress=None, params=None, energies=True) -> RunResult:
+                progress=None, params=None, energies=True, projection="standard") -> RunResult:
     """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
 
     Unset numerical values take the problem's defaults; ``params`` overrides physical
@@ -44,7 +44,8 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     t_end = prob.t_end if t_end is None else float(t_end)
     scene = prob.scene(elements=elements, ppc=ppc, basis=basis, mass=mass, dt=dt,
                        placement=placement, stress_update=stress_update,
-                       allow_unstable_dt=allow_unstable_dt, damping=damping)
+                       allow_unstable_dt=allow_unstable_dt, damping=damping,
+                       projection=projection)
     x0 = scene.positions.copy()
     monitor = prob.monitored_particle(x0)
     steps = int(round(t_end / scene.dt))
@@ -74,7 +75,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
             "wall_seconds": solver.run_seconds, "compile_seconds": solver.compile_seconds,
             "build_seconds": build_seconds, "grid_crossings": solver.grid_crossings(),
             "particles": scene.n_particles, "placement": placement,
-            "stress_update": stress_update, "mode": solver.mode,
+            "stress_update": stress_update, "projection": projection, "mode": solver.mode,
             "critical_dt": scene.critical_dt, "monitored_particle": monitor,
             # damping dissipates energy by design: no conservation measure then
             "energy_drift": energy_drift(en) if en is not None and scene.damping == 0 else None,

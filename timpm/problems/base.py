@@ -60,7 +60,7 @@ class Problem:
 
     def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
               placement="study", stress_update="study", allow_unstable_dt=False,
-              damping=None) -> Scene:
+              damping=None, projection="standard") -> Scene:
         """The problem's scene with ``elements`` elements over the body and ``ppc``
         particles per element placed by ``placement``; unset values take the defaults."""
         elements = self.elements if elements is None else elements
@@ -78,7 +78,7 @@ class Problem:
             extras["damping"] = damping
         return Scene(grid=grid, material=material, positions=x, volume=vol, dt=dt,
                      basis=basis_cls.name, mass=mass, allow_unstable_dt=allow_unstable_dt,
-                     name=self.name, **extras)
+                     projection=projection, name=self.name, **extras)
 
     def conditions(self, x0, basis, grid) -> dict:
         """Initial velocity, boundary conditions and loads as Scene keyword arguments."""
