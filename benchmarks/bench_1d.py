@@ -10,7 +10,9 @@ Run from the repository root:
    stepping time apart from kernel compilation;
 2. large runs (1e5 and 1e6 particles) in serial and parallel mode, side by side;
 3. launch overhead of a tiny problem: serial (many steps fused in one kernel launch)
-   against parallel (one launch per step).
+   against parallel (one launch per step);
+4. every basis (and mass) on 1e5 particles: particle-steps per second side by side, each
+   basis compiled into its own specialised kernels.
 
 Timings are informative only: the ratios are measured side by side in one process on
 a possibly shared machine and vary from run to run.  Nothing here is an assertion.
@@ -37,6 +39,11 @@ MIN_STEPS = 10
 TINY_ELEMENTS = 16                        # launch-overhead problem: 64 particles
 TINY_STEPS = 5000
 MODES = ("serial", "parallel")
+BASIS_RUNS = (("linear", "lumped"), ("bspline2", "lumped"), ("bspline3", "lumped"),
+              ("uniform-bspline2", "lumped"), ("linear", "consistent"),
+              ("bspline2", "consistent"), ("bspline3", "consistent"),
+              ("lagrange2", "consistent"))
+BASIS_PARTICLES = 100_000
 
 
 def table(title, header, rows):
@@ -129,6 +136,31 @@ def launch_overhead():
     return {"modes": recs, "serial_over_parallel": ratio}
 
 
+def per_basis(quick):
+    prob = get_problem(PROBLEM)
+    elements = BASIS_PARTICLES // PPC
+    budget = QUICK_PARTICLE_STEPS if quick else TARGET_PARTICLE_STEPS
+    rows, out = [], []
+    base_rate = None
+    for basis, mass in BASIS_RUNS:
+        h = prob.domain_length() / elements
+        # a step safely below every basis' critical step, the same for all: a fair race
+        scene = prob.scene(elements=elements, ppc=PPC, basis=basis, mass=mass,
+                           dt=0.1 * h / prob.material.wave_speed)
+        steps = max(MIN_STEPS, int(budget / scene.n_particles / 2))
+        mode = "serial" if mass == "consistent" else "parallel"  # the banded solve is serial
+        r = timed(scene, mode, steps)
+        r.update(basis=basis, mass=mass)
+        base_rate = base_rate or r["particle_steps_per_second"]
+        r["relative_to_linear"] = r["particle_steps_per_second"] / base_rate
+        out.append(r)
+        rows.append([basis, mass, r["mode"], str(steps), f"{r['compile_seconds']:.3f}",
+                     f"{r['particle_steps_per_second']:.4g}", f"{r['relative_to_linear']:.2f}"])
+    table(f"Per basis ({PROBLEM}, {BASIS_PARTICLES} particles, ppc={PPC}, dt=0.1 h/c)",
+          ["basis", "mass", "mode", "steps", "compile_s", "particle-steps/s", "vs linear"], rows)
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fast smoke version")
@@ -142,7 +174,8 @@ def main():
           f"{os.cpu_count()} cores{', quick' if args.quick else ''}")
     t0 = time.perf_counter()
     results = {"quick": args.quick, "threads": threads, "cpu_count": os.cpu_count(),
-               "study": study(), "large": large(args.quick), "launch": launch_overhead()}
+               "study": study(), "large": large(args.quick), "launch": launch_overhead(),
+               "bases": per_basis(args.quick)}
     results["total_seconds"] = time.perf_counter() - t0
     print(f"\ntotal {results['total_seconds']:.1f} s")
     if args.json:

@@ -226,6 +226,8 @@ def particle_matrices(grid: Grid1D, material: Material, basis, positions, volume
 
 def _window(rows, blocks, lo, hi):
     """Dense block [lo, hi) x [lo, hi) of the matrix assembled from per-particle blocks."""
+    near = (rows[:, -1] >= lo) & (rows[:, 0] < hi)  # particles whose stencil meets the window
+    rows, blocks = rows[near], blocks[near]
     r = np.broadcast_to(rows[:, :, None], blocks.shape)
     c = np.broadcast_to(rows[:, None, :], blocks.shape)
     inside = (r >= lo) & (r < hi) & (c >= lo) & (c < hi)
