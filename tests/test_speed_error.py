@@ -7,8 +7,8 @@ import math
 import pytest
 
 from timpm.speed_error import (RECORD_KEYS, add_parser, cheapest_for, choose_dt,
-                               default_targets, format_report, pareto_front, plot_speed_error,
-                               speed_error_study)
+                               default_targets, format_report, merge_studies, pareto_front,
+                               plateaus, plot_speed_error, speed_error_study)
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -119,6 +119,18 @@ def test_choose_dt_halves_until_the_time_error_is_separated(spatial, c, expected
     assert accepted.alive and sum(f.alive for f in made) == 1   # the others were released
 
 
+def test_choose_dt_can_defer_releases():
+    made, later = [], []
+
+    def run(dt):
+        made.append(_Fake(dt, 1e-5, 0.1))
+        return made[-1]
+
+    accepted, info = choose_dt(run, 1e-4, defer_release=later)
+    assert all(f.alive for f in made) and len(later) == len(made) - 1
+    assert accepted not in later and info["dt"] == pytest.approx(1e-4 / 8)
+
+
 def test_choose_dt_flags_a_time_error_it_cannot_separate():
     made = []
 
@@ -183,7 +195,9 @@ def test_cheapest_for_answers_with_factors_and_unreachable_linear():
     # linear itself cheapest
     (a5,) = cheapest_for(recs, [2e-3])
     assert a5["best"]["basis"] == "linear" and a5["factor"] == pytest.approx(1.0)
-    assert default_targets(recs) == [1e-3, 1e-4, 1e-5, 1e-6]
+    assert default_targets(recs) == [1e-3, 1e-4, 1e-5, 1e-6]      # 7 of 1e-k, 3e-k: decades
+    assert default_targets(recs[:3]) == [1e-3, 3e-4, 1e-4]
+    assert default_targets([_rec("linear", "lumped", 4, 1.0, 2e-5)]) == [1e-4]
 
 
 # ---- report, plot, command line ---------------------------------------------------------------
@@ -203,11 +217,12 @@ def test_command_line(tmp_path, capsys):
     add_parser(ap.add_subparsers(dest="study", required=True))
     out, png = tmp_path / "se.json", tmp_path / "se.png"
     args = ap.parse_args(["speed-error", "vibrating-string", "--bases", "linear", "--masses",
-                          "lumped", "--elements", "4", "--t-end", "0.01", "--repeats", "1",
+                          "lumped", "--elements", "4", "--t-end", "0.01", "--stress-update", "small", "--repeats", "1",
                           "--targets", "1e-3", "1e-7", "--json", str(out), "--plot", str(png),
                           "--quiet"])
     assert args.func(args) == 0
     doc = json.loads(out.read_text())
+    assert doc["stress_update"] == "small" and doc["runs"][0]["stress_update"] == "small"
     assert len(doc["runs"]) == 1 and [a["target"] for a in doc["targets"]] == [1e-3, 1e-7]
     assert png.read_bytes()[:8] == PNG
     text = capsys.readouterr().out
@@ -229,3 +244,21 @@ def test_cheapest_for_compares_with_linear_lumped_too():
     assert a2["best"]["mass"] == "consistent" and a2["best"]["basis"] == "linear"
     assert a2["linear_lumped"] is None and a2["factor_vs_linear_lumped"] is None
     assert "linear with lumped mass cannot reach it" in a2["answer"]
+
+
+def test_plateaus_and_merge():
+    recs = [_rec("linear", "lumped", 4, 1.0, 1e-3), _rec("linear", "lumped", 8, 2.0, 2.5e-4),
+            _rec("bspline3", "consistent", 4, 1.0, 1e-5), _rec("bspline3", "consistent", 8, 2.0, 1e-6),
+            _rec("bspline3", "consistent", 16, 4.0, 9e-7), _rec("bspline3", "consistent", 32, 8.0, 1e-6)]
+    recs[-1]["grid_crossings"] = 3
+    (p,) = plateaus(recs)
+    assert p["label"] == "bspline3/consistent" and p["elements"] == 8 and p["error"] == 9e-7
+    assert p["separated"] and p["crossings"] == 1
+    a = {"problem": "x", "t_end": 1.0, "runs": recs[:2], "skipped": [], "sweep": {"bases": ["linear"]}}
+    b = {"problem": "x", "t_end": 1.0, "runs": recs[2:], "skipped": [{"reason": "r"}],
+         "sweep": {"bases": ["bspline3"]}}
+    m = merge_studies([a, b])
+    assert len(m["runs"]) == 6 and m["bases"] == ["linear", "bspline3"] and len(m["skipped"]) == 1
+    assert [r["pareto"] for r in m["runs"]] == pareto_front(recs)
+    with pytest.raises(ValueError):
+        merge_studies([a, dict(b, t_end=2.0)])

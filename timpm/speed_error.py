@@ -29,8 +29,17 @@ does not hide the spatial error:
 
 Each record keeps the accepted ``dt``, its error ``rms_error`` and the time-error
 estimate ``time_error_estimate = |e(dt) - e(dt/2)|`` (for a first-order scheme this is
-about the time error at ``dt / 2``, and half of that at ``dt``), and all trials in
+about the time error at ``dt / 2``, half the time error at ``dt``), and all trials in
 ``dt_trials``.
+
+The rule measures rather than assumes the time error, and it often finds it tiny: a
+run that starts with zero acceleration (the vibrating string: u = 0 at t = 0) is
+Euler-Cromer started exactly like the second-order leapfrog scheme, and the string's
+time error at dt = 1e-4 s is ~1e-11 m.  An error that stops falling with the mesh while
+the time error is separated is not time error; the report lists such stalls.  (Measured:
+the string's floor of 1.2e-8 m for cubic B-splines is the same at dt = 1e-4 and 1e-5 s
+and halves with the small-strain stress update: it is the finite-deformation MPM against
+the linear exact solution.)
 
 Wall time
 ---------
@@ -43,7 +52,9 @@ the state), so they cost no further compilation.  The accepted run itself is not
 (its time is kept as ``first_run_seconds``): the first run of a solver carries one-time
 costs (Taichi compiles its field accessors on first use, the first launches warm up)
 that are far larger than the stepping of a small 1D run - e.g. 3.5 ms against 0.4 ms for
-1000 steps of the 4-element string.
+1000 steps of the 4-element string.  The runs of the dt trials are released only after
+the timing: freeing a solver's fields makes the next launch of every other solver slow
+(~0.4 s, measured).
 """
 from __future__ import annotations
 
@@ -58,10 +69,11 @@ import numpy as np
 from .analysis import rms_error
 from .basis import BASES, get_basis
 from .problems import PROBLEMS, get_problem
-from .scene import MASS_KINDS, PLACEMENTS
+from .scene import MASS_KINDS, PLACEMENTS, STRESS_UPDATES
 
-__all__ = ["speed_error_study", "merge_studies", "choose_dt", "pareto_front", "cheapest_for", "default_targets",
-           "dt_rule_text", "format_report", "plot_speed_error", "add_parser", "main_from_args"]
+__all__ = ["speed_error_study", "merge_studies", "choose_dt", "pareto_front", "cheapest_for",
+           "plateaus", "default_targets", "dt_rule_text", "format_report", "plot_speed_error",
+           "add_parser", "main_from_args"]
 
 RECORD_KEYS = ("problem", "basis", "mass", "elements", "ppc", "placement", "dt", "steps",
                "t_end", "rms_error", "time_error_estimate", "time_error_separated",
@@ -80,17 +92,18 @@ class _Run:
     :func:`timpm.study.run_problem`.
     """
 
-    def __init__(self, prob, *, elements, ppc, basis, mass, dt, t_end, placement, mode):
+    def __init__(self, prob, *, elements, ppc, basis, mass, dt, t_end, placement, mode,
+                 stress_update="study"):
         from .solver import Solver
 
         scene = prob.scene(elements=elements, ppc=ppc, basis=basis, mass=mass, dt=dt,
-                           placement=placement)
+                           placement=placement, stress_update=stress_update)
         x0 = scene.positions.copy()
         self.solver = Solver(scene, track=(), energies=False, mode=mode)
         try:
             self.solver.run(t_end, progress=False)
             s = self.solver
-            exact = prob.displacement(x0, s.t)
+            exact = prob.displacement(x0, s.t, stress_update=stress_update)
             self.record = {
                 "dt": scene.dt, "steps": s.step, "t_end": s.t,
                 "rms_error": rms_error(s.displacements(), exact),
@@ -127,14 +140,26 @@ def critical_dt(prob, *, elements, ppc, basis, mass, placement) -> float:
     return float(scene.critical_dt)
 
 
-def choose_dt(run, dt0, dt_tolerance=0.1, max_halvings=4):
+def choose_dt(run, dt0, dt_tolerance=0.1, max_halvings=4, defer_release=None):
     """The time step rule (module docstring) for one configuration.
 
     ``run(dt)`` simulates at ``dt`` and returns an object with ``record["rms_error"]`` and
     ``release()``.  Returns ``(accepted_run, info)``; info holds ``dt``, ``rms_error``,
     ``time_error_estimate``, ``time_error_separated`` and ``dt_trials`` (list of
     ``[dt, error]``).  The accepted run is not released: the caller times it further.
+    The other runs are released, or, if ``defer_release`` is a list, appended to it for
+    the caller to release after timing: freeing a Taichi field tree makes the next launch
+    of every surviving kernel slow (~0.4 s, measured), which would spoil a timing.
     """
+    dropped = []
+
+    def drop(r):
+        dropped.append(r)
+        if defer_release is None:
+            r.release()
+        else:
+            defer_release.append(r)
+
     runs = [run(dt0)]
     trials = [[dt0, runs[0].record["rms_error"]]]
     try:
@@ -148,7 +173,7 @@ def choose_dt(run, dt0, dt_tolerance=0.1, max_halvings=4):
                 accepted, separated = k, True
                 break
             # only the newest run can still be accepted later: free the older ones
-            runs[k].release()
+            drop(runs[k])
         else:
             accepted, separated = max_halvings + 1, False
             diff = abs(trials[-2][1] - trials[-1][1])
@@ -157,8 +182,8 @@ def choose_dt(run, dt0, dt_tolerance=0.1, max_halvings=4):
             r.release()
         raise
     for i, r in enumerate(runs):
-        if i != accepted:
-            r.release()
+        if i != accepted and not any(r is d for d in dropped):
+            drop(r)
     info = {"dt": trials[accepted][0], "rms_error": trials[accepted][1],
             "time_error_estimate": diff, "time_error_separated": separated,
             "dt_trials": trials}
@@ -189,10 +214,13 @@ def _as_tuple(value):
 def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
                       masses=("lumped", "consistent"), elements=(4, 8, 16, 32, 64), ppcs=None,
                       placement="study", t_end=None, dt_tolerance=0.1, max_halvings=4,
-                      repeats=3, mode="auto", progress=print, combos=None) -> dict:
+                      repeats=3, mode="auto", progress=print, combos=None,
+                      stress_update="study", params=None) -> dict:
     """Sweep bases x masses x placements x elements x PPC; see the module docstring.
 
-    ``combos``, a list of (basis, mass) pairs, replaces the product bases x masses.
+    ``combos``, a list of (basis, mass) pairs, replaces the product bases x masses;
+    ``stress_update`` ("study" or "small") and ``params`` (physical parameters of the
+    problem, e.g. ``{"gravity": -0.981}``) are passed on to every run.
 
     ``ppcs`` defaults to the problem's PPC; ``placement`` may be one name or several (then
     swept too).  Invalid combinations (a basis that cannot be lumped, too few particles
@@ -202,7 +230,10 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
     """
     from .solver import SimulationError
 
-    prob = get_problem(problem)
+    prob = get_problem(problem, **(params or {}))
+    if stress_update not in STRESS_UPDATES:
+        raise ValueError(f"unknown stress_update {stress_update!r}: choose one of "
+                         f"{', '.join(STRESS_UPDATES)}")
     if not prob.has_exact:
         raise ValueError(f"{prob.name} has no exact solution: no error to measure")
     if repeats < 1:
@@ -253,14 +284,23 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
                         continue
                     dt0 = _divides(t_end, min(prob.dt, 0.5 * crit))
 
-                    def run(dt, conf=conf):
-                        return _Run(prob, dt=dt, t_end=t_end, mode=mode, **conf)
+                    tried = []
 
+                    def run(dt, conf=conf, tried=tried):
+                        tried.append(dt)
+                        return _Run(prob, dt=dt, t_end=t_end, mode=mode,
+                                    stress_update=stress_update, **conf)
+
+                    others = []
                     try:
-                        accepted, info = choose_dt(run, dt0, dt_tolerance, max_halvings)
+                        accepted, info = choose_dt(run, dt0, dt_tolerance, max_halvings,
+                                                   defer_release=others)
                     except (ValueError, SimulationError) as exc:
-                        skipped.append({**conf, "reason": f"run failed: {exc}"})
-                        say(f"skip {tag}: run failed: {exc}")
+                        for r in others:
+                            r.release()
+                        reason = f"run failed at dt = {tried[-1]:.4g} s: {exc}"
+                        skipped.append({**conf, "reason": reason, "dt": tried[-1]})
+                        say(f"skip {tag}: {reason}")
                         continue
                     try:
                         first = accepted.record["wall_seconds"]
@@ -273,9 +313,12 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
                         rec = {"problem": prob.name, **conf, **accepted.record, **info,
                                "wall_seconds": min(samples) if samples else first,
                                "wall_samples": samples, "first_run_seconds": first,
-                               "dt0": dt0, "critical_dt": crit}
+                               "dt0": dt0, "critical_dt": crit,
+                               "stress_update": stress_update}
                     finally:
                         accepted.release()
+                        for r in others:
+                            r.release()
                     rec["dt"], rec["rms_error"] = info["dt"], info["rms_error"]
                     runs.append(rec)
                     say(f"{tag}: dt = {rec['dt']:.4g} s ({rec['steps']} steps"
@@ -286,6 +329,7 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
         rec["pareto"] = on
     return {
         "command": "speed-error", "problem": prob.name, "t_end": t_end,
+        "stress_update": stress_update, "params": dict(params or {}),
         "problem_dt": prob.dt, "dt_tolerance": dt_tolerance, "max_halvings": max_halvings,
         "repeats": repeats, "dt_rule": dt_rule_text(prob.dt, dt_tolerance, max_halvings),
         "sweep": {"bases": list(bases), "masses": list(masses),
@@ -468,18 +512,49 @@ def _answer_sentence(ans, have_linear, have_lumped=False) -> str:
     return text + "."
 
 
-def default_targets(records, most=5) -> list[float]:
-    """Decades between the smallest and the largest error of the sweep (at most
-    ``most``, the finest kept)."""
+def plateaus(records, gain=1.25) -> list[dict]:
+    """Where refining the mesh stops paying: per basis/mass (and PPC), the first mesh
+    from which no further refinement in the sweep lowers the error by ``gain`` or more.
+    Each entry: label, ppc, elements (where the stall starts), error (the least error
+    from there), separated (True if the time error was separated in all those runs: the
+    stall is then not time error), crossings (runs of the stall with grid crossings)."""
+    groups, _ = _groups([r for r in records if _valid(r)])
+    out = []
+    for label, runs in groups.items():
+        for ppc in sorted({r["ppc"] for r in runs}):
+            rs = sorted((r for r in runs if r["ppc"] == ppc), key=lambda r: r["elements"])
+            if len(rs) < 2:
+                continue
+            k = len(rs) - 1
+            while k > 0 and rs[k - 1]["rms_error"] < gain * rs[k]["rms_error"]:
+                k -= 1
+            if k == len(rs) - 1:
+                continue
+            tail = rs[k:]
+            out.append({"label": label, "ppc": ppc, "elements": rs[k]["elements"],
+                        "error": min(r["rms_error"] for r in tail),
+                        "separated": all(r.get("time_error_separated", True) for r in tail),
+                        "crossings": sum(1 for r in tail if r.get("grid_crossings", 0) > 0)})
+    return out
+
+
+def default_targets(records, most=6) -> list[float]:
+    """Targets 1e-k and 3e-k between the smallest and the largest error of the sweep,
+    largest first; decades only when there are more than ``most`` (then every other
+    decade if still too many, the finest kept)."""
     errs = [r["rms_error"] for r in records if _valid(r) and r["rms_error"] > 0]
     if not errs:
         return []
-    lo, hi = math.ceil(math.log10(min(errs))), math.floor(math.log10(max(errs)))
-    decades = list(range(hi, lo - 1, -1)) or [lo]
-    if len(decades) > most:
-        step = math.ceil(len(decades) / most)
-        decades = decades[::-1][::step][::-1]
-    return [float(10.0 ** k) for k in decades]
+    lo, hi = min(errs), max(errs)
+    ks = range(math.floor(math.log10(lo)) - 1, math.ceil(math.log10(hi)) + 1)
+    cands = sorted((float(f"{m}e{k}") for k in ks for m in (1, 3)
+                    if lo <= float(f"{m}e{k}") <= hi), reverse=True)
+    if len(cands) > most:
+        cands = [c for c in cands if f"{c:.0e}".startswith("1")]
+    if len(cands) > most:
+        step = math.ceil(len(cands) / most)
+        cands = cands[::-1][::step][::-1]
+    return cands or [float(f"1e{math.ceil(math.log10(hi))}")]
 
 
 # ---- report -----------------------------------------------------------------------------------
@@ -516,7 +591,9 @@ def format_report(doc, answers=None) -> str:
     runs = doc["runs"]
     if answers is None:
         answers = cheapest_for(runs, default_targets(runs))
-    lines = [f"Speed against error: {doc['problem']}, t_end = {doc['t_end']:g} s", ""]
+    extra = "".join(f", {k} = {v:g}" for k, v in (doc.get("params") or {}).items())
+    lines = [f"Speed against error: {doc['problem']}, t_end = {doc['t_end']:g} s, stress update "
+             f"'{doc.get('stress_update', 'study')}'{extra}", ""]
     lines.append(doc["dt_rule"])
     lines.append(f"Wall time: stepping only (compilation and first-run warm-up excluded), no "
                  f"energy recording, minimum of {doc.get('repeats', 1)} timed run(s).  time err = |e(dt) - e(dt/2)|.  "
@@ -544,6 +621,16 @@ def format_report(doc, answers=None) -> str:
                     parts.append(f"{label}: {g['elements']}x{g['ppc']} {g['wall_seconds']:.3g} s"
                                  + (f" ({f:.1f}x)" if f is not None else ""))
             lines.append("    per basis (speed-up over the cheapest linear): " + "; ".join(parts))
+    stalls = plateaus(runs)
+    if stalls:
+        lines += ["", "Error stalls (refining the mesh further gains less than 1.25x):"]
+        for p in stalls:
+            why = ("time error separated: not time error, a spatial or model-error floor"
+                   if p["separated"] else "time error not separated in some of these runs")
+            if p["crossings"]:
+                why += f"; grid crossings in {p['crossings']} of these runs"
+            lines.append(f"  {p['label']} ({p['ppc']} PPC) from {p['elements']} elements at "
+                         f"e ~ {p['error']:.2e} ({why})")
     lines.append(f"\n{len(runs)} runs, {len(doc.get('skipped', []))} skipped, sweep took "
                  f"{doc.get('sweep_seconds', float('nan')):.0f} s (with compilation and dt trials).")
     return "\n".join(lines)
@@ -595,6 +682,16 @@ def plot_speed_error(doc, path, title=None):
 
 # ---- command line -----------------------------------------------------------------------------
 
+def _param(text):
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    try:
+        return name, float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"parameter {name}: {value!r} is not a number") from None
+
+
 def _pos_int(text):
     try:
         value = int(text)
@@ -634,6 +731,10 @@ def add_parser(subparsers):
     p.add_argument("--placement", nargs="+", default=["study"], choices=list(PLACEMENTS),
                    help="particle placement(s) in an element (default: study)")
     p.add_argument("--t-end", type=_pos_float, help="end time [s] (default: the problem's)")
+    p.add_argument("--stress-update", default="study", choices=list(STRESS_UPDATES),
+                   help="study: sigma += (E - sigma) d_eps (2.2.4); small: sigma += E d_eps")
+    p.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
+                   help="override a physical parameter of the problem, e.g. gravity=-0.981")
     p.add_argument("--targets", type=_pos_float, nargs="+",
                    help="target errors to answer for (default: decades within the sweep)")
     p.add_argument("--dt-tolerance", type=_pos_float, default=0.1,
@@ -661,9 +762,10 @@ def main_from_args(args) -> int:
     try:
         if args.max_halvings < 0:
             raise ValueError(f"--max-halvings must be non-negative, got {args.max_halvings}")
-        get_problem(args.problem)
+        get_problem(args.problem, **dict(args.param))
         runtime.init(threads=args.threads)
         doc = speed_error_study(args.problem, bases=args.bases, masses=args.masses,
+                                stress_update=args.stress_update, params=dict(args.param),
                                 elements=args.elements, ppcs=args.ppc, placement=args.placement,
                                 t_end=args.t_end, dt_tolerance=args.dt_tolerance,
                                 max_halvings=args.max_halvings, repeats=args.repeats,
