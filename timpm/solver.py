@@ -120,7 +120,6 @@ class Solver:
             raise ValueError(f"record_every must be a positive integer, got {record_every!r}")
         self.scene = scene
         self.basis = scene.basis_class
-        self.material = scene.material
         n = scene.n_particles
         track = [int(p) for p in track]
         for p in track:
@@ -162,7 +161,6 @@ class Solver:
         self.pivot_tol = 1e-14 * mass_scale
         self._allocate(scene, track)
         self.history = {"t": [], "step": []}
-        self.crossing_steps = []
         self.compile_seconds = 0.0
         self.run_seconds = 0.0
         self._compiled = False
@@ -173,7 +171,7 @@ class Solver:
     def _allocate(self, scene: Scene, track):
         d, n, nn = self.dim, self.n_particles, self.n_nodes
         fb = ti.FieldsBuilder()
-        vec, f64 = ti.types.vector(d, ti.f64), ti.f64
+        f64 = ti.f64
         self.x = ti.Vector.field(d, f64)
         self.u = ti.Vector.field(d, f64)
         self.v = ti.Vector.field(d, f64)

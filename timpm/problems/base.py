@@ -41,7 +41,8 @@ class Problem:
 
     @property
     def material(self) -> Material:
-        raise NotImplementedError
+        """The linear elastic material of the problem's E and density."""
+        return Material(self.E, self.density)
 
     def domain_length(self) -> float:
         """Length of the body along x (the part filled with particles)."""

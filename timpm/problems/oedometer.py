@@ -3,7 +3,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene import Constant, Material, Ramp, Traction
+from ..scene import Constant, Ramp, Traction
 from .base import Problem, check_positive
 
 
@@ -45,9 +45,6 @@ class Oedometer(Problem):
         if self.p0 < 0 or not np.isfinite(self.p0):
             raise ValueError(f"load p0 must be a non-negative (compressive) load, got {self.p0!r}")
 
-    @property
-    def material(self):
-        return Material(self.E, self.density)
 
     def domain_length(self):
         return self.H

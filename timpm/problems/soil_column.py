@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene import Constant, Material, Traction
+from ..scene import Constant, Traction
 from .base import Problem, check_positive, last_below
 
 
@@ -38,9 +38,6 @@ class SoilColumn(Problem):
     def __post_init__(self):
         check_positive(self, "density", "E", "H", "n_terms")
 
-    @property
-    def material(self):
-        return Material(self.E, self.density)
 
     def domain_length(self):
         return self.H

@@ -3,7 +3,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene import Material, Sine, Traction
+from ..scene import Sine, Traction
 from .base import Problem, check_positive
 
 
@@ -36,9 +36,6 @@ class VibratingBar(Problem):
             raise ValueError(f"the exact solution of the vibrating bar needs wave speed 1 "
                              f"(E = rho), got E = {self.E}, rho = {self.density}")
 
-    @property
-    def material(self):
-        return Material(self.E, self.density)
 
     def domain_length(self):
         return self.L
@@ -47,27 +44,27 @@ class VibratingBar(Problem):
         return dict(fixed_nodes=basis.boundary_nodes(grid.n_elements)[0],
                     traction=Traction(int(np.argmax(x0)), self.tau, Sine(np.pi / self.L)))
 
-    def displacement(self, x0, t, stress_update="study"):
-        L, w = self.L, np.pi / self.L
-        alpha = L * self.tau / (self.density * np.pi)
+    def _phases(self, x0, t):
+        """x, t and the conditions of the solution's five phases (wave not yet arrived,
+        arriving, reflected, leaving, gone): t in [0, L-x], [L-x, L+x], [L+x, 3L-x], ..."""
+        L = self.L
         x = np.asarray(x0, dtype=float)
         t = np.broadcast_to(np.asarray(t, dtype=float), x.shape)
-        return np.select(
-            [t <= L - x, t <= L + x, t <= 3 * L - x, t <= 3 * L + x],
-            [0.0 * x, alpha * (1 + np.cos(w * (t + x))),
-             alpha * (np.cos(w * (t + x)) - np.cos(w * (t - x))),
-             alpha * (-1 - np.cos(w * (t - x)))], 0.0 * x)
+        return x, t, [t <= L - x, t <= L + x, t <= 3 * L - x, t <= 3 * L + x]
+
+    def displacement(self, x0, t, stress_update="study"):
+        x, t, phases = self._phases(x0, t)
+        w, alpha = np.pi / self.L, self.L * self.tau / (self.density * np.pi)
+        return np.select(phases, [0.0 * x, alpha * (1 + np.cos(w * (t + x))),
+                                  alpha * (np.cos(w * (t + x)) - np.cos(w * (t - x))),
+                                  alpha * (-1 - np.cos(w * (t - x)))], 0.0 * x)
 
     def velocity(self, x0, t):
-        L, w = self.L, np.pi / self.L
-        alpha = L * self.tau / (self.density * np.pi)
-        x = np.asarray(x0, dtype=float)
-        t = np.broadcast_to(np.asarray(t, dtype=float), x.shape)
-        return np.select(
-            [t <= L - x, t <= L + x, t <= 3 * L - x, t <= 3 * L + x],
-            [0.0 * x, -alpha * w * np.sin(w * (t + x)),
-             -alpha * w * (np.sin(w * (t + x)) - np.sin(w * (t - x))),
-             alpha * w * np.sin(w * (t - x))], 0.0 * x)
+        x, t, phases = self._phases(x0, t)
+        w, alpha = np.pi / self.L, self.L * self.tau / (self.density * np.pi)
+        return np.select(phases, [0.0 * x, -alpha * w * np.sin(w * (t + x)),
+                                  -alpha * w * (np.sin(w * (t + x)) - np.sin(w * (t - x))),
+                                  alpha * w * np.sin(w * (t - x))], 0.0 * x)
 
     def monitored_particle(self, x0):
         return int(np.argmax(x0))  # the loaded end

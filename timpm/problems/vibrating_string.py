@@ -3,7 +3,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene import Material
 from .base import Problem, check_positive, last_below
 
 
@@ -30,9 +29,6 @@ class VibratingString(Problem):
     def __post_init__(self):
         check_positive(self, "density", "E", "L")
 
-    @property
-    def material(self):
-        return Material(self.E, self.density)
 
     def domain_length(self):
         return self.L
