@@ -3,33 +3,14 @@ import argparse
 import json
 import sys
 
-from . import __version__
+from . import __version__, speed_error
+from .argtypes import param, positive_int
 from .basis import BASES
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .solver import SimulationError
 
 __all__ = ["main"]
-
-
-def _param(text):
-    name, sep, value = text.partition("=")
-    if not sep or not name:
-        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
-    try:
-        return name, float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"parameter {name}: {value!r} is not a number") from None
-
-
-def _positive_int(text):
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {value}")
-    return value
 
 
 def _add_common(p):
@@ -47,13 +28,13 @@ def _add_common(p):
     p.add_argument("--projection", default="standard", choices=list(PROJECTIONS),
                    help="mls: velocity, density and stress reconstructed by moving least "
                         "squares, forces at Gauss points (4.4)")
-    p.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
+    p.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
                    help="override a physical parameter of the problem, e.g. p0=2e4")
     p.add_argument("--allow-unstable-dt", action="store_true",
                    help="run even if dt exceeds the critical time step of Eq. 2.4")
     p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel"],
                    help="serial: fused steps on one thread; parallel: one launch per step")
-    p.add_argument("--threads", type=_positive_int, help="CPU threads for Taichi")
+    p.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
     p.add_argument("--json", metavar="FILE", help="write the records as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="draw a plot")
     p.add_argument("--quiet", action="store_true", help="no table on stdout")
@@ -73,14 +54,16 @@ def _parser():
                       help="numbers of elements (default: 4 8 16 32 64)")
     cmp = sub.add_parser("compare-ulfem", help="MPM against updated-Lagrangian FEM on the "
                          "large-deformation column of A.5")
-    cmp.add_argument("--elements", type=_positive_int, default=30)
-    cmp.add_argument("--ppc", type=_positive_int, default=50)
+    cmp.add_argument("--elements", type=positive_int, default=30)
+    cmp.add_argument("--ppc", type=positive_int, default=50)
     cmp.add_argument("--dt", type=float, default=1e-3)
     cmp.add_argument("--t-end", type=float, default=3.0)
     cmp.add_argument("--basis", default="linear")
     cmp.add_argument("--json", metavar="FILE")
     cmp.add_argument("--plot", metavar="FILE.png")
     sub.add_parser("list", help="list problems and bases")
+    study = sub.add_parser("study", help="studies over many runs: speed-error")
+    speed_error.add_parser(study.add_subparsers(dest="study", required=True))
     return ap
 
 
@@ -130,6 +113,8 @@ def _table(records, rates=None):
 
 def main(argv=None):
     args = _parser().parse_args(argv)
+    if args.command == "study":
+        return args.func(args)
     if args.command == "list":
         for name, cls in PROBLEMS.items():
             p = cls()

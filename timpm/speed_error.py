@@ -67,6 +67,7 @@ import time
 import numpy as np
 
 from .analysis import rms_error
+from .argtypes import param, positive_float, positive_int
 from .basis import BASES, get_basis
 from .problems import PROBLEMS, get_problem
 from .scene import MASS_KINDS, PLACEMENTS, STRESS_UPDATES
@@ -682,36 +683,6 @@ def plot_speed_error(doc, path, title=None):
 
 # ---- command line -----------------------------------------------------------------------------
 
-def _param(text):
-    name, sep, value = text.partition("=")
-    if not sep or not name:
-        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
-    try:
-        return name, float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"parameter {name}: {value!r} is not a number") from None
-
-
-def _pos_int(text):
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {value}")
-    return value
-
-
-def _pos_float(text):
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return value
-
-
 def add_parser(subparsers):
     """Add the ``speed-error`` command to an argparse subparsers object."""
     p = subparsers.add_parser(
@@ -725,25 +696,25 @@ def add_parser(subparsers):
                    help=f"bases to sweep (of: {', '.join(BASES)}); default linear bspline2 bspline3")
     p.add_argument("--masses", nargs="+", default=["lumped", "consistent"], choices=list(MASS_KINDS),
                    help="mass matrices to sweep (default: both)")
-    p.add_argument("--elements", type=_pos_int, nargs="+", default=[4, 8, 16, 32, 64],
+    p.add_argument("--elements", type=positive_int, nargs="+", default=[4, 8, 16, 32, 64],
                    help="numbers of elements (default: 4 8 16 32 64)")
-    p.add_argument("--ppc", type=_pos_int, nargs="+", help="particles per element (default: the problem's)")
+    p.add_argument("--ppc", type=positive_int, nargs="+", help="particles per element (default: the problem's)")
     p.add_argument("--placement", nargs="+", default=["study"], choices=list(PLACEMENTS),
                    help="particle placement(s) in an element (default: study)")
-    p.add_argument("--t-end", type=_pos_float, help="end time [s] (default: the problem's)")
+    p.add_argument("--t-end", type=positive_float, help="end time [s] (default: the problem's)")
     p.add_argument("--stress-update", default="study", choices=list(STRESS_UPDATES),
                    help="study: sigma += (E - sigma) d_eps (2.2.4); small: sigma += E d_eps")
-    p.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
+    p.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
                    help="override a physical parameter of the problem, e.g. gravity=-0.981")
-    p.add_argument("--targets", type=_pos_float, nargs="+",
+    p.add_argument("--targets", type=positive_float, nargs="+",
                    help="target errors to answer for (default: decades within the sweep)")
-    p.add_argument("--dt-tolerance", type=_pos_float, default=0.1,
+    p.add_argument("--dt-tolerance", type=positive_float, default=0.1,
                    help="accept dt when |e(dt) - e(dt/2)| <= TOL e(dt/2) (default 0.1)")
     p.add_argument("--max-halvings", type=int, default=4, help="most halvings of dt (default 4)")
-    p.add_argument("--repeats", type=_pos_int, default=3,
+    p.add_argument("--repeats", type=positive_int, default=3,
                    help="timed runs per configuration, the minimum is kept (default 3)")
     p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel"])
-    p.add_argument("--threads", type=_pos_int, help="CPU threads for Taichi")
+    p.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
     p.add_argument("--json", metavar="FILE", help="write runs, answers and settings as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="write the error-against-wall-time plot")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
