@@ -708,6 +708,9 @@ class Solver:
         if self.recording:
             self._record_kernel()
             self.rec_count[None] = 0
+            for _, fld in self._history_fields():  # compile the accessors run() reads with
+                fld.to_numpy()
+        int(self.err[None]) + int(self.err_count[None])
         self.compile_seconds += time.perf_counter() - t0
         self._compiled = True
 
@@ -769,23 +772,28 @@ class Solver:
         self._record_kernel()
         self._drain()
 
+    def _history_fields(self):
+        """(key, field) of every recorded quantity."""
+        fields = [("t", self.h_t), ("step", self.h_step)]
+        if self.record_energies:
+            fields.append(("energy", self.h_energy))
+        if self.n_tracked:
+            fields += [("x", self.h_x), ("u", self.h_u), ("v", self.h_v), ("stress", self.h_s)]
+        return fields
+
     def _drain(self):
+        """Move the records of the kernel's history buffer to ``self.history``."""
         if not self.recording:
             return
         n = int(self.rec_count[None])
         if n == 0:
             return
-        h = self.history
-        h["t"].extend(self.h_t.to_numpy()[:n])
-        h["step"].extend(self.h_step.to_numpy()[:n])
-        if self.record_energies:
-            energy = self.h_energy.to_numpy()[:n]
-            h.setdefault("energy", []).extend(energy)
-            self._guard_energy(energy, self.h_step.to_numpy()[:n])
-        if self.n_tracked:
-            for key, fld in (("x", self.h_x), ("u", self.h_u), ("v", self.h_v), ("stress", self.h_s)):
-                h.setdefault(key, []).extend(fld.to_numpy()[:n])
+        chunk = {key: fld.to_numpy()[:n] for key, fld in self._history_fields()}
+        for key, values in chunk.items():
+            self.history.setdefault(key, []).extend(values)
         self.rec_count[None] = 0
+        if self.record_energies:
+            self._guard_energy(chunk["energy"], chunk["step"])
 
     def _guard_energy(self, energy, steps):
         if self.energy_guard is None or not len(self.history["energy"]):
