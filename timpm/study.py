@@ -126,3 +126,24 @@ def compare_large_column(elements=30, ppc=50, dt=1e-3, t_end=3.0, basis="linear"
                   "position_period": fem["position_period"]},
         "study_periods": {"mpm": 0.374, "ulfem": 0.364},
     }
+
+
+def displacement_fields(problem="vibrating-string", elements=4, ppc=4, dt=1e-3, t_end=0.5,
+                        variants=(("lagrange2", "consistent"), ("linear", "lumped")),
+                        points_per_element=1000) -> dict:
+    """u_h(x) = sum_i phi_i(x) u_i on a fine grid of points for each (basis, mass), with
+    the exact displacement (the study's Figures 5.5 and 5.6)."""
+    prob = get_problem(problem)
+    x = np.linspace(0.0, prob.domain_length(), elements * points_per_element + 1)
+    out = {"x": x, "problem": prob.name, "elements": elements, "fields": {}}
+    for basis, mass in variants:
+        scene = prob.scene(elements=elements, ppc=ppc, basis=basis, mass=mass, dt=dt)
+        solver = Solver(scene, grid_displacement=True, energies=False)
+        try:
+            solver.run(t_end)
+            out["fields"][f"{basis}, {mass}"] = solver.displacement_field(x)
+            out["t"] = solver.t
+        finally:
+            solver.release()
+    out["exact"] = prob.displacement(x, out["t"])
+    return out

@@ -91,3 +91,29 @@ def plot_comparison(cmp, path):
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def plot_fields(fields, path):
+    """u_h(x) of each variant against the exact displacement, and the error below."""
+    plt = _pyplot()
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    x, exact = fields["x"], fields["exact"]
+    top.plot(x, exact, "k--", lw=1.2, label="exact")
+    for label, u in fields["fields"].items():
+        top.plot(x, u, lw=1.2, label=label)
+        bottom.plot(x, u - exact, lw=1.2, label=label)
+    h = x[-1] / fields["elements"]
+    for ax in (top, bottom):
+        for k in range(fields["elements"] + 1):
+            ax.axvline(k * h, color="0.85", lw=0.8, zorder=0)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    top.set_ylabel("u_h(x) [m]")
+    bottom.set_ylabel("u_h(x) - u(x) [m]")
+    bottom.set_xlabel("x [m]")
+    top.set_title(f"{fields['problem']}: {fields['elements']} elements, t = {fields['t']:g} s "
+                  "(study Figures 5.5, 5.6)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
