@@ -356,7 +356,8 @@ class Scene:
             raise ValueError(f"unknown mass {self.mass!r}: choose one of {', '.join(MASS_KINDS)}")
         if self.mass == "lumped" and not basis.lumpable:
             raise ValueError(f"the {basis.name} basis takes negative values, so its mass matrix "
-                             "cannot be lumped (study 5.1): use mass='consistent'")
+                             "cannot be lumped (study 5.1): use the consistent mass "
+                             "(mass='consistent', --mass consistent)")
         if self.projection not in PROJECTIONS:
             raise ValueError(f"unknown projection {self.projection!r}: choose one of "
                              f"{', '.join(PROJECTIONS)}")
