@@ -641,7 +641,7 @@ def plot_speed_error(doc, path, title=None):
     """Log-log plot of RMS error against wall time, one colour/marker per basis/mass,
     the Pareto front as a black line, hollow markers where the time error was not
     separated, labels ``elements x PPC`` on the front."""
-    from .viz import _pyplot
+    from .viz import _pyplot, save
 
     plt = _pyplot()
     runs = [r for r in doc["runs"] if _valid(r) and r["rms_error"] > 0 and r["wall_seconds"] > 0]
@@ -675,10 +675,7 @@ def plot_speed_error(doc, path, title=None):
                  f"the error; labels: elements x PPC)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save(fig, path)
 
 
 # ---- command line -----------------------------------------------------------------------------

@@ -14,6 +14,15 @@ def _pyplot():
     return plt
 
 
+def save(fig, path):
+    """Lay out, write to ``path`` (PNG at 120 dpi) and close a figure; returns ``path``."""
+    plt = _pyplot()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
 def plot_convergence(docs, path, title=None):
     """RMS error against the number of elements, one line per convergence document."""
     plt = _pyplot()
@@ -42,10 +51,7 @@ def plot_convergence(docs, path, title=None):
                  + ("  (x: grid crossing)" if any(r["grid_crossings"] for d in docs for r in d["runs"]) else ""))
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save(fig, path)
 
 
 def plot_series(result, path, title=None):
@@ -66,10 +72,7 @@ def plot_series(result, path, title=None):
         f"elements, {rec['ppc']} PPC, {rec['basis']}, dt = {rec['dt']:g} s, "
         f"{rec['grid_crossings']} grid crossings"),
         fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save(fig, path)
 
 
 def plot_comparison(cmp, path):
@@ -87,10 +90,7 @@ def plot_comparison(cmp, path):
                  f"dt = {rec['dt']:g} s", fontsize=9)
     ax.grid(True, alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save(fig, path)
 
 
 def plot_fields(fields, path):
@@ -113,7 +113,4 @@ def plot_fields(fields, path):
     bottom.set_xlabel("x [m]")
     top.set_title(f"{fields['problem']}: {fields['elements']} elements, t = {fields['t']:g} s "
                   "(study Figures 5.5, 5.6)", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save(fig, path)
