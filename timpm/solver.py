@@ -29,7 +29,9 @@ import numpy as np
 import taichi as ti
 
 from .runtime import ensure_init
+from .materials import Hypoelastic1D
 from .scene import Scene
+from .world import World
 
 __all__ = ["Solver", "SimulationError", "ERRORS"]
 
@@ -107,13 +109,14 @@ class Solver:
     check off.
     """
 
-    dim = 1
-
-    def __init__(self, scene: Scene, track=(), record_every: int = 1, energies: bool = True,
+    def __init__(self, scene, track=(), record_every: int = 1, energies: bool = True,
                  mode: str = "auto", serial_threshold: int = 4096, history_chunk: int = 512,
-                 track_crossings: bool = True, energy_guard: float | None = 2.0,
+                 track_crossings: bool | None = None, energy_guard: float | None = 2.0,
                  grid_displacement: bool = False, small_mass: float = 1e-3):
         ensure_init()
+        if not isinstance(scene, (Scene, World)):
+            raise TypeError(f"Solver takes a timpm.Scene (1D) or a timpm.World (2D/3D), "
+                            f"got {type(scene).__name__}")
         if mode not in ("auto", "parallel", "serial"):
             raise ValueError(f"unknown mode {mode!r}: choose auto, parallel or serial")
         if record_every < 1:
@@ -129,24 +132,25 @@ class Solver:
         self.record_every = int(record_every)
         self.history_chunk = int(history_chunk)
         self.n_particles = n
-        self.n_elements = scene.grid.n_elements
-        self.n_nodes = self.basis.n_nodes(self.n_elements)
-        self.h = scene.grid.h
-        self.inv_h = 1.0 / scene.grid.h
-        self.origin = scene.grid.origin
+        self.h = scene.grid.h if isinstance(scene, Scene) else scene.h
+        self.inv_h = 1.0 / self.h
         self.dt = scene.dt
-        self.gravity = float(scene.gravity)
-        self.E = scene.material.E
-        # compile-time feature set, frozen here
-        self.consistent = scene.mass == "consistent"
-        self.mls = scene.projection == "mls"
-        self.study_stress = scene.material.stress_update == "study"
-        self.damping = float(scene.damping)
-        self.has_traction = scene.traction is not None
-        self.traction_particle = scene.traction.particle if self.has_traction else -1
-        self.traction_amplitude = float(scene.traction.amplitude) if self.has_traction else 0.0
-        self.traction_fn = scene.traction.time_function if self.has_traction else None
-        self.track_crossings = bool(track_crossings)
+        if isinstance(scene, Scene):
+            self._configure_1d(scene)
+        else:
+            self._configure_world(scene)
+        self.n_elements = self.grid_elements[0]
+        self.n_nodes = self.grid_nodes[0]
+        self.node_offset = self.basis.offset() if hasattr(self.basis, "offset") else 0
+        if grid_displacement and self.dim != 1:
+            raise ValueError("grid_displacement is available for 1D scenes only")
+        # compile-time feature set, frozen here: state fields of the materials, affine
+        # transfer, per-particle material index where a scene mixes materials
+        self.needs = frozenset().union(*(m.needs for m in self.materials))
+        self.apic = self.transfer == "apic"
+        self.multi_material = len(self.materials) > 1
+        self.has_walls = self.walls is not None
+        self.track_crossings = (self.dim == 1) if track_crossings is None else bool(track_crossings)
         self.grid_displacement = bool(grid_displacement)
         self.n_tracked = len(track)
         self.recording = energies or self.n_tracked > 0
@@ -167,19 +171,76 @@ class Solver:
         self._timed_steps = 0
         self._first_step = 0.0
 
+    def _configure_1d(self, scene: Scene):
+        """The study's 1D scene: Dirichlet nodes, tractions, consistent mass, MLS."""
+        self.dim = 1
+        self.grid_elements = (scene.grid.n_elements,)
+        self.grid_nodes = (self.basis.n_nodes(scene.grid.n_elements),)
+        self.origin = (scene.grid.origin,)
+        self.gravity = (float(scene.gravity),)
+        self.materials = [Hypoelastic1D(scene.material.E, scene.material.stress_update == "study")]
+        self.transfer = "musl"
+        self.walls = None
+        self.consistent = scene.mass == "consistent"
+        self.mls = scene.projection == "mls"
+        self.damping = float(scene.damping)
+        self.has_traction = scene.traction is not None
+        self.traction_particle = scene.traction.particle if self.has_traction else -1
+        self.traction_amplitude = float(scene.traction.amplitude) if self.has_traction else 0.0
+        self.traction_fn = scene.traction.time_function if self.has_traction else None
+        self.has_u = True
+        self.fixed_nodes = [(i,) for i in scene.fixed_nodes]
+
+    def _configure_world(self, world: World):
+        """A 2D/3D world: materials per body, walls on every side of the domain."""
+        self.dim = world.dim
+        self.grid_elements = world.grid_elements
+        self.grid_nodes = tuple(self.basis.n_nodes(n) for n in self.grid_elements)
+        self.origin = world.origin
+        self.gravity = tuple(float(g) for g in world.gravity)
+        self.materials = list(world.materials)
+        self.transfer = world.transfer
+        self.pad = world.padding
+        self.domain_cells = tuple(n - 2 * world.padding for n in world.grid_elements)
+        # per side: (kind, friction coefficient), sides in the order of world.SIDES
+        self.walls = tuple((w.kind, w.mu) for w in world.walls)
+        self.consistent = False
+        self.mls = False
+        self.damping = float(world.damping)
+        self.has_traction = False
+        self.has_u = False
+        self.fixed_nodes = []
+
     # ---- fields ------------------------------------------------------------------------
-    def _allocate(self, scene: Scene, track):
-        d, n, nn = self.dim, self.n_particles, self.n_nodes
+    def _allocate(self, scene, track):
+        d, n = self.dim, self.n_particles
         fb = ti.FieldsBuilder()
         f64 = ti.f64
         self.x = ti.Vector.field(d, f64)
-        self.u = ti.Vector.field(d, f64)
         self.v = ti.Vector.field(d, f64)
         self.m = ti.field(f64)
         self.vol = ti.field(f64)
         self.sigma = ti.Matrix.field(d, d, f64)
-        self.eps = ti.Matrix.field(d, d, f64)
-        particle_fields = [self.x, self.u, self.v, self.m, self.vol, self.sigma, self.eps]
+        particle_fields = [self.x, self.v, self.m, self.vol, self.sigma]
+        # state only where a feature of the scene needs it
+        if self.has_u:
+            self.u = ti.Vector.field(d, f64)  # displacement, for the 1D analytic solutions
+            particle_fields.append(self.u)
+        if "eps" in self.needs:
+            self.eps = ti.Matrix.field(d, d, f64)  # accumulated strain (1D law)
+            particle_fields.append(self.eps)
+        if "F" in self.needs:
+            self.F = ti.Matrix.field(d, d, f64)  # (elastic) deformation gradient
+            particle_fields.append(self.F)
+        if "plastic" in self.needs:
+            self.plastic = ti.field(f64)  # accumulated plastic strain
+            particle_fields.append(self.plastic)
+        if self.apic:
+            self.C = ti.Matrix.field(d, d, f64)  # affine velocity of the APIC transfer
+            particle_fields.append(self.C)
+        if self.multi_material:
+            self.mat = ti.field(ti.i32)
+            particle_fields.append(self.mat)
         if self.record_energies:
             self.work = ti.field(f64)  # strain energy, integrated along the path
             particle_fields.append(self.work)
@@ -187,16 +248,22 @@ class Solver:
             self.elem = ti.Vector.field(d, ti.i32)
             particle_fields.append(self.elem)
         fb.dense(ti.i, n).place(*particle_fields)
-        # grid: mass, force then acceleration, momentum then velocity, Dirichlet mask
+        # grid: mass, momentum then velocity, force then acceleration (the affine transfer
+        # folds the force into the momentum), Dirichlet mask (1D)
         self.gm = ti.field(f64)
-        self.gf = ti.Vector.field(d, f64)
         self.gp = ti.Vector.field(d, f64)
-        self.fixed = ti.field(ti.i32)
-        fb.dense(ti.axes(*range(d)), (nn,) * d).place(
-            self.gm, self.gf, self.gp, self.fixed)
+        grid_fields = [self.gm, self.gp]
+        if not self.apic:
+            self.gf = ti.Vector.field(d, f64)
+            grid_fields.append(self.gf)
+        if self.fixed_nodes:
+            self.fixed = ti.field(ti.i32)
+            grid_fields.append(self.fixed)
+        fb.dense(ti.axes(*range(d)), self.grid_nodes).place(*grid_fields)
         if self.grid_displacement:
             self.gu = ti.Vector.field(d, f64)
-            fb.dense(ti.axes(*range(d)), (nn,) * d).place(self.gu)
+            fb.dense(ti.axes(*range(d)), self.grid_nodes).place(self.gu)
+        nn = self.grid_nodes[0]
         if self.consistent:
             if d != 1:
                 raise ValueError("the consistent mass matrix is implemented for 1D scenes only")
@@ -240,10 +307,12 @@ class Solver:
                 self.track_ids = ti.field(ti.i32)
                 fb.dense(ti.i, self.n_tracked).place(self.track_ids)
                 self.h_x = ti.Vector.field(d, f64)
-                self.h_u = ti.Vector.field(d, f64)
                 self.h_v = ti.Vector.field(d, f64)
                 self.h_s = ti.Matrix.field(d, d, f64)
-                fb.dense(ti.ij, (cap, self.n_tracked)).place(self.h_x, self.h_u, self.h_v, self.h_s)
+                fb.dense(ti.ij, (cap, self.n_tracked)).place(self.h_x, self.h_v, self.h_s)
+                if self.has_u:
+                    self.h_u = ti.Vector.field(d, f64)
+                    fb.dense(ti.ij, (cap, self.n_tracked)).place(self.h_u)
         if self.record_energies and self.has_traction:
             self.ext_work = ti.field(f64)
             fb.place(self.ext_work)
@@ -251,22 +320,28 @@ class Solver:
 
         x = scene.positions.reshape(n, d)
         self.x.from_numpy(x)
-        self.u.from_numpy(np.zeros((n, d)))
         self.v.from_numpy(scene.velocity.reshape(n, d))
         self.m.from_numpy(scene.mass_per_particle)
         self.vol.from_numpy(scene.volume)
-        fixed = np.zeros((nn,) * d, dtype=np.int32)
-        for i in scene.fixed_nodes:
-            fixed[i] = 1
-        self.fixed.from_numpy(fixed)
+        if self.has_u:
+            self.u.from_numpy(np.zeros((n, d)))
+        if "F" in self.needs:
+            self.F.from_numpy(np.broadcast_to(np.eye(d), (n, d, d)).copy())
+        if self.multi_material:
+            self.mat.from_numpy(np.asarray(scene.material_index, dtype=np.int32))
+        if self.fixed_nodes:
+            fixed = np.zeros(self.grid_nodes, dtype=np.int32)
+            for i in self.fixed_nodes:
+                fixed[i] = 1
+            self.fixed.from_numpy(fixed)
         if self.track_crossings:
             self.elem.from_numpy(self._element_of(x))
         if self.n_tracked:
             self.track_ids.from_numpy(np.asarray(track, dtype=np.int32))
 
     def _element_of(self, x):
-        xi = (x - self.origin) * self.inv_h
-        return np.clip(np.floor(xi), 0, self.n_elements - 1).astype(np.int32)
+        xi = (x - np.asarray(self.origin)) * self.inv_h
+        return np.clip(np.floor(xi), 0, np.asarray(self.grid_elements) - 1).astype(np.int32)
 
     def release(self):
         """Free the fields of this solver (it cannot be used afterwards)."""
@@ -277,24 +352,26 @@ class Solver:
     # ---- stencil -----------------------------------------------------------------------
     @ti.func
     def _stencil(self, p):
-        """Node base, weights and gradients of particle p, and whether p is on the grid."""
-        xi = (self.x[p] - self.origin) * self.inv_h
+        """Node base, weights and gradients of particle p, its coordinate in element units,
+        and whether p is on the grid."""
+        xi = ti.Vector.zero(ti.f64, self.dim)
         base = ti.Vector.zero(ti.i32, self.dim)
         w = ti.Matrix.zero(ti.f64, self.basis.support, self.dim)
         dw = ti.Matrix.zero(ti.f64, self.basis.support, self.dim)
         inside = 1
         for k in ti.static(range(self.dim)):
+            xi[k] = (self.x[p][k] - self.origin[k]) * self.inv_h
             # NaN fails both comparisons, so it is caught here too
-            if not (xi[k] >= 0.0 and xi[k] <= self.n_elements):
+            if not (xi[k] >= 0.0 and xi[k] <= self.grid_elements[k]):
                 inside = 0
-            b, wk, dwk = self.basis.stencil(xi[k], self.n_elements)
+            b, wk, dwk = self.basis.stencil(xi[k], self.grid_elements[k])
             base[k] = b
-            if b < 0 or b + self.basis.support > self.n_nodes:
+            if b < 0 or b + self.basis.support > self.grid_nodes[k]:
                 inside = 0
             for a in ti.static(range(self.basis.support)):
                 w[a, k] = wk[a]
                 dw[a, k] = dwk[a] * self.inv_h
-        return base, w, dw, inside
+        return base, w, dw, xi, inside
 
     @ti.func
     def _weight(self, w, dw, offset):
@@ -314,6 +391,11 @@ class Solver:
         return phi, grad
 
     @ti.func
+    def _node_offset(self, node, xi):
+        """x_i - x_p of grid node ``node`` seen from a particle at ``xi`` (element units)."""
+        return (ti.cast(node, ti.f64) - self.node_offset - xi) * self.h
+
+    @ti.func
     def _fail(self, code, where):
         """Record the first error of the run: its code, step and particle or node."""
         if ti.atomic_add(self.err_count[None], 1) == 0:
@@ -321,13 +403,60 @@ class Solver:
             self.err_step[None] = self.step_count[None]
             self.err_where[None] = where
 
+    @ti.func
+    def _is_fixed(self, I):
+        fixed = 0
+        if ti.static(len(self.fixed_nodes) > 0):
+            fixed = self.fixed[I]
+        return fixed
+
+    @ti.func
+    def _wall(self, I, v):
+        """Wall conditions on the velocity of node I (sides left/right, bottom/top, ...):
+        sticky v = 0; slip removes the outward normal component; friction also slows the
+        tangential velocity by mu |v_n| (Coulomb), down to rest."""
+        for k in ti.static(range(self.dim)):
+            c = I[k] - self.node_offset - self.pad  # node coordinate, cells from the lower wall
+            for side in ti.static(range(2)):
+                kind, mu = ti.static(self.walls[2 * k + side])
+                hit = c <= 0 if ti.static(side == 0) else c >= self.domain_cells[k]
+                if hit:
+                    vn = v[k] if ti.static(side == 0) else -v[k]  # along the inward normal
+                    if ti.static(kind == "sticky"):
+                        v = ti.Vector.zero(ti.f64, self.dim)
+                    elif vn < 0.0:
+                        if ti.static(kind == "friction"):
+                            vt = v
+                            vt[k] = 0.0
+                            speed = vt.norm()
+                            scale = 0.0
+                            if speed > 0.0:
+                                scale = ti.max(0.0, 1.0 - mu * (-vn) / speed)
+                            v = vt * scale
+                        else:
+                            v[k] = 0.0
+        return v
+
+    @ti.func
+    def _material_update(self, p, grad_du, sig_old):
+        """New Cauchy stress from the particle's material (one compiled unit per material)."""
+        sig_new = sig_old
+        if ti.static(not self.multi_material):
+            sig_new = self.materials[0].update(self, p, grad_du, sig_old)
+        else:
+            for k in ti.static(range(len(self.materials))):
+                if self.mat[p] == k:
+                    sig_new = self.materials[k].update(self, p, grad_du, sig_old)
+        return sig_new
+
     # ---- phases of one step ------------------------------------------------------------
     @ti.func
     def _clear_grid(self):
-        for I in ti.grouped(ti.ndrange(*((self.n_nodes,) * self.dim))):
+        for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
             self.gm[I] = 0.0
-            self.gf[I] = ti.Vector.zero(ti.f64, self.dim)
             self.gp[I] = ti.Vector.zero(ti.f64, self.dim)
+            if ti.static(not self.apic):
+                self.gf[I] = ti.Vector.zero(ti.f64, self.dim)
         if ti.static(self.consistent):
             for i, k in ti.ndrange(self.n_nodes, 2 * self.bandwidth + 1):
                 self.band[i, k] = 0.0
@@ -344,32 +473,40 @@ class Solver:
     @ti.func
     def _p2g(self):
         # P2G (2.2.4): M_ij = sum m_p phi_i phi_j (A.1) or M_ii = sum m_p phi_i (A.2);
-        # F_i = sum phi_i (m_p g + f_trac(t)) - sigma_p V_p dphi_i
+        # F_i = sum phi_i (m_p g + f_trac(t)) - sigma_p V_p dphi_i; with the affine transfer
+        # (APIC) P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i in the same pass
         t = self.time[None]
         for p in range(self.n_particles):
-            base, w, dw, inside = self._stencil(p)
+            base, w, dw, xi, inside = self._stencil(p)
             if not inside:
                 self._fail(1, p)
             else:
                 mp = self.m[p]
                 fp = ti.Vector.zero(ti.f64, self.dim)
-                fp[0] += mp * self.gravity
+                for k in ti.static(range(self.dim)):
+                    if ti.static(self.gravity[k] != 0.0):
+                        fp[k] += mp * self.gravity[k]
                 if ti.static(self.has_traction):
                     if p == self.traction_particle:
                         fp[0] += self.traction_amplitude * self.traction_fn.value(t)
                 stress_volume = self.sigma[p] * self.vol[p]
                 if ti.static(self.mls):
-                    fp[0] -= mp * self.gravity  # gravity and mass come from the Gauss points
+                    fp[0] -= mp * self.gravity[0]  # gravity and mass come from the Gauss points
                     self._scatter_gauss_moments(p)
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
                     node = base + offset
-                    if ti.static(not self.mls):
+                    if ti.static(self.apic):
+                        dx = self._node_offset(node, xi)
+                        self.gm[node] += mp * phi
+                        self.gp[node] += phi * (mp * (self.v[p] + self.C[p] @ dx) + self.dt * fp) \
+                            - self.dt * (stress_volume @ grad)
+                    elif ti.static(not self.mls):
                         self.gm[node] += mp * phi
                         self.gf[node] += phi * fp - stress_volume @ grad
                     else:
                         self.gf[node] += phi * fp
-                    if ti.static(self.damping > 0.0):
+                    if ti.static(not self.apic and (self.damping > 0.0 or self.has_walls)):
                         self.gp[node] += mp * phi * self.v[p]
                 if ti.static(self.consistent):
                     for a, c in ti.static(ti.ndrange(self.basis.support, self.basis.support)):
@@ -377,18 +514,37 @@ class Solver:
 
     @ti.func
     def _grid_acceleration(self):
-        # grid: local damping F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F
-        for I in ti.grouped(ti.ndrange(*((self.n_nodes,) * self.dim))):
+        # grid: local damping F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F; at a
+        # wall a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
+        for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
             if ti.static(self.damping > 0.0):
                 self.gf[I] -= self.damping * ti.math.sign(self.gp[I]) * ti.abs(self.gf[I])
+            if ti.static(self.has_walls):
+                a = ti.Vector.zero(ti.f64, self.dim)
+                if self.gm[I] > self.mass_tol:
+                    vn = self.gp[I] / self.gm[I]
+                    a = (self._wall(I, vn + self.dt * self.gf[I] / self.gm[I]) - vn) / self.dt
+                self.gf[I] = a
             self.gp[I] = ti.Vector.zero(ti.f64, self.dim)
-        self._solve_mass(self.gf)
+        if ti.static(not self.has_walls):
+            self._solve_mass(self.gf, False)
+
+    @ti.func
+    def _grid_velocity(self):
+        # grid (APIC): v_i = P_i / m_i, wall conditions applied
+        for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
+            v = ti.Vector.zero(ti.f64, self.dim)
+            if self.gm[I] > self.mass_tol and not self._is_fixed(I):
+                v = self.gp[I] / self.gm[I]
+                if ti.static(self.has_walls):
+                    v = self._wall(I, v)
+            self.gp[I] = v
 
     @ti.func
     def _g2p_velocity(self):
         # G2P: v_p += dt sum_i phi_i(x_p) a_i; P2G: P_i = sum m_p phi_i(x_p) v_p (2.2.4)
         for p in range(self.n_particles):
-            base, w, dw, inside = self._stencil(p)
+            base, w, dw, xi, inside = self._stencil(p)
             if inside:
                 acc = ti.Vector.zero(ti.f64, self.dim)
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
@@ -405,27 +561,46 @@ class Solver:
 
     @ti.func
     def _g2p_update(self):
-        # G2P: du_p = sum_i phi_i v_i dt (u_p, x_p); d_eps = sum_i dphi_i v_i dt;
-        # sigma += (E - sigma) d_eps (2.2.4) or E d_eps; V *= 1 + d_eps; rho = m / V
+        # G2P: du_p = sum_i phi_i v_i dt (u_p, x_p); grad du = sum_i v_i dt dphi_i^T;
+        # stress from the material (2.2.4 in 1D); V *= det(I + grad du); with the affine
+        # transfer v_p = sum_i phi_i v_i and C_p = sum_i phi_i v_i (x_i - x_p)^T D_p^-1
         for p in range(self.n_particles):
-            base, w, dw, inside = self._stencil(p)
+            base, w, dw, xi, inside = self._stencil(p)
             if inside:
                 du = ti.Vector.zero(ti.f64, self.dim)
                 grad_du = ti.Matrix.zero(ti.f64, self.dim, self.dim)
+                B = ti.Matrix.zero(ti.f64, self.dim, self.dim)
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
                     dui = self.gp[base + offset] * self.dt
                     du += phi * dui
                     grad_du += dui.outer_product(grad)
+                    if ti.static(self.apic and self.basis.support > 2):
+                        B += phi * self.gp[base + offset].outer_product(
+                            self._node_offset(base + offset, xi))
+                if ti.static(self.apic):
+                    self.v[p] = du / self.dt
+                    if ti.static(self.basis.support > 2):
+                        # D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T: diagonal for tensor
+                        # products of a basis reproducing linear fields
+                        for k in ti.static(range(self.dim)):
+                            dk = 0.0
+                            for a in ti.static(range(self.basis.support)):
+                                r = (base[k] + a - self.node_offset - xi[k]) * self.h
+                                dk += w[a, k] * r * r
+                            for j in ti.static(range(self.dim)):
+                                B[j, k] /= dk
+                        self.C[p] = B
+                    else:
+                        self.C[p] = grad_du / self.dt  # linear: B D^-1 = sum v_i grad phi^T
                 deps = 0.5 * (grad_du + grad_du.transpose())
                 vol_old = self.vol[p]
                 sig_old = self.sigma[p]
-                sig_new = sig_old + self.E * deps
-                if ti.static(self.study_stress):
-                    sig_new = sig_old + (self.E - sig_old) * deps
-                jac = 1.0 + deps.trace()
+                jac = 1.0 + grad_du[0, 0]
+                if ti.static(self.dim > 1):
+                    jac = (ti.Matrix.identity(ti.f64, self.dim) + grad_du).determinant()
+                sig_new = self._material_update(p, grad_du, sig_old)
                 self.sigma[p] = sig_new
-                self.eps[p] += deps
                 self.vol[p] = vol_old * jac
                 if ti.static(self.record_energies):
                     # strain energy: trapezoidal path integral of sigma : d_eps V
@@ -434,7 +609,8 @@ class Solver:
                         if p == self.traction_particle:
                             self.ext_work[None] += self.traction_amplitude * self.traction_fn.value(
                                 self.time[None]) * du[0]
-                self.u[p] += du
+                if ti.static(self.has_u):
+                    self.u[p] += du
                 self.x[p] += du
                 # checks, the first failure of the run is the one reported
                 state = self.x[p].sum() + self.v[p].sum() + sig_new.sum() + self.vol[p]
@@ -442,27 +618,31 @@ class Solver:
                     self._fail(2, p)
                 if not (jac > 0.0):
                     self._fail(3, p)
-                xi = (self.x[p] - self.origin) * self.inv_h
+                xn = ti.Vector.zero(ti.f64, self.dim)
                 for k in ti.static(range(self.dim)):
-                    if not (xi[k] >= 0.0 and xi[k] <= self.n_elements):
+                    xn[k] = (self.x[p][k] - self.origin[k]) * self.inv_h
+                    if not (xn[k] >= 0.0 and xn[k] <= self.grid_elements[k]):
                         self._fail(1, p)
                 if ti.static(self.track_crossings):
                     e = ti.Vector.zero(ti.i32, self.dim)
                     for k in ti.static(range(self.dim)):
-                        e[k] = ti.min(ti.max(ti.floor(xi[k], ti.i32), 0), self.n_elements - 1)
+                        e[k] = ti.min(ti.max(ti.floor(xn[k], ti.i32), 0), self.grid_elements[k] - 1)
                     if (e != self.elem[p]).any():
                         self.crossings[None] += 1
                         self.elem[p] = e
 
     @ti.func
-    def _solve_mass(self, rhs: ti.template()):
-        """rhs <- M^-1 rhs with Dirichlet nodes held at zero and empty nodes left at zero."""
+    def _solve_mass(self, rhs: ti.template(), walls: ti.template()):
+        """rhs <- M^-1 rhs with Dirichlet nodes held at zero and empty nodes left at zero;
+        ``walls``: apply the wall conditions to the result (a velocity)."""
         if ti.static(not self.consistent):
-            for I in ti.grouped(ti.ndrange(*((self.n_nodes,) * self.dim))):
-                if self.fixed[I] or self.gm[I] <= self.mass_tol:
+            for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
+                if self._is_fixed(I) or self.gm[I] <= self.mass_tol:
                     rhs[I] = ti.Vector.zero(ti.f64, self.dim)
                 else:
                     rhs[I] = rhs[I] / self.gm[I]
+                    if ti.static(walls and self.has_walls):
+                        rhs[I] = self._wall(I, rhs[I])
         else:
             self._banded_substitute(rhs)
 
@@ -474,7 +654,7 @@ class Solver:
         for _ in range(1):
             for i in range(nn):
                 self.inactive[i] = 0
-                if self.fixed[i] or self.band[i, b] <= self.mass_tol:
+                if self._is_fixed(i) or self.band[i, b] <= self.mass_tol:
                     self.inactive[i] = 1
                     for k in ti.static(range(2 * b + 1)):
                         self.band[i, k] = 0.0
@@ -525,23 +705,30 @@ class Solver:
     @ti.func
     def _one_step(self):
         self._clear_grid()
-        if ti.static(self.mls):
-            self._body_extent()
-        self._p2g()
-        if ti.static(self.mls):
-            self._integrate_gauss()
-        if ti.static(self.consistent):
-            self._banded_factorise()
-        self._grid_acceleration()
-        self._g2p_velocity()
-        if ti.static(self.mls):
-            self._mls_nodal_velocity()
+        if ti.static(self.apic):
+            # affine transfer: P2G of mass and momentum + dt force, v = P / m, G2P
+            self._p2g()
+            self._grid_velocity()
+            self._g2p_update()
         else:
-            self._solve_mass(self.gp)
-        if ti.static(self.grid_displacement):
-            for I in ti.grouped(ti.ndrange(*((self.n_nodes,) * self.dim))):
-                self.gu[I] += self.gp[I] * self.dt  # u_i += v_i dt (5.2)
-        self._g2p_update()
+            # the study's MUSL scheme with Euler-Cromer stepping (2.2.4, Figure 2.7)
+            if ti.static(self.mls):
+                self._body_extent()
+            self._p2g()
+            if ti.static(self.mls):
+                self._integrate_gauss()
+            if ti.static(self.consistent):
+                self._banded_factorise()
+            self._grid_acceleration()
+            self._g2p_velocity()
+            if ti.static(self.mls):
+                self._mls_nodal_velocity()
+            else:
+                self._solve_mass(self.gp, True)
+            if ti.static(self.grid_displacement):
+                for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
+                    self.gu[I] += self.gp[I] * self.dt  # u_i += v_i dt (5.2)
+            self._g2p_update()
         self.step_count[None] += 1
         self.time[None] = self.step_count[None] * self.dt
 
@@ -550,7 +737,7 @@ class Solver:
     def _scatter_gauss_moments(self, p):
         # MLS moments at the Gauss points within 1.5 h of the particle, quadratic-spline
         # weight, basis [1, d] with d = (x_p - y) / h
-        xi = (self.x[p][0] - self.origin) * self.inv_h
+        xi = (self.x[p][0] - self.origin[0]) * self.inv_h
         e0 = ti.floor(xi, ti.i32)
         rho = self.m[p] / self.vol[p]
         sig = self.sigma[p][0, 0]
@@ -570,7 +757,7 @@ class Solver:
     def _body_extent(self):
         # the body is the union of the particle domains x_p -+ V_p / 2 (element units)
         for p in range(self.n_particles):
-            xi = (self.x[p][0] - self.origin) * self.inv_h
+            xi = (self.x[p][0] - self.origin[0]) * self.inv_h
             half = 0.5 * self.vol[p] * self.inv_h
             ti.atomic_min(self.body[None][0], xi - half)
             ti.atomic_max(self.body[None][1], xi + half)
@@ -595,13 +782,13 @@ class Solver:
                     base, w, dw = self.basis.stencil(y, self.n_elements)
                     for a in ti.static(range(self.basis.support)):
                         self.gm[base + a] += jw * rho * w[a]
-                        self.gf[base + a][0] += jw * (rho * self.gravity * w[a]
+                        self.gf[base + a][0] += jw * (rho * self.gravity[0] * w[a]
                                                       - sig * dw[a] * self.inv_h)
 
     @ti.func
     def _scatter_node_moments(self, p, vp):
         # MLS moments at the nodes within 2 h, cubic-spline weight (r = |d| / 2)
-        xi = (self.x[p][0] - self.origin) * self.inv_h
+        xi = (self.x[p][0] - self.origin[0]) * self.inv_h
         i0 = ti.floor(xi, ti.i32)
         for k in ti.static(range(-1, 3)):
             i = i0 + k
@@ -617,7 +804,7 @@ class Solver:
         # v_i = sum_p Phi_p(x_i) v_p: the MLS reconstruction of the velocity field (4.4)
         for i in range(self.n_nodes):
             v = 0.0
-            if not self.fixed[i]:
+            if not self._is_fixed(i):
                 v = _mls_value(self.n_mom[i], self.n_vel[i])
             self.gp[i][0] = v
 
@@ -631,14 +818,22 @@ class Solver:
             for j in range(self.n_tracked):
                 p = self.track_ids[j]
                 self.h_x[slot, j] = self.x[p]
-                self.h_u[slot, j] = self.u[p]
+                if ti.static(self.has_u):
+                    self.h_u[slot, j] = self.u[p]
                 self.h_v[slot, j] = self.v[p]
                 self.h_s[slot, j] = self.sigma[p]
         if ti.static(self.record_energies):
             self.h_energy[slot] = ti.Vector.zero(ti.f64, 4)
             for p in range(self.n_particles):
-                e = ti.Vector([0.5 * self.m[p] * self.v[p].norm_sqr(), self.work[p],
-                               -self.m[p] * self.gravity * self.u[p][0], 0.0])
+                # potential of gravity: -m g . u (1D), -m g . x (2D/3D, shifted in energies())
+                pot = 0.0
+                for k in ti.static(range(self.dim)):
+                    if ti.static(self.gravity[k] != 0.0):
+                        if ti.static(self.has_u):
+                            pot -= self.m[p] * self.gravity[k] * self.u[p][k]
+                        else:
+                            pot -= self.m[p] * self.gravity[k] * self.x[p][k]
+                e = ti.Vector([0.5 * self.m[p] * self.v[p].norm_sqr(), self.work[p], pot, 0.0])
                 self.h_energy[slot] += e
             if ti.static(self.has_traction):
                 self.h_energy[slot][3] = self.ext_work[None]
@@ -648,7 +843,7 @@ class Solver:
     def _project(self):
         # P2G of mass and momentum alone: m_i = sum m_p phi_i, P_i = sum m_p phi_i v_p
         for p in range(self.n_particles):
-            base, w, dw, inside = self._stencil(p)
+            base, w, dw, xi, inside = self._stencil(p)
             if inside:
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
@@ -778,7 +973,9 @@ class Solver:
         if self.record_energies:
             fields.append(("energy", self.h_energy))
         if self.n_tracked:
-            fields += [("x", self.h_x), ("u", self.h_u), ("v", self.h_v), ("stress", self.h_s)]
+            fields += [("x", self.h_x), ("v", self.h_v), ("stress", self.h_s)]
+            if self.has_u:
+                fields.append(("u", self.h_u))
         return fields
 
     def _drain(self):
@@ -823,9 +1020,16 @@ class Solver:
         if code == 4:
             msg = f"step {step} (t = {step * self.dt:g} s): {ERRORS[code]} at node {where}"
             raise SimulationError(msg, code, step, node=where)
-        x = float(self.x[where][0])
-        msg = (f"step {step} (t = {step * self.dt:g} s): particle {where} {ERRORS[code]} "
-               f"(x = {x:g}, grid [{self.origin:g}, {self.origin + self.n_elements * self.h:g}])")
+        if self.dim == 1:
+            lo, hi = self.origin[0], self.origin[0] + self.n_elements * self.h
+            at = f"x = {float(self.x[where][0]):g}, grid [{lo:g}, {hi:g}]"
+        else:
+            x = ", ".join(f"{c:g}" for c in self.x[where].to_numpy())
+            hi = ", ".join(f"{o + n * self.h:g}" for o, n in zip(self.origin, self.grid_elements))
+            at = (f"x = ({x}), grid from ({', '.join(f'{o:g}' for o in self.origin)}) "
+                  f"to ({hi})")
+        msg = f"step {step} (t = {step * self.dt:g} s): particle {where} {ERRORS[code]} ({at})"
+
         if code == 2:
             msg += "; the run is unstable: check the time step and the mass matrix"
         raise SimulationError(msg, code, step, particle=where)
@@ -851,7 +1055,7 @@ class Solver:
             raise RuntimeError("build the solver with grid_displacement=True")
         from .basis import evaluate
 
-        phi, _ = evaluate(self.basis, (np.asarray(x, dtype=float) - self.origin) * self.inv_h,
+        phi, _ = evaluate(self.basis, (np.asarray(x, dtype=float) - self.origin[0]) * self.inv_h,
                           self.n_elements)
         return phi @ self._component(self.gu)
 

@@ -1,0 +1,255 @@
+"""Constitutive models: each a small compiled unit that a scene includes only if it uses it.
+
+A material is a ``@ti.data_oriented`` object of compile-time constants with one
+``@ti.func``::
+
+    sigma_new = material.update(solver, p, grad_du, sigma_old)
+
+called in G2P with the displacement-increment gradient ``grad_du = sum_i u_i^inc
+grad(phi_i)^T`` of particle ``p`` (so ``I + grad_du`` is the incremental deformation
+gradient).  It advances the particle state the material owns (``needs``: the
+deformation gradient ``F``, the plastic strain ``plastic``) and returns the new Cauchy
+stress.  The solver allocates a state field only when a material of the scene needs it
+and compiles only the update functions of the scene's materials.
+
+Materials for multi-dimensional scenes: :class:`LinearElastic`, :class:`NeoHookean`,
+:class:`DruckerPrager` (sand, return mapping of Klar et al. 2016) and
+:class:`WeaklyCompressibleFluid` (Tait equation of state).  :class:`Hypoelastic1D` is the
+study's 1D law, built by the solver from a 1D :class:`timpm.scene.Material`.
+"""
+
+import math
+
+import taichi as ti
+
+__all__ = ["SolidMaterial", "LinearElastic", "NeoHookean", "DruckerPrager",
+           "WeaklyCompressibleFluid", "Hypoelastic1D", "MATERIALS", "get_material"]
+
+
+def _positive(owner, name, value):
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{owner}: {name} must be a positive number, got {value!r}") from None
+    if not math.isfinite(value) or value <= 0.0:
+        raise ValueError(f"{owner}: {name} must be a positive finite number, got {value!r}")
+    return value
+
+
+@ti.data_oriented
+class Material:
+    """Common interface: ``density``, ``wave_speed`` (for the CFL limit), ``needs``."""
+
+    name = ""
+    #: particle state this material keeps, besides stress and volume
+    needs = frozenset()
+
+    #: wave speed (m/s) that bounds the time step, set by each material
+    wave_speed = 0.0
+
+    def __init__(self, density):
+        self.density = _positive(self.name, "density", density)
+
+    def __repr__(self):
+        params = ", ".join(f"{k}={v:g}" for k, v in self.parameters().items())
+        return f"{type(self).__name__}({params})"
+
+    def parameters(self) -> dict:
+        return {"density": self.density}
+
+
+class SolidMaterial(Material):
+    """Isotropic elastic constants from Young's modulus and Poisson's ratio."""
+
+    needs = frozenset({"F"})
+
+    def __init__(self, E, nu, density):
+        super().__init__(density)
+        self.E = _positive(self.name, "Young's modulus E", E)
+        try:
+            nu = float(nu)
+        except (TypeError, ValueError):
+            raise ValueError(f"{self.name}: Poisson's ratio must be a number, got {nu!r}") from None
+        if not (-1.0 < nu < 0.5):
+            raise ValueError(f"{self.name}: Poisson's ratio must lie in (-1, 0.5), got {nu!r} "
+                             "(0.5 is incompressible: use a fluid or a smaller ratio)")
+        self.nu = nu
+        self.mu = self.E / (2.0 * (1.0 + nu))
+        self.lam = self.E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+        # P-wave speed sqrt((lambda + 2 mu) / rho)
+        self.wave_speed = math.sqrt((self.lam + 2.0 * self.mu) / self.density)
+
+    def parameters(self) -> dict:
+        return {"E": self.E, "nu": self.nu, "density": self.density}
+
+
+class LinearElastic(SolidMaterial):
+    """Small-strain linear elasticity: sigma = lambda tr(eps) I + 2 mu eps, eps = sym(F) - I."""
+
+    name = "linear-elastic"
+
+    @ti.func
+    def update(self, s: ti.template(), p, grad_du, sigma_old):
+        F = (ti.Matrix.identity(ti.f64, s.dim) + grad_du) @ s.F[p]
+        s.F[p] = F
+        eps = 0.5 * (F + F.transpose()) - ti.Matrix.identity(ti.f64, s.dim)
+        return self.lam * eps.trace() * ti.Matrix.identity(ti.f64, s.dim) + 2.0 * self.mu * eps
+
+
+class NeoHookean(SolidMaterial):
+    """Compressible Neo-Hookean solid: sigma = (mu (F F^T - I) + lambda ln J I) / J."""
+
+    name = "neo-hookean"
+
+    @ti.func
+    def update(self, s: ti.template(), p, grad_du, sigma_old):
+        F = (ti.Matrix.identity(ti.f64, s.dim) + grad_du) @ s.F[p]
+        s.F[p] = F
+        J = F.determinant()
+        eye = ti.Matrix.identity(ti.f64, s.dim)
+        return (self.mu * (F @ F.transpose() - eye) + self.lam * ti.log(J) * eye) / J
+
+
+class DruckerPrager(SolidMaterial):
+    """Cohesionless Drucker-Prager sand (Klar et al. 2016): Hencky elasticity with a
+    return mapping of the principal logarithmic strains onto the cone, tension cut off.
+
+    ``F`` holds the elastic deformation gradient, ``plastic`` the accumulated plastic
+    strain |d gamma| (for colouring and post-processing).
+    """
+
+    name = "drucker-prager"
+    needs = frozenset({"F", "plastic"})
+
+    def __init__(self, E, nu, density, friction_angle):
+        super().__init__(E, nu, density)
+        try:
+            phi = float(friction_angle)
+        except (TypeError, ValueError):
+            raise ValueError(f"{self.name}: friction angle must be a number of degrees, got "
+                             f"{friction_angle!r}") from None
+        if not (0.0 < phi < 90.0):
+            raise ValueError(f"{self.name}: friction angle must lie in (0, 90) degrees, got "
+                             f"{friction_angle!r}")
+        self.friction_angle = phi
+        sin_phi = math.sin(math.radians(phi))
+        # cone coefficient of Klar et al. (2016), Eq. 27
+        self.alpha = math.sqrt(2.0 / 3.0) * 2.0 * sin_phi / (3.0 - sin_phi)
+
+    def parameters(self) -> dict:
+        return {**super().parameters(), "friction_angle": self.friction_angle}
+
+    @ti.func
+    def update(self, s: ti.template(), p, grad_du, sigma_old):
+        d = ti.static(s.dim)
+        F = (ti.Matrix.identity(ti.f64, d) + grad_du) @ s.F[p]
+        U, S, V = ti.svd(F)
+        eps = ti.Vector.zero(ti.f64, d)
+        for k in ti.static(range(d)):
+            eps[k] = ti.log(ti.max(ti.abs(S[k, k]), 1e-12))
+        # return mapping on the principal Hencky strains (Klar et al. 2016, Alg. 2)
+        tr = eps.sum()
+        dev = eps - tr / d
+        dev_norm = dev.norm()
+        dgamma = 0.0
+        if tr >= 0.0:  # tension: cohesionless sand carries none, back to the cone tip
+            dgamma = eps.norm()
+            eps = ti.Vector.zero(ti.f64, d)
+        else:
+            dgamma = dev_norm + (d * self.lam + 2.0 * self.mu) / (2.0 * self.mu) * tr * self.alpha
+            if dgamma > 0.0:
+                eps -= dgamma / dev_norm * dev
+            else:
+                dgamma = 0.0
+        s.plastic[p] += dgamma
+        tau = ti.Vector.zero(ti.f64, d)
+        Se = ti.Matrix.zero(ti.f64, d, d)
+        tr_e = eps.sum()
+        for k in ti.static(range(d)):
+            Se[k, k] = ti.exp(eps[k])
+            tau[k] = 2.0 * self.mu * eps[k] + self.lam * tr_e
+        s.F[p] = U @ Se @ V.transpose()
+        # Kirchhoff stress U diag(tau) U^T; Cauchy stress = tau V0 / V (the solver's volume
+        # follows the total deformation, V = V0 det F_total)
+        T = ti.Matrix.zero(ti.f64, d, d)
+        for k in ti.static(range(d)):
+            T[k, k] = tau[k]
+        vol0 = s.m[p] / self.density
+        vol = s.vol[p] * (ti.Matrix.identity(ti.f64, d) + grad_du).determinant()
+        return U @ T @ U.transpose() * (vol0 / vol)
+
+
+class WeaklyCompressibleFluid(Material):
+    """Tait fluid: p = K / gamma (J^-gamma - 1), sigma = -p I + 2 mu_visc sym(grad v).
+
+    J = V / V0 comes from the particle volume, so the fluid keeps no extra state.  With
+    ``tension=False`` (default) the pressure is clipped at zero: free-surface particles
+    do not pull on each other.
+    """
+
+    name = "fluid"
+
+    def __init__(self, bulk_modulus, density, gamma=7.0, viscosity=0.0, tension=False):
+        super().__init__(density)
+        self.bulk_modulus = _positive(self.name, "bulk modulus", bulk_modulus)
+        self.gamma = _positive(self.name, "Tait exponent gamma", gamma)
+        try:
+            viscosity = float(viscosity)
+        except (TypeError, ValueError):
+            viscosity = float("nan")
+        if not (math.isfinite(viscosity) and viscosity >= 0.0):
+            raise ValueError(f"{self.name}: viscosity must be a finite number >= 0, got "
+                             f"{viscosity!r}")
+        self.viscosity = viscosity
+        self.tension = bool(tension)
+        self.wave_speed = math.sqrt(self.bulk_modulus / self.density)
+
+    def parameters(self) -> dict:
+        return {"bulk_modulus": self.bulk_modulus, "density": self.density,
+                "gamma": self.gamma, "viscosity": self.viscosity}
+
+    @ti.func
+    def update(self, s: ti.template(), p, grad_du, sigma_old):
+        d = ti.static(s.dim)
+        eye = ti.Matrix.identity(ti.f64, d)
+        J = s.vol[p] * (eye + grad_du).determinant() * self.density / s.m[p]
+        pressure = self.bulk_modulus / self.gamma * (ti.pow(J, -self.gamma) - 1.0)
+        if ti.static(not self.tension):
+            pressure = ti.max(pressure, 0.0)
+        sigma = -pressure * eye
+        if ti.static(self.viscosity > 0.0):
+            sigma += self.viscosity / s.dt * (grad_du + grad_du.transpose())
+        return sigma
+
+
+@ti.data_oriented
+class Hypoelastic1D:
+    """The study's 1D law (2.2.4): sigma += (E - sigma) d_eps, or sigma += E d_eps."""
+
+    needs = frozenset({"eps"})
+
+    def __init__(self, E, study: bool):
+        self.E, self.study = float(E), bool(study)
+
+    @ti.func
+    def update(self, s: ti.template(), p, grad_du, sigma_old):
+        deps = 0.5 * (grad_du + grad_du.transpose())
+        sig_new = sigma_old + self.E * deps
+        if ti.static(self.study):
+            sig_new = sigma_old + (self.E - sigma_old) * deps
+        s.eps[p] += deps
+        return sig_new
+
+
+MATERIALS = {cls.name: cls for cls in (LinearElastic, NeoHookean, DruckerPrager,
+                                       WeaklyCompressibleFluid)}
+
+
+def get_material(name: str, **params) -> Material:
+    """A material by name: ``get_material("neo-hookean", E=1e3, nu=0.3, density=1e3)``."""
+    if name not in MATERIALS:
+        raise ValueError(f"unknown material {name!r}: choose one of {', '.join(MATERIALS)}")
+    try:
+        return MATERIALS[name](**params)
+    except TypeError as err:
+        raise ValueError(f"material {name!r}: {err}") from None

@@ -1,0 +1,380 @@
+"""Multi-dimensional scenes: a box-shaped domain, bodies of material, walls and gravity.
+
+A :class:`World` is the 2D/3D counterpart of :class:`timpm.scene.Scene`: a checked,
+immutable description from which the solver derives its feature set.  Bodies are shapes
+(:class:`Box`, :class:`Ball`) filled with a regular lattice of ``ppc`` particles per cell
+and axis; walls bound the domain on every side (``sticky``, ``slip`` or Coulomb
+``friction``); the grid covers the domain and a padding band as wide as the basis support
+on each side, so a particle that touches a wall still has its whole stencil on the grid.
+
+Axes: x to the right, y up, z towards the viewer; gravity points down y by default.
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .basis import get_basis
+from .materials import MATERIALS, Material, get_material
+
+__all__ = ["Box", "Ball", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WALL_KINDS",
+           "SIDES", "PRESETS"]
+
+#: bases on uniform multi-dimensional grids
+ND_BASES = ("linear", "uniform-bspline2", "uniform-bspline3")
+#: "musl": the study's scheme (2.2.4) in any dimension; "apic": the affine transfer
+TRANSFERS = ("musl", "apic")
+WALL_KINDS = ("sticky", "slip", "friction")
+SIDES = ("left", "right", "bottom", "top", "back", "front")
+
+#: named materials with typical parameters (SI units)
+PRESETS = {
+    "sand": ("drucker-prager", dict(E=3.5e5, nu=0.3, density=1500.0, friction_angle=30.0)),
+    "rubber": ("neo-hookean", dict(E=1e3, nu=0.3, density=1e3)),
+    "water": ("fluid", dict(bulk_modulus=2e5, density=1e3, gamma=7.0)),
+}
+
+
+def _vector(name, value, dim=None):
+    try:
+        v = np.array(value, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a sequence of numbers, got {value!r}") from None
+    if dim is not None and len(v) != dim:
+        raise ValueError(f"{name} must have {dim} components, got {len(v)}: {value!r}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Box:
+    """Axis-aligned box [lo, hi]."""
+
+    lo: tuple
+    hi: tuple
+
+    def __post_init__(self):
+        lo, hi = _vector("Box lo", self.lo), _vector("Box hi", self.hi, len(self.lo))
+        if np.any(hi <= lo):
+            raise ValueError(f"Box hi {tuple(hi)} must exceed lo {tuple(lo)} on every axis")
+        object.__setattr__(self, "lo", tuple(lo))
+        object.__setattr__(self, "hi", tuple(hi))
+
+    @property
+    def dim(self):
+        return len(self.lo)
+
+    def bounds(self):
+        return np.array(self.lo), np.array(self.hi)
+
+    def contains(self, x):
+        return np.all((x >= np.array(self.lo)) & (x <= np.array(self.hi)), axis=-1)
+
+
+@dataclass(frozen=True)
+class Ball:
+    """Disk (2D) or ball (3D) of ``radius`` around ``center``."""
+
+    center: tuple
+    radius: float
+
+    def __post_init__(self):
+        c = _vector("Ball center", self.center)
+        r = float(self.radius) if np.isscalar(self.radius) else float("nan")
+        if not (math.isfinite(r) and r > 0):
+            raise ValueError(f"Ball radius must be positive, got {self.radius!r}")
+        object.__setattr__(self, "center", tuple(c))
+        object.__setattr__(self, "radius", r)
+
+    @property
+    def dim(self):
+        return len(self.center)
+
+    def bounds(self):
+        c = np.array(self.center)
+        return c - self.radius, c + self.radius
+
+    def contains(self, x):
+        return np.sum((x - np.array(self.center)) ** 2, axis=-1) <= self.radius ** 2
+
+
+@dataclass(frozen=True)
+class Body:
+    """A shape filled with one material, moving at ``velocity``, ``ppc`` particles per cell
+    and axis.  ``material`` is a material object or a preset name (``PRESETS``)."""
+
+    shape: object
+    material: object
+    velocity: tuple | None = None
+    ppc: int = 2
+    name: str = ""
+
+    def __post_init__(self):
+        mat = self.material
+        if isinstance(mat, str):
+            if mat in PRESETS:
+                kind, params = PRESETS[mat]
+                mat = get_material(kind, **params)
+            else:
+                raise ValueError(f"unknown material {mat!r}: choose a preset "
+                                 f"({', '.join(PRESETS)}), or build one of "
+                                 f"{', '.join(MATERIALS)} with timpm.get_material")
+        if not isinstance(mat, Material):
+            raise ValueError(f"body material must be a timpm material or a preset name, got {mat!r}")
+        object.__setattr__(self, "material", mat)
+        if not hasattr(self.shape, "contains"):
+            raise ValueError(f"body shape must be a Box or a Ball, got {self.shape!r}")
+        if isinstance(self.ppc, bool) or not isinstance(self.ppc, (int, np.integer)) or self.ppc < 1:
+            raise ValueError(f"ppc (particles per cell and axis) must be a positive integer, "
+                             f"got {self.ppc!r}")
+
+
+@dataclass(frozen=True)
+class Wall:
+    """A wall: ``sticky`` (no motion), ``slip`` (no penetration, no friction) or
+    ``friction`` (Coulomb, coefficient ``mu``); every wall lets the material separate."""
+
+    kind: str = "slip"
+    mu: float = 0.0
+
+    def __post_init__(self):
+        if self.kind not in WALL_KINDS:
+            raise ValueError(f"unknown wall {self.kind!r}: choose one of {', '.join(WALL_KINDS)}")
+        mu = float(self.mu)
+        if not (math.isfinite(mu) and mu >= 0.0):
+            raise ValueError(f"wall friction coefficient must be finite and >= 0, got {self.mu!r}")
+        if self.kind != "friction" and mu != 0.0:
+            raise ValueError(f"a {self.kind} wall takes no friction coefficient (got mu={mu})")
+        object.__setattr__(self, "mu", mu)
+
+
+def _wall(value, where):
+    if isinstance(value, Wall):
+        return value
+    if isinstance(value, str):
+        return Wall(value)
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return Wall("friction", value)
+    raise ValueError(f"wall {where}: give a Wall, a kind ({', '.join(WALL_KINDS)}) or a "
+                     f"friction coefficient, got {value!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class World:
+    """A 2D or 3D scene: ``domain`` lengths (from the origin), ``cells`` along x.
+
+    ``walls`` is one wall for every side, or a dict of side name (``SIDES``) to wall with
+    an optional ``"default"``.  ``dt=None`` picks ``courant`` times the CFL limit
+    h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
+    (the initial speed plus the free-fall speed over the domain height); a given ``dt``
+    above the limit is refused unless ``allow_unstable_dt``.
+    """
+
+    domain: tuple
+    cells: int
+    bodies: tuple
+    basis: str = "uniform-bspline2"
+    transfer: str = "apic"
+    gravity: tuple | None = None
+    walls: object = "slip"
+    dt: float | None = None
+    courant: float = 0.4
+    allow_overlap: bool = False
+    allow_unstable_dt: bool = False
+    damping: float = 0.0
+    name: str = "world"
+    _particles: dict = field(default=None, repr=False)
+
+    def __post_init__(self):
+        domain = _vector("domain", self.domain)
+        dim = len(domain)
+        if dim not in (2, 3):
+            raise ValueError(f"a World is 2D or 3D, got a {dim}-dimensional domain "
+                             "(use timpm.Scene for 1D)")
+        if np.any(domain <= 0):
+            raise ValueError(f"domain lengths must be positive, got {tuple(domain)}")
+        if isinstance(self.cells, bool) or not isinstance(self.cells, (int, np.integer)) \
+                or self.cells < 1:
+            raise ValueError(f"cells (along x) must be a positive integer, got {self.cells!r}")
+        h = domain[0] / int(self.cells)
+        n = np.rint(domain / h).astype(int)
+        if np.any(np.abs(n * h - domain) > 1e-9 * domain):
+            raise ValueError(f"domain {tuple(domain)} is not a whole number of cells of size "
+                             f"h = {h:g} (domain[0] / cells) on every axis")
+        basis = get_basis(self.basis)
+        if basis.name not in ND_BASES:
+            raise ValueError(f"the {basis.name} basis is 1D only: 2D/3D grids take "
+                             f"{', '.join(ND_BASES)}")
+        if self.transfer not in TRANSFERS:
+            raise ValueError(f"unknown transfer {self.transfer!r}: choose one of "
+                             f"{', '.join(TRANSFERS)}")
+        g = np.zeros(dim) if self.gravity is None else _vector("gravity", self.gravity, dim)
+        if self.gravity is None:
+            g[1] = -9.81
+        if not (0.0 <= float(self.damping) < 1.0):
+            raise ValueError(f"damping factor alpha must lie in [0, 1), got {self.damping!r}")
+        bodies = tuple(self.bodies) if not isinstance(self.bodies, Body) else (self.bodies,)
+        if not bodies:
+            raise ValueError("a World needs at least one body")
+        for k, b in enumerate(bodies):
+            if not isinstance(b, Body):
+                raise ValueError(f"bodies[{k}] must be a Body, got {b!r}")
+        object.__setattr__(self, "bodies", bodies)
+        object.__setattr__(self, "domain", tuple(domain))
+        object.__setattr__(self, "gravity", tuple(g))
+        object.__setattr__(self, "basis", basis.name)
+        object.__setattr__(self, "walls", self._walls(dim))
+        object.__setattr__(self, "_particles", self._fill(dim, h, domain))
+        self._check_dt(h, g, domain)
+
+    # ---- derived geometry ----------------------------------------------------------------
+    @property
+    def dim(self) -> int:
+        return len(self.domain)
+
+    @property
+    def h(self) -> float:
+        return self.domain[0] / self.cells
+
+    @property
+    def basis_class(self):
+        return get_basis(self.basis)
+
+    @property
+    def padding(self) -> int:
+        """Cells of grid beyond each wall: the basis support."""
+        return self.basis_class.support
+
+    @property
+    def grid_elements(self) -> tuple:
+        return tuple(int(round(L / self.h)) + 2 * self.padding for L in self.domain)
+
+    @property
+    def origin(self) -> tuple:
+        return (-self.padding * self.h,) * self.dim
+
+    def _walls(self, dim):
+        sides = SIDES[:2 * dim]
+        spec = self.walls
+        if isinstance(spec, dict):
+            unknown = set(spec) - set(sides) - {"default"}
+            if unknown:
+                raise ValueError(f"unknown wall side(s) {sorted(unknown)}: the sides of a "
+                                 f"{dim}D domain are {', '.join(sides)}")
+            default = spec.get("default", "slip")
+            return tuple(_wall(spec.get(s, default), s) for s in sides)
+        wall = _wall(spec, "for every side")
+        return (wall,) * (2 * dim)
+
+    def _fill(self, dim, h, domain):
+        xs, vs, vols, mats, ids = [], [], [], [], []
+        materials = []
+        for k, body in enumerate(self.bodies):
+            label = f"body {k}" + (f" ({body.name!r})" if body.name else "")
+            if body.shape.dim != dim:
+                raise ValueError(f"{label}: a {body.shape.dim}D shape in a {dim}D domain")
+            lo, hi = body.shape.bounds()
+            if np.any(lo < -1e-12 * domain) or np.any(hi > domain * (1 + 1e-12)):
+                raise ValueError(f"{label}: {body.shape} extends outside the domain "
+                                 f"[0, {tuple(float(d) for d in domain)}]")
+            # a regular lattice of ppc points per cell and axis, kept where inside the shape
+            dx = h / body.ppc
+            axes = [np.arange(np.floor(lo[a] / dx), np.ceil(hi[a] / dx)) * dx + 0.5 * dx
+                    for a in range(dim)]
+            pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dim)
+            pts = pts[body.shape.contains(pts)]
+            if len(pts) == 0:
+                raise ValueError(f"{label}: {body.shape} holds no particle at {body.ppc} per "
+                                 f"cell and axis (h = {h:g}): make it larger or raise ppc")
+            v = np.zeros(dim) if body.velocity is None else _vector(
+                f"{label} velocity", body.velocity, dim)
+            if body.material not in materials:
+                materials.append(body.material)
+            xs.append(pts)
+            vs.append(np.broadcast_to(v, pts.shape))
+            vols.append(np.full(len(pts), dx ** dim))
+            mats.append(np.full(len(pts), materials.index(body.material), np.int32))
+            ids.append(np.full(len(pts), k, np.int32))
+        if not self.allow_overlap:
+            for i, bi in enumerate(self.bodies):
+                for j, bj in enumerate(self.bodies):
+                    if i != j and np.any(bi.shape.contains(xs[j])):
+                        raise ValueError(
+                            f"bodies {i} and {j} overlap ({bi.shape} holds particles of "
+                            f"{bj.shape}); move them apart or pass allow_overlap=True")
+        x = np.concatenate(xs)
+        vol = np.concatenate(vols)
+        mat = np.concatenate(mats)
+        density = np.array([m.density for m in materials])[mat]
+        out = dict(positions=x, velocity=np.concatenate(vs).copy(), volume=vol,
+                   mass=density * vol, material_index=mat, body_index=np.concatenate(ids),
+                   materials=tuple(materials))
+        for key in ("positions", "velocity", "volume", "mass", "material_index", "body_index"):
+            out[key].setflags(write=False)
+        return out
+
+    def _check_dt(self, h, g, domain):
+        c = max(m.wave_speed for m in self.materials)
+        v0 = float(np.max(np.linalg.norm(self.velocity, axis=1)))
+        v_fall = math.sqrt(2.0 * float(np.linalg.norm(g)) * float(np.max(domain)))
+        limit = h / (c + v0 + v_fall)
+        object.__setattr__(self, "_cfl", dict(c=c, v=v0 + v_fall, limit=limit))
+        courant = float(self.courant)
+        if not (0.0 < courant <= 1.0):
+            raise ValueError(f"courant number must lie in (0, 1], got {self.courant!r}")
+        if self.dt is None:
+            object.__setattr__(self, "dt", courant * limit)
+            return
+        try:
+            dt = float(self.dt)
+        except (TypeError, ValueError):
+            dt = float("nan")
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f"time step dt must be a positive finite number, got {self.dt!r}")
+        object.__setattr__(self, "dt", dt)
+        if dt > limit and not self.allow_unstable_dt:
+            raise ValueError(
+                f"time step dt = {dt:g} s exceeds the CFL limit h / (c + |v|) = {limit:g} s "
+                f"(h = {h:g} m, wave speed c = {c:g} m/s of the stiffest material, |v| <= "
+                f"{v0 + v_fall:g} m/s: initial speed plus free fall over the domain); choose a "
+                "smaller dt, leave dt=None, or pass allow_unstable_dt=True")
+
+    # ---- particles ---------------------------------------------------------------------
+    @property
+    def positions(self):
+        return self._particles["positions"]
+
+    @property
+    def velocity(self):
+        return self._particles["velocity"]
+
+    @property
+    def volume(self):
+        return self._particles["volume"]
+
+    @property
+    def mass_per_particle(self):
+        return self._particles["mass"]
+
+    @property
+    def material_index(self):
+        return self._particles["material_index"]
+
+    @property
+    def body_index(self):
+        return self._particles["body_index"]
+
+    @property
+    def materials(self) -> tuple:
+        return self._particles["materials"]
+
+    @property
+    def n_particles(self) -> int:
+        return len(self.positions)
+
+    @property
+    def cfl_limit(self) -> float:
+        """h / (c + |v|): the largest time step the scene accepts."""
+        return self._cfl["limit"]
