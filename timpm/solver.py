@@ -248,6 +248,7 @@ class Solver:
             self.elem = ti.Vector.field(d, ti.i32)
             particle_fields.append(self.elem)
         fb.dense(ti.i, n).place(*particle_fields)
+        self._particle_fields = particle_fields
         # grid: mass, momentum then velocity, force then acceleration (the affine transfer
         # folds the force into the momentum), Dirichlet mask (1D)
         self.gm = ti.field(f64)
@@ -260,6 +261,7 @@ class Solver:
             self.fixed = ti.field(ti.i32)
             grid_fields.append(self.fixed)
         fb.dense(ti.axes(*range(d)), self.grid_nodes).place(*grid_fields)
+        self._grid_fields = grid_fields
         if self.grid_displacement:
             self.gu = ti.Vector.field(d, f64)
             fb.dense(ti.axes(*range(d)), self.grid_nodes).place(self.gu)
@@ -342,6 +344,15 @@ class Solver:
     def _element_of(self, x):
         xi = (x - np.asarray(self.origin)) * self.inv_h
         return np.clip(np.floor(xi), 0, np.asarray(self.grid_elements) - 1).astype(np.int32)
+
+    def memory(self) -> dict:
+        """Bytes per particle and per grid node of the state fields this scene allocated,
+        and the names of those fields."""
+        names = [k for k, v in vars(self).items() if any(v is f for f in self._particle_fields)]
+        return {"particle_bytes": sum(_field_bytes(f) for f in self._particle_fields),
+                "node_bytes": sum(_field_bytes(f) for f in self._grid_fields),
+                "particle_fields": sorted(names),
+                "particles": self.n_particles, "nodes": int(np.prod(self.grid_nodes))}
 
     def release(self):
         """Free the fields of this solver (it cannot be used afterwards)."""
@@ -1113,6 +1124,15 @@ class Solver:
     def _component(self, fld):
         a = fld.to_numpy()
         return a[:, 0] if self.dim == 1 else a
+
+
+def _field_bytes(f) -> int:
+    """Bytes one entry of a scalar, vector or matrix field holds."""
+    if isinstance(f, ti.MatrixField):
+        count = f.n * f.m
+    else:
+        count = 1
+    return count * (8 if f.dtype in (ti.f64, ti.i64) else 4)
 
 
 class _Progress:
