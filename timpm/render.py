@@ -1,0 +1,326 @@
+"""Headless particle renderer for 2D and 3D demos, and an animated-GIF writer.
+
+``Renderer`` splats particles as filled disks into an RGB image with one compiled Taichi
+kernel (positions and values are passed as NumPy arrays, so every frame reuses it).  In
+3D the nearest particle wins each pixel and is shaded slightly darker the farther it is.
+``GifWriter`` collects frames and writes them with Pillow.
+"""
+import numbers
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+import taichi as ti
+
+from .runtime import ensure_init
+
+__all__ = ["Renderer", "GifWriter", "colormap_lut"]
+
+_SHIFT = 31                 # depth key = depth level << _SHIFT | reversed particle index
+_LEVELS = (1 << 24) - 1     # depth levels across the box
+_EMPTY = 1 << 62            # key of a pixel no particle covers
+NAN_COLOR = (128, 128, 128)
+DEFAULT_COLOR = (31, 119, 180)
+DEPTH_SHADE = 0.4           # the farthest particles are drawn at 1 - DEPTH_SHADE brightness
+
+
+def colormap_lut(name: str) -> np.ndarray:
+    """The (256, 3) uint8 colour table of a Matplotlib colormap."""
+    import matplotlib
+
+    try:
+        cmap = matplotlib.colormaps[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown colormap {name!r}; use a Matplotlib name such as "
+                         f"'viridis', 'plasma', 'coolwarm' or 'turbo'") from None
+    rgb = cmap(np.linspace(0.0, 1.0, 256))[:, :3]
+    return np.ascontiguousarray(np.round(rgb * 255.0).astype(np.uint8))
+
+
+@ti.func
+def _not_finite(x: ti.f64) -> bool:
+    # bit test: comparisons with NaN are not reliable under Taichi's fast math
+    return (ti.bit_cast(x, ti.i64) >> 52) & 0x7FF == 0x7FF
+
+
+@ti.func
+def _is_nan(x: ti.f64) -> bool:
+    bits = ti.bit_cast(x, ti.i64)
+    return (bits >> 52) & 0x7FF == 0x7FF and bits & ((ti.i64(1) << 52) - 1) != 0
+
+
+# slots of the parameter array handed to the kernel
+_AX, _AY, _AZ, _TOWARD, _REACH, _RADIUS, _USE_VALUES, _VMIN, _SCALE = range(9)
+_LO, _HI, _WIDTH = 9, 12, 15
+_N_PARAMS = 16
+# rows of the palette after the 256 colormap entries
+_PLAIN, _NAN, _BACKGROUND = 256, 257, 258
+
+
+@ti.kernel
+def _rasterise(pos: ti.types.ndarray(ndim=2), val: ti.types.ndarray(ndim=1),
+               palette: ti.types.ndarray(dtype=ti.u8, ndim=2), prm: ti.types.ndarray(dtype=ti.f64, ndim=1),
+               depth: ti.types.ndarray(dtype=ti.i64, ndim=1), img: ti.types.ndarray(dtype=ti.u8, ndim=1)):
+    """Pass 1: each particle atomic-mins its depth key into the pixels of its disk.
+    Pass 2: each pixel takes the colour of its winner (or the background) and is reset.
+    The depth buffer and the image are flat (rows top to bottom) and the settings come in
+    one array: 2D arrays and vector arguments made a frame several times slower."""
+    width = ti.cast(prm[_WIDTH], ti.i32)
+    height = depth.shape[0] // width
+    ax, ay, az = ti.cast(prm[_AX], ti.i32), ti.cast(prm[_AY], ti.i32), ti.cast(prm[_AZ], ti.i32)
+    toward, reach = prm[_TOWARD], ti.cast(prm[_REACH], ti.i32)
+    lo = ti.Vector([prm[_LO], prm[_LO + 1], prm[_LO + 2]])
+    hi = ti.Vector([prm[_HI], prm[_HI + 1], prm[_HI + 2]])
+    sx = width / (hi[0] - lo[0])
+    sy = height / (hi[1] - lo[1])
+    r2 = prm[_RADIUS] * prm[_RADIUS]
+    one = ti.i64(1)
+    for i in range(pos.shape[0]):
+        x = ti.cast(pos[i, ax], ti.f64)
+        y = ti.cast(pos[i, ay], ti.f64)
+        z = ti.f64(0.0)
+        if az >= 0:
+            z = ti.cast(pos[i, az], ti.f64)
+        inside = not (_not_finite(x) or _not_finite(y) or _not_finite(z))
+        if inside:
+            inside = lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1] and lo[2] <= z <= hi[2]
+        if inside:
+            far = ti.f64(0.0)   # 0 nearest the viewer, 1 farthest
+            if az >= 0:
+                far = (z - lo[2]) / (hi[2] - lo[2])
+                if toward > 0:
+                    far = 1.0 - far
+            level = ti.min(ti.max(ti.cast(far * _LEVELS, ti.i64), 0), _LEVELS)
+            key = (level << _SHIFT) | ((one << _SHIFT) - 1 - ti.cast(i, ti.i64))  # ties: later on top
+            px = (x - lo[0]) * sx
+            py = (y - lo[1]) * sy
+            cx = ti.min(ti.cast(ti.floor(px), ti.i32), width - 1)
+            cy = ti.min(ti.cast(ti.floor(py), ti.i32), height - 1)
+            for r in range(ti.max(cy - reach, 0), ti.min(cy + reach, height - 1) + 1):
+                # the columns whose pixel centres lie in the disk on this row (and the
+                # particle's own pixel, so that small disks still show)
+                ey = r + 0.5 - py
+                h2 = r2 - ey * ey
+                c0, c1 = cx + 1, cx
+                if h2 >= 0.0:
+                    w = ti.sqrt(h2)
+                    c0 = ti.cast(ti.ceil(px - w - 0.5), ti.i32)
+                    c1 = ti.cast(ti.floor(px + w - 0.5), ti.i32)
+                if r == cy:
+                    c0, c1 = ti.min(c0, cx), ti.max(c1, cx)
+                row = (height - 1 - r) * width
+                for c in range(ti.max(c0, 0), ti.min(c1, width - 1) + 1):
+                    ti.atomic_min(depth[row + c], key)
+    use_values, vmin, scale = prm[_USE_VALUES] > 0, prm[_VMIN], prm[_SCALE]
+    for p in range(depth.shape[0]):
+        key = depth[p]
+        k = _BACKGROUND
+        shade = ti.f64(1.0)
+        if key != ti.i64(_EMPTY):
+            depth[p] = ti.i64(_EMPTY)
+            k = _PLAIN
+            if use_values:
+                v = ti.cast(val[(one << _SHIFT) - 1 - (key & ((one << _SHIFT) - 1))], ti.f64)
+                k = _NAN
+                if not _is_nan(v):
+                    t = ti.min(ti.max((v - vmin) * scale, 0.0), 1.0)
+                    k = ti.min(ti.cast(t * 256.0, ti.i32), 255)
+            if az >= 0:
+                shade = 1.0 - DEPTH_SHADE * ti.cast(key >> _SHIFT, ti.f64) / _LEVELS
+        for ch in ti.static(range(3)):
+            img[3 * p + ch] = ti.cast(palette[k, ch] * shade + 0.5, ti.u8)
+
+
+def _rgb(name, value):
+    try:
+        rgb = tuple(int(c) for c in value)
+    except (TypeError, ValueError):
+        rgb = ()
+    if len(rgb) != 3 or not all(0 <= c <= 255 for c in rgb):
+        raise ValueError(f"{name} must be three integers in 0..255 (R, G, B), got {value!r}")
+    return rgb
+
+
+@ti.data_oriented
+class Renderer:
+    """Draws particles inside the world box ``lo``..``hi`` (2 or 3 coordinates).
+
+    ``axes`` picks the coordinates shown along image x (right) and y (up); in 3D the
+    remaining one is depth, and the view is right-handed (it points toward the viewer:
+    axes (0, 1) look down -z, axes (0, 2) look along +y).  ``height`` defaults to the
+    box's aspect ratio; ``radius`` is the disk radius in pixels; ``color`` is used when
+    ``frame`` gets no values.
+    """
+
+    def __init__(self, lo, hi, width=480, height=None, radius=1.5, background=(255, 255, 255),
+                 cmap="viridis", axes=(0, 1), color=DEFAULT_COLOR):
+        ensure_init()
+        lo = np.asarray(lo, dtype=np.float64).ravel()
+        hi = np.asarray(hi, dtype=np.float64).ravel()
+        if lo.size not in (2, 3) or hi.size != lo.size:
+            raise ValueError(f"lo and hi must both have 2 or 3 coordinates, got {lo.size} and {hi.size}")
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
+            raise ValueError(f"the box needs finite hi > lo in every coordinate, got lo={lo.tolist()}, "
+                             f"hi={hi.tolist()}")
+        self.dim = lo.size
+        try:
+            axes = tuple(int(a) for a in axes)
+        except (TypeError, ValueError):
+            axes = ()
+        if len(axes) != 2 or axes[0] == axes[1] or not all(0 <= a < self.dim for a in axes):
+            raise ValueError(f"axes must be two different coordinate indices in 0..{self.dim - 1}, "
+                             f"got {axes!r}")
+        if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
+            raise ValueError(f"width must be a positive integer number of pixels, got {width!r}")
+        ext = hi - lo
+        if height is None:
+            height = max(1, int(round(width * ext[axes[1]] / ext[axes[0]])))
+        if isinstance(height, bool) or not isinstance(height, (int, np.integer)) or height < 1:
+            raise ValueError(f"height must be a positive integer number of pixels, got {height!r}")
+        try:
+            radius = float(radius)
+        except (TypeError, ValueError):
+            radius = float("nan")
+        if not (np.isfinite(radius) and radius > 0):
+            raise ValueError(f"radius must be a positive number of pixels, got {radius!r}")
+        self.lo, self.hi, self.axes = lo, hi, axes
+        self.width, self.height, self.radius = int(width), int(height), float(radius)
+        self.background = _rgb("background", background)
+        self.color = _rgb("color", color)
+        self.cmap = cmap
+        self.lut = colormap_lut(cmap)
+        self._palette = np.vstack([self.lut, [self.color, NAN_COLOR, self.background]]).astype(np.uint8)
+        view = list(axes) + [-1]
+        toward = 1
+        if self.dim == 3:
+            view[2] = 3 - axes[0] - axes[1]
+            toward = 1 if tuple(view) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1
+        prm = np.zeros(_N_PARAMS)
+        prm[[_AX, _AY, _AZ]] = view
+        prm[_TOWARD], prm[_REACH], prm[_RADIUS] = toward, np.ceil(self.radius), self.radius
+        prm[_LO:_LO + 3] = [lo[a] if a >= 0 else 0.0 for a in view]
+        prm[_HI:_HI + 3] = [hi[a] if a >= 0 else 1.0 for a in view]
+        prm[_WIDTH] = self.width
+        self._params = prm
+        self._depth = np.full(self.height * self.width, _EMPTY, dtype=np.int64)
+        self._no_values = np.zeros(1, dtype=np.float64)
+        self.seconds = 0.0   # cumulative time spent in frame()
+        self.frames = 0
+
+    def frame(self, positions, values=None, vmin=None, vmax=None, outline=False) -> np.ndarray:
+        """Render particles ``positions`` (n, dim), coloured by ``values`` (n,) through the
+        colormap between ``vmin`` and ``vmax`` (default: the finite range of ``values``;
+        NaN draws grey), or in one colour without values.  Returns (height, width, 3) uint8."""
+        t0 = time.perf_counter()
+        pos = np.asarray(positions)
+        if pos.ndim != 2 or pos.shape[1] != self.dim:
+            raise ValueError(f"positions must have shape (n, {self.dim}) for this {self.dim}D box, "
+                             f"got {pos.shape}")
+        if pos.shape[0] >= 1 << _SHIFT:
+            raise ValueError(f"at most {(1 << _SHIFT) - 1} particles per frame, got {pos.shape[0]}")
+        if pos.dtype not in (np.float32, np.float64):
+            pos = pos.astype(np.float64)
+        pos = np.ascontiguousarray(pos)
+        lo_v = hi_v = 0.0
+        if values is None:
+            val, use_values = self._no_values, 0
+            if vmin is not None or vmax is not None:
+                raise ValueError("vmin/vmax need values to colour by")
+        else:
+            val = np.ascontiguousarray(np.asarray(values, dtype=np.float64).ravel())
+            if val.size != pos.shape[0]:
+                raise ValueError(f"values must have one entry per particle: {val.size} values for "
+                                 f"{pos.shape[0]} particles")
+            use_values = 1
+            if vmin is None or vmax is None:
+                finite = val[np.isfinite(val)]
+                low, high = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 0.0)
+            lo_v = low if vmin is None else float(vmin)
+            hi_v = high if vmax is None else float(vmax)
+            if vmin is None:
+                lo_v = min(lo_v, hi_v)
+            if vmax is None:
+                hi_v = max(hi_v, lo_v)
+            if not (np.isfinite(lo_v) and np.isfinite(hi_v) and hi_v >= lo_v):
+                raise ValueError(f"need finite vmin <= vmax, got vmin={vmin!r}, vmax={vmax!r}")
+        flat = np.empty(self.height * self.width * 3, dtype=np.uint8)
+        img = flat.reshape(self.height, self.width, 3)
+        if pos.shape[0] == 0:
+            img[:] = self.background
+        else:
+            self._params[[_USE_VALUES, _VMIN, _SCALE]] = (
+                use_values, lo_v, 1.0 / (hi_v - lo_v) if hi_v > lo_v else 0.0)
+            _rasterise(pos, val, self._palette, self._params, self._depth, flat)
+        if outline:
+            img[0, :] = img[-1, :] = img[:, 0] = img[:, -1] = (0, 0, 0)
+        self.seconds += time.perf_counter() - t0
+        self.frames += 1
+        return img
+
+
+class GifWriter:
+    """Collects RGB frames and writes an animated GIF (looping, ``fps`` frames a second),
+    and each frame as ``png_dir/frame_0000.png`` ... when ``png_dir`` is given.
+
+    Pillow merges consecutive identical frames into one longer frame."""
+
+    def __init__(self, path, fps=25, png_dir=None):
+        self.path = Path(path)
+        if self.path.suffix.lower() != ".gif":
+            raise ValueError(f"GifWriter writes .gif files, got {str(path)!r}")
+        if isinstance(fps, bool) or not (isinstance(fps, numbers.Real) and np.isfinite(fps) and fps > 0):
+            raise ValueError(f"fps must be a positive number, got {fps!r}")
+        self.fps = fps
+        self.png_dir = Path(png_dir) if png_dir is not None else None
+        if self.png_dir is not None:
+            os.makedirs(self.png_dir, exist_ok=True)
+        self._frames = []
+        self._size = None
+        self.closed = False
+        self.seconds = 0.0   # cumulative time spent in add() and close()
+
+    def add(self, frame):
+        """Append one (height, width, 3) uint8 frame."""
+        from PIL import Image
+
+        t0 = time.perf_counter()
+        if self.closed:
+            raise ValueError("GifWriter is closed")
+        frame = np.asarray(frame)
+        if frame.ndim != 3 or frame.shape[2] != 3 or frame.dtype != np.uint8:
+            raise ValueError(f"a frame must be a (height, width, 3) uint8 array, got shape {frame.shape} "
+                             f"and dtype {frame.dtype}")
+        if self._size is None:
+            self._size = frame.shape[:2]
+        elif frame.shape[:2] != self._size:
+            raise ValueError(f"every frame must have the first one's size {self._size}, got {frame.shape[:2]}")
+        image = Image.fromarray(np.ascontiguousarray(frame))
+        if self.png_dir is not None:
+            image.save(self.png_dir / f"frame_{len(self._frames):04d}.png")
+        adaptive = getattr(Image, "Palette", Image).ADAPTIVE
+        self._frames.append(image.convert("P", palette=adaptive, colors=256))
+        self.seconds += time.perf_counter() - t0
+
+    def close(self):
+        """Write the GIF (once); refuses when no frame was added."""
+        if self.closed:
+            return
+        if not self._frames:
+            raise ValueError(f"no frames were added, so {str(self.path)!r} cannot be written")
+        t0 = time.perf_counter()
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        first, *rest = self._frames
+        first.save(self.path, save_all=True, append_images=rest, loop=0,
+                   duration=max(1, int(round(1000.0 / self.fps))), optimize=False)
+        self._frames = []
+        self.closed = True
+        self.seconds += time.perf_counter() - t0
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None or self._frames:
+            self.close()
+        return False
