@@ -218,6 +218,10 @@ class _UniformBSpline(Basis):
     @classmethod
     def stencil_func(cls):
         degree, offset = cls.degree, cls.offset()
+        if degree == 2:
+            return _uniform_quadratic
+        if degree == 3:
+            return _uniform_cubic
 
         @ti.func
         def stencil(xi, n_elements):
@@ -233,6 +237,31 @@ class _UniformBSpline(Basis):
         return stencil
 
 
+@ti.func
+def _uniform_quadratic(xi, n_elements):
+    # closed form of the quadratic cardinal B-spline (node j at xi = j - 1): nodes b..b+2
+    # around the particle, f = xi - b in [0.5, 1.5)
+    b = ti.floor(xi - 0.5, ti.i32)
+    f = xi - b
+    w = ti.Vector([0.5 * (1.5 - f) ** 2, 0.75 - (f - 1.0) ** 2, 0.5 * (f - 0.5) ** 2])
+    dw = ti.Vector([f - 1.5, -2.0 * (f - 1.0), f - 0.5])
+    return b + 1, w, dw
+
+
+@ti.func
+def _uniform_cubic(xi, n_elements):
+    # closed form of the cubic cardinal B-spline (node j at xi = j - 1): nodes b..b+3,
+    # t = xi - b - 1 in [0, 1)
+    b = ti.floor(xi - 1.0, ti.i32)
+    t = xi - b - 1.0
+    t2 = t * t
+    t3 = t2 * t
+    w = ti.Vector([(1.0 - t) ** 3 / 6.0, (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0,
+                   (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0, t3 / 6.0])
+    dw = ti.Vector([-0.5 * (1.0 - t) ** 2, 1.5 * t2 - 2.0 * t, -1.5 * t2 + t + 0.5, 0.5 * t2])
+    return b + 1, w, dw
+
+
 def _make(base, degree, name, **extra):
     cls = type(f"{base.__name__.strip('_')}{degree}", (base,), dict(
         name=name, degree=degree, support=degree + 1, __doc__=base.__doc__, **extra))
@@ -244,8 +273,12 @@ def _make(base, degree, name, **extra):
 QuadraticBSpline = _make(_ClampedBSpline, 2, "bspline2", min_ppc=2, min_elements=2)
 CubicBSpline = _make(_ClampedBSpline, 3, "bspline3", min_ppc=2, min_elements=3)
 #: uniform (padded) B-splines: the multi-dimensional grid variant
-UniformQuadraticBSpline = _make(_UniformBSpline, 2, "uniform-bspline2", min_ppc=2, min_elements=3)
-UniformCubicBSpline = _make(_UniformBSpline, 3, "uniform-bspline3", min_ppc=2, min_elements=4)
+#: (inertia: D = inertia h^2 I, the second moment sum_i phi_i (x_i - x)(x_i - x)^T of the
+#: cardinal B-splines, constant: the affine transfers' D_p, Jiang et al. 2015)
+UniformQuadraticBSpline = _make(_UniformBSpline, 2, "uniform-bspline2", min_ppc=2, min_elements=3,
+                                inertia=0.25)
+UniformCubicBSpline = _make(_UniformBSpline, 3, "uniform-bspline3", min_ppc=2, min_elements=4,
+                            inertia=1.0 / 3.0)
 
 
 def bspline(degree: int, clamped: bool = True) -> type[Basis]:

@@ -61,7 +61,24 @@ def _parser():
     cmp.add_argument("--basis", default="linear")
     cmp.add_argument("--json", metavar="FILE")
     cmp.add_argument("--plot", metavar="FILE.png")
-    sub.add_parser("list", help="list problems and bases")
+    sub.add_parser("list", help="list problems, bases and demos")
+    demo = sub.add_parser("demo", help="run a 2D demo scene and write it to an animated GIF")
+    demo.add_argument("name", help="one of: column-collapse, disks, dam-break")
+    demo.add_argument("--out", metavar="FILE.gif", help="animated GIF to write")
+    demo.add_argument("--frames", type=positive_int, default=60, help="frames (default 60)")
+    demo.add_argument("--fps", type=positive_int, default=20)
+    demo.add_argument("--width", type=positive_int, default=480, help="image width [px]")
+    demo.add_argument("--color", help="colour by: speed, pressure, plastic, von-mises, body")
+    demo.add_argument("--png-dir", metavar="DIR", help="also write every frame as PNG")
+    demo.add_argument("--t-end", type=float, help="end time [s] (default: the demo's)")
+    demo.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
+                      help="override a demo parameter, e.g. aspect=1 or cells=40")
+    demo.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel"])
+    demo.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
+    demo.add_argument("--plot", metavar="FILE.png", help="plot the demo's diagnostic")
+    demo.add_argument("--json", metavar="FILE", help="write times, summary and series as JSON")
+    demo.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                      help="progress bar (default: on a terminal, for runs over 2 s)")
     study = sub.add_parser("study", help="studies over many runs: speed-error")
     speed_error.add_parser(study.add_subparsers(dest="study", required=True))
     return ap
@@ -111,16 +128,57 @@ def _table(records, rates=None):
     return "\n".join(lines)
 
 
+def _demo(args):
+    from . import runtime
+    from .demos import run_demo
+
+    params = {}
+    for name, value in args.param:
+        params[name] = int(value) if value.is_integer() and name in _INTEGER_PARAMS else value
+    if args.t_end is not None:
+        params["t_end"] = args.t_end
+    runtime.init(threads=args.threads)
+    result = run_demo(args.name, out=args.out, frames=args.frames, fps=args.fps, width=args.width,
+                      color=args.color, png_dir=args.png_dir, progress=args.progress,
+                      mode=args.mode, **params)
+    print(result.report())
+    if args.plot:
+        from .viz import plot_demo
+
+        plot_demo(result, args.plot)
+    if args.json:
+        doc = {k: getattr(result, k) for k in ("name", "out", "frames", "particles", "steps",
+                                               "t_end", "dt", "compile_seconds",
+                                               "simulation_seconds", "render_seconds",
+                                               "summary", "memory")}
+        doc["simulated_per_wall_second"] = result.simulated_per_wall_second
+        doc["series"] = {k: v.tolist() for k, v in result.series.items()}
+        with open(args.json, "w") as fh:
+            json.dump(doc, fh, indent=2)
+    return 0
+
+
+#: demo parameters that are whole numbers
+_INTEGER_PARAMS = {"cells", "cells_per_width", "cells_per_a", "ppc", "dim"}
+
+
 def main(argv=None):
     args = _parser().parse_args(argv)
     if args.command == "study":
         return args.func(args)
+    if args.command == "demo":
+        try:
+            return _demo(args)
+        except (ValueError, SimulationError) as exc:
+            print(f"timpm: error: {exc}", file=sys.stderr)
+            return 2
     if args.command == "list":
         for name, cls in PROBLEMS.items():
             p = cls()
             print(f"{name:18s} {p.title}; defaults: {p.elements} elements, {p.ppc} PPC, "
                   f"dt = {p.dt:g} s, t_end = {p.t_end:g} s")
         print("bases:", ", ".join(BASES))
+        print("demos: column-collapse, disks, dam-break (timpm demo NAME --out FILE.gif)")
         return 0
     from . import runtime
     from .study import convergence, run_problem

@@ -147,7 +147,12 @@ class Solver:
         # compile-time feature set, frozen here: state fields of the materials, affine
         # transfer, per-particle material index where a scene mixes materials
         self.needs = frozenset().union(*(m.needs for m in self.materials))
-        self.apic = self.transfer == "apic"
+        # the affine transfers: APIC, and MLS-MPM (Hu et al. 2018), which also takes the
+        # force and the velocity gradient from the affine moments: grad phi_i ~ D^-1 phi_i dx
+        self.apic = self.transfer in ("apic", "mls-mpm")
+        self.mls_mpm = self.transfer == "mls-mpm"
+        if self.mls_mpm:
+            self.D_inv = 1.0 / (self.basis.inertia * self.h ** 2)
         self.multi_material = len(self.materials) > 1
         self.has_walls = self.walls is not None
         self.track_crossings = (self.dim == 1) if track_crossings is None else bool(track_crossings)
@@ -501,13 +506,20 @@ class Solver:
                     if p == self.traction_particle:
                         fp[0] += self.traction_amplitude * self.traction_fn.value(t)
                 stress_volume = self.sigma[p] * self.vol[p]
+                affine = ti.Matrix.zero(ti.f64, self.dim, self.dim)
+                if ti.static(self.mls_mpm):
+                    affine = mp * self.C[p] - (self.dt * self.D_inv) * stress_volume
                 if ti.static(self.mls):
                     fp[0] -= mp * self.gravity[0]  # gravity and mass come from the Gauss points
                     self._scatter_gauss_moments(p)
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
                     node = base + offset
-                    if ti.static(self.apic):
+                    if ti.static(self.mls_mpm):
+                        dx = self._node_offset(node, xi)
+                        self.gm[node] += mp * phi
+                        self.gp[node] += phi * (mp * self.v[p] + self.dt * fp + affine @ dx)
+                    elif ti.static(self.apic):
                         dx = self._node_offset(node, xi)
                         self.gm[node] += mp * phi
                         self.gp[node] += phi * (mp * (self.v[p] + self.C[p] @ dx) + self.dt * fp) \
@@ -585,13 +597,17 @@ class Solver:
                     phi, grad = self._weight(w, dw, offset)
                     dui = self.gp[base + offset] * self.dt
                     du += phi * dui
-                    grad_du += dui.outer_product(grad)
+                    if ti.static(not self.mls_mpm):
+                        grad_du += dui.outer_product(grad)
                     if ti.static(self.apic and self.basis.support > 2):
                         B += phi * self.gp[base + offset].outer_product(
                             self._node_offset(base + offset, xi))
                 if ti.static(self.apic):
                     self.v[p] = du / self.dt
-                    if ti.static(self.basis.support > 2):
+                    if ti.static(self.mls_mpm):
+                        self.C[p] = B * self.D_inv
+                        grad_du = self.C[p] * self.dt
+                    elif ti.static(self.basis.support > 2):
                         # D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T: diagonal for tensor
                         # products of a basis reproducing linear fields
                         for k in ti.static(range(self.dim)):

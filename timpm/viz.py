@@ -114,3 +114,59 @@ def plot_fields(fields, path):
     top.set_title(f"{fields['problem']}: {fields['elements']} elements, t = {fields['t']:g} s "
                   "(study Figures 5.5, 5.6)", fontsize=9)
     return save(fig, path)
+
+
+def plot_demo(result, path):
+    """The diagnostic of a demo run: energies (disks), surge front against Martin & Moyce
+    (dam break), front and height against time (column collapse)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    s = result.series
+    if result.name == "disks":
+        e = result.solver.energies()
+        total = e["kinetic"] + e["strain"]
+        for key, values in (("kinetic", e["kinetic"]), ("strain", e["strain"]), ("total", total)):
+            ax.plot(e["t"], values, lw=1.4, label=key)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("energy [J/m]")
+        ax.set_title(f"disks: {result.particles} particles, {result.solver.transfer}; total at the end "
+                     f"{100 * total[-1] / total[0]:.1f}% of the initial", fontsize=9)
+    elif result.name == "dam-break":
+        from .demos import MARTIN_MOYCE_N2_2
+
+        ax.plot(s["T"], s["Z"], "-", lw=1.4, label="timpm (MPM, weakly compressible)")
+        ax.plot(*MARTIN_MOYCE_N2_2.T, "ko", ms=4, label="Martin & Moyce (1952), n$^2$ = 2")
+        ax.set_xlabel("T = t sqrt(2 g / a)")
+        ax.set_ylabel("Z = x / a (surge front)")
+        ax.set_title(f"dam break: {result.particles} particles, mean |difference| "
+                     f"{result.summary['mean_abs_difference']:.3f}", fontsize=9)
+    else:
+        ax.plot(s["t"], s["front"], lw=1.4, label="front x [m]")
+        ax.plot(s["t"], s["height"], lw=1.4, label="height [m]")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("[m]")
+        ax.set_title(f"column collapse a = {result.summary['aspect']:g}: run-out "
+                     f"{result.summary['runout']:.2f} (Lube et al. 2005: "
+                     f"{result.summary['lube_runout']:.2f})", fontsize=9)
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    return save(fig, path)
+
+
+def plot_runout(rows, path):
+    """Run-out (L_inf - L0) / L0 against the aspect ratio, with Lube et al.'s laws."""
+    from .demos import lube_runout
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    a = np.array([r["aspect"] for r in rows])
+    ax.loglog(a, [r["runout"] for r in rows], "o-", label="timpm (Drucker-Prager MPM)")
+    aa = np.geomspace(min(a.min(), 0.4), max(a.max(), 8), 100)
+    ax.loglog(aa, 1.2 * aa, "k--", lw=1, label="1.2 a (Lube et al. 2005, small a)")
+    ax.loglog(aa, 1.9 * aa ** (2 / 3), "k:", lw=1, label="1.9 a^(2/3) (Lube et al. 2005, large a)")
+    ax.loglog(aa, lube_runout(aa), color="0.6", lw=4, alpha=0.4, zorder=0, label="law used")
+    ax.set_xlabel("aspect ratio a = H0 / L0")
+    ax.set_ylabel("run-out (L_inf - L0) / L0")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return save(fig, path)

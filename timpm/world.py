@@ -23,8 +23,10 @@ __all__ = ["Box", "Ball", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WAL
 
 #: bases on uniform multi-dimensional grids
 ND_BASES = ("linear", "uniform-bspline2", "uniform-bspline3")
-#: "musl": the study's scheme (2.2.4) in any dimension; "apic": the affine transfer
-TRANSFERS = ("musl", "apic")
+#: "musl": the study's scheme (2.2.4) in any dimension; "apic": the affine transfer (Jiang
+#: et al. 2015); "mls-mpm": APIC with the force and velocity gradient from the affine
+#: moments (Hu et al. 2018), the cheapest (B-spline bases only)
+TRANSFERS = ("musl", "apic", "mls-mpm")
 WALL_KINDS = ("sticky", "slip", "friction")
 SIDES = ("left", "right", "bottom", "top", "back", "front")
 
@@ -210,6 +212,9 @@ class World:
         if self.transfer not in TRANSFERS:
             raise ValueError(f"unknown transfer {self.transfer!r}: choose one of "
                              f"{', '.join(TRANSFERS)}")
+        if self.transfer == "mls-mpm" and basis.name == "linear":
+            raise ValueError("the mls-mpm transfer needs a B-spline basis (its D_p is constant);"
+                             " use transfer='apic' with the linear basis")
         g = np.zeros(dim) if self.gravity is None else _vector("gravity", self.gravity, dim)
         if self.gravity is None:
             g[1] = -9.81

@@ -1,0 +1,18 @@
+"""Demo: column-collapse, written to an animated GIF with its diagnostic plot.
+
+    python demos/column_collapse.py [--out column_collapse.gif] [--frames 60] [--param NAME=VALUE ...]
+
+The same as `timpm demo column-collapse --out column_collapse.gif --plot column_collapse.png`; see timpm/demos.py for the
+scene, its parameters and the comparison it makes.
+"""
+import sys
+
+from timpm.cli import main
+
+if __name__ == "__main__":
+    args = sys.argv[1:]
+    if "--out" not in args:
+        args += ["--out", "column_collapse.gif"]
+    if "--plot" not in args:
+        args += ["--plot", "column_collapse.png"]
+    sys.exit(main(["demo", "column-collapse", *args]))

@@ -1,0 +1,349 @@
+"""Demo scenes, each checked against an experiment or a conservation law, rendered to GIF.
+
+* ``column-collapse``: a granular column (Drucker-Prager sand) released against a wall onto
+  a rough floor; the run-out (L_inf - L0) / L0 against the aspect ratio a = H0 / L0 follows
+  the 2D experiments of Lube et al. (2005): 1.2 a for small a, 1.9 a^(2/3) for tall columns.
+* ``disks``: two elastic disks colliding head-on (Sulsky et al. 1994): kinetic, strain and
+  total energy through the collision.
+* ``dam-break``: a water column of width a and height 2a (n^2 = 2) collapsing onto a dry
+  floor; the surge front x / a against t sqrt(2 g / a) is Martin & Moyce's (1952) data.
+
+``run_demo(name, out="scene.gif")`` builds the scene, runs it frame by frame, rasterises
+every frame in a Taichi kernel and writes the GIF; simulation and rendering times are
+reported apart.  Each demo's ``observe`` collects its diagnostic series per frame.
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .materials import DruckerPrager, NeoHookean, WeaklyCompressibleFluid
+from .render import GifWriter, Renderer
+from .solver import Solver, _Progress
+from .world import Ball, Body, Box, Wall, World
+
+__all__ = ["DEMOS", "get_demo", "run_demo", "DemoResult", "ColumnCollapse", "Disks", "DamBreak",
+           "QUANTITIES", "lube_runout", "MARTIN_MOYCE_N2_2"]
+
+#: colour quantities: name -> (function of the solver, label)
+QUANTITIES = ("speed", "pressure", "plastic", "von-mises", "body")
+
+#: Martin & Moyce (1952), column height 2a (n^2 = 2), surge front Z = x / a against
+#: T = t sqrt(2 g / a); their Tables 2 and 6 (a = 2.25 in) as transcribed in Ocellaris'
+#: scripts/plot_dam_break.py (TormodLandet/Ocellaris @ e338249f) and, for T <= 2.98, in
+#: Lethe's dam-break-2d.py (chaos-polymtl/lethe @ 8c1580cf)
+MARTIN_MOYCE_N2_2 = np.array([
+    (0.41, 1.11), (0.84, 1.22), (1.19, 1.44), (1.43, 1.67), (1.63, 1.89), (1.83, 2.11),
+    (1.98, 2.33), (2.20, 2.56), (2.32, 2.78), (2.51, 3.00), (2.65, 3.22), (2.83, 3.44),
+    (2.98, 3.67), (3.11, 3.89), (3.33, 4.11)])
+
+
+def lube_runout(a):
+    """Run-out (L_inf - L0) / L0 of a 2D granular column of aspect ratio a (Lube et al.
+    2005, as quoted by Lagree, Staron & Popinet 2011, Eq. 3.1): 1.2 a below the
+    transition (a ~ 1.8-2.8), 1.9 a^(2/3) above; here the smaller of the two, which
+    switches at a = (1.9 / 1.2)^3 ~ 3.97."""
+    a = np.asarray(a, dtype=float)
+    return np.minimum(1.2 * a, 1.9 * a ** (2.0 / 3.0))
+
+
+def _check_positive(name, value):
+    value = float(value)
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+    return value
+
+
+@dataclass
+class Demo:
+    """A scene with a default length of run, colour and per-frame diagnostics."""
+
+    name = ""
+    color = "speed"
+    t_end: float | None = None
+    transfer: str = "mls-mpm"
+    basis: str = "uniform-bspline2"
+
+    def world(self) -> World:
+        raise NotImplementedError
+
+    def default_t_end(self) -> float:
+        raise NotImplementedError
+
+    def observe(self, solver, t) -> dict:
+        return {}
+
+    def summary(self, solver, series) -> dict:
+        return {}
+
+    def end_time(self):
+        return self.default_t_end() if self.t_end is None else _check_positive("t_end", self.t_end)
+
+
+@dataclass
+class ColumnCollapse(Demo):
+    """Sand column of width ``width`` and height ``aspect * width`` against the left wall,
+    released onto a floor with Coulomb friction ``floor_friction``."""
+
+    name = "column-collapse"
+    color = "plastic"
+    aspect: float = 2.0
+    width: float = 0.5
+    cells_per_width: int = 50
+    ppc: int = 2
+    E: float = 4e5
+    nu: float = 0.3
+    density: float = 1500.0
+    friction_angle: float = 30.0
+    floor_friction: float = 0.5
+    courant: float = 0.8
+
+    def world(self) -> World:
+        a = _check_positive("aspect", self.aspect)
+        L0 = _check_positive("width", self.width)
+        h = L0 / self.cells_per_width
+        est = float(lube_runout(a))
+        nx = int(math.ceil(L0 * (1.6 + 1.4 * est) / h))
+        ny = int(math.ceil(a * L0 * 1.05 / h)) + 2
+        sand = DruckerPrager(E=self.E, nu=self.nu, density=self.density,
+                             friction_angle=self.friction_angle)
+        return World(domain=(nx * h, ny * h), cells=nx, basis=self.basis, transfer=self.transfer,
+                     bodies=[Body(Box((0.0, 0.0), (L0, a * L0)), sand, ppc=self.ppc, name="sand")],
+                     walls={"default": "slip", "bottom": Wall("friction", self.floor_friction)},
+                     courant=self.courant, name=self.name)
+
+    def default_t_end(self) -> float:
+        # the collapse is over after a few free-fall times of the column
+        return 4.0 * math.sqrt(self.aspect * self.width / 9.81) + 0.3
+
+    def observe(self, solver, t) -> dict:
+        x = solver.positions()
+        return {"front": float(x[:, 0].max()), "height": float(x[:, 1].max()),
+                "kinetic": float(0.5 * np.sum(solver.scene.mass_per_particle
+                                              * np.sum(solver.velocities() ** 2, axis=1)))}
+
+    def summary(self, solver, series) -> dict:
+        L0 = self.width
+        front = series["front"][-1]
+        runout = (front - L0) / L0
+        law = float(lube_runout(self.aspect))
+        ke = np.asarray(series["kinetic"])
+        return {"aspect": self.aspect, "runout": runout, "lube_runout": law,
+                "relative_error": (runout - law) / law,
+                "final_height": series["height"][-1] / L0,
+                "settled": bool(ke[-1] < 1e-3 * ke.max()) if ke.max() > 0 else True}
+
+
+@dataclass
+class Disks(Demo):
+    """Two elastic disks (balls in 3D) colliding head-on along the diagonal (Sulsky et al.
+    1994: E = 1000 Pa, nu = 0.3, rho = 1000 kg/m^3, R = 0.2 m, |v| = 0.1 sqrt(2) m/s)."""
+
+    name = "disks"
+    color = "von-mises"
+    transfer: str = "apic"
+    cells: int = 80
+    ppc: int = 2
+    dim: int = 2
+    E: float = 1000.0
+    nu: float = 0.3
+    density: float = 1000.0
+    speed: float = 0.1
+    courant: float = 0.4
+
+    def world(self) -> World:
+        if self.dim not in (2, 3):
+            raise ValueError(f"disks: dim must be 2 or 3, got {self.dim!r}")
+        rubber = NeoHookean(self.E, self.nu, self.density)
+        lo, hi = (0.2,) * self.dim, (0.8,) * self.dim
+        v = (self.speed,) * self.dim
+        return World(domain=(1.0,) * self.dim, cells=self.cells, basis=self.basis,
+                     transfer=self.transfer, gravity=(0.0,) * self.dim, walls="slip",
+                     bodies=[Body(Ball(lo, 0.2), rubber, velocity=v, ppc=self.ppc, name="left"),
+                             Body(Ball(hi, 0.2), rubber, velocity=tuple(-c for c in v),
+                                  ppc=self.ppc, name="right")],
+                     courant=self.courant, name=self.name)
+
+    def default_t_end(self) -> float:
+        return 3.5
+
+    def summary(self, solver, series) -> dict:
+        e = solver.energies()
+        total = e["kinetic"] + e["strain"]
+        return {"energy_min": float(total.min() / total[0]), "energy_max": float(total.max() / total[0]),
+                "energy_end": float(total[-1] / total[0]),
+                "strain_peak": float(e["strain"].max() / total[0])}
+
+
+@dataclass
+class DamBreak(Demo):
+    """Water column of width ``a`` and height ``2a`` (Martin & Moyce's n^2 = 2) against the
+    left wall of a tank, released at t = 0.  The bulk modulus gives a sound speed of
+    ``mach_inverse`` times the largest flow speed 2 sqrt(g 2a) (weak compressibility)."""
+
+    name = "dam-break"
+    color = "speed"
+    a: float = 0.25
+    cells_per_a: int = 40
+    ppc: int = 2
+    density: float = 1000.0
+    mach_inverse: float = 10.0
+    viscosity: float = 0.0
+    courant: float = 0.8
+
+    def world(self) -> World:
+        a = _check_positive("a", self.a)
+        h = a / self.cells_per_a
+        c = self.mach_inverse * 2.0 * math.sqrt(9.81 * 2 * a)
+        water = WeaklyCompressibleFluid(bulk_modulus=self.density * c * c, density=self.density,
+                                        viscosity=self.viscosity)
+        nx, ny = 5 * self.cells_per_a, int(math.ceil(2.2 * self.cells_per_a))
+        return World(domain=(nx * h, ny * h), cells=nx, basis=self.basis, transfer=self.transfer,
+                     bodies=[Body(Box((0.0, 0.0), (a, 2 * a)), water, ppc=self.ppc, name="water")],
+                     walls="slip", courant=self.courant, name=self.name)
+
+    def default_t_end(self) -> float:
+        # the experiment's last point, T = 3.33, and a little more
+        return 3.6 / math.sqrt(2 * 9.81 / self.a)
+
+    def observe(self, solver, t) -> dict:
+        x = solver.positions()
+        h = solver.h
+        near_floor = x[:, 1] < 2 * h
+        front = float(x[near_floor, 0].max()) if near_floor.any() else float("nan")
+        return {"T": t * math.sqrt(2 * 9.81 / self.a), "Z": front / self.a}
+
+    def summary(self, solver, series) -> dict:
+        T, Z = np.asarray(series["T"]), np.asarray(series["Z"])
+        exp_T, exp_Z = MARTIN_MOYCE_N2_2.T
+        keep = exp_T <= T.max()
+        sim = np.interp(exp_T[keep], T, Z)
+        return {"points": int(keep.sum()),
+                "mean_abs_difference": float(np.mean(np.abs(sim - exp_Z[keep]))),
+                "max_abs_difference": float(np.max(np.abs(sim - exp_Z[keep]))),
+                "front_at_T_3": float(np.interp(3.0, T, Z))}
+
+
+DEMOS = {cls.name: cls for cls in (ColumnCollapse, Disks, DamBreak)}
+
+
+def get_demo(name: str, **params) -> Demo:
+    if name not in DEMOS:
+        raise ValueError(f"unknown demo {name!r}: choose one of {', '.join(DEMOS)}")
+    cls = DEMOS[name]
+    known = set(cls.__dataclass_fields__)
+    unknown = sorted(set(params) - known)
+    if unknown:
+        raise ValueError(f"demo {name!r} has no parameter {', '.join(unknown)}: it takes "
+                         f"{', '.join(sorted(known))}")
+    return cls(**params)
+
+
+def quantity(solver, name):
+    """Per-particle values to colour by, and their natural range (None: the data's)."""
+    d = solver.dim
+    if name == "speed":
+        return np.linalg.norm(solver.velocities(), axis=1), 0.0, None
+    if name == "pressure":
+        return -np.trace(solver.stresses(), axis1=1, axis2=2) / d, None, None
+    if name == "von-mises":
+        s = solver.stresses()
+        dev = s - np.trace(s, axis1=1, axis2=2)[:, None, None] / d * np.eye(d)
+        return np.sqrt(1.5 * np.sum(dev * dev, axis=(1, 2))), 0.0, None
+    if name == "plastic":
+        if not hasattr(solver, "plastic"):
+            raise ValueError("colour 'plastic' needs a plastic material (sand) in the scene")
+        return solver.plastic.to_numpy(), 0.0, None
+    if name == "body":
+        return solver.scene.body_index.astype(float), None, None
+    raise ValueError(f"unknown colour quantity {name!r}: choose one of {', '.join(QUANTITIES)}")
+
+
+@dataclass
+class DemoResult:
+    """What a demo run produced: files, times (simulation and rendering apart), series."""
+
+    name: str
+    out: str | None
+    frames: int
+    particles: int
+    steps: int
+    t_end: float
+    dt: float
+    compile_seconds: float
+    simulation_seconds: float
+    render_seconds: float
+    series: dict = field(default_factory=dict)
+    summary: dict = field(default_factory=dict)
+    memory: dict = field(default_factory=dict)
+
+    @property
+    def simulated_per_wall_second(self) -> float:
+        return self.t_end / self.simulation_seconds if self.simulation_seconds > 0 else math.inf
+
+    def report(self) -> str:
+        lines = [f"{self.name}: {self.particles} particles, {self.steps} steps of dt = {self.dt:.3g} s"
+                 f" to t = {self.t_end:.3g} s, {self.frames} frames",
+                 f"  compile {self.compile_seconds:.2f} s, simulation {self.simulation_seconds:.2f} s "
+                 f"({self.simulated_per_wall_second:.3g} simulated s per wall s, "
+                 f"{self.particles * self.steps / max(self.simulation_seconds, 1e-12) / 1e6:.2f} "
+                 f"M particle-steps/s), rendering {self.render_seconds:.2f} s",
+                 f"  memory {self.memory.get('particle_bytes', 0)} B/particle, "
+                 f"{self.memory.get('node_bytes', 0)} B/node"]
+        for k, v in self.summary.items():
+            lines.append(f"  {k}: {v:.4g}" if isinstance(v, float) else f"  {k}: {v}")
+        if self.out:
+            lines.append(f"  wrote {self.out}")
+        return "\n".join(lines)
+
+
+def run_demo(name, out=None, frames=60, fps=20, width=480, color=None, png_dir=None,
+             progress=None, mode="auto", **params) -> DemoResult:
+    """Run demo ``name`` (``DEMOS``) and write ``out`` (a .gif, or None for no images).
+
+    ``frames`` frames are spread evenly over the run (plus the initial state); ``params``
+    override the demo's parameters (``t_end``, resolution, material constants ...).
+    """
+    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
+        raise ValueError(f"frames must be a positive integer, got {frames!r}")
+    demo = get_demo(name, **params)
+    world = demo.world()
+    color = color or demo.color
+    t_end = demo.end_time()
+    solver = Solver(world, mode=mode, energies=True,
+                    record_every=max(1, int(round(t_end / world.dt / 200))))
+    quantity(solver, color)  # an unknown or unavailable colour fails before the run
+    renderer = writer = None
+    if out is not None:
+        renderer = Renderer((0.0,) * world.dim, world.domain, width=width,
+                            radius=max(1.0, 0.8 * width / world.cells / 2),
+                            cmap="viridis" if color != "body" else "coolwarm")
+        writer = GifWriter(out, fps=fps, png_dir=png_dir)
+    series = {}
+    bar = _Progress(frames, progress)
+    solver.compile()
+    for k in range(frames + 1):
+        if k:
+            solver.run(t_end=t_end * k / frames, progress=False)
+        for key, value in demo.observe(solver, solver.t).items():
+            series.setdefault(key, []).append(value)
+        series.setdefault("t", []).append(solver.t)
+        if renderer is not None:
+            values, lo, hi = quantity(solver, color)
+            writer.add(renderer.frame(solver.positions(), values, vmin=lo, vmax=hi))
+        bar.update(k)
+    bar.close()
+    if writer is not None:
+        writer.close()
+    render_seconds = (renderer.seconds + writer.seconds) if renderer is not None else 0.0
+    result = DemoResult(name=name, out=None if out is None else str(out), frames=frames,
+                        particles=world.n_particles, steps=solver.step, t_end=solver.t,
+                        dt=world.dt, compile_seconds=solver.compile_seconds,
+                        simulation_seconds=solver.run_seconds, render_seconds=render_seconds,
+                        series={k: np.asarray(v) for k, v in series.items()},
+                        memory=solver.memory())
+    result.summary = demo.summary(solver, result.series)
+    result.solver = solver
+    return result
+
