@@ -90,13 +90,14 @@ class ColumnCollapse(Demo):
     color = "plastic"
     aspect: float = 2.0
     width: float = 0.5
-    cells_per_width: int = 50
-    ppc: int = 2
+    cells_per_width: int = 34
+    ppc: int = 3
     E: float = 4e5
     nu: float = 0.3
     density: float = 1500.0
     friction_angle: float = 30.0
-    floor_friction: float = 0.5
+    floor_friction: float = 0.58  # tan(30 deg): a floor as rough as the sand itself
+    front_thickness: float = 0.02  # the front is where the deposit thins below this x H0
     courant: float = 0.8
 
     def world(self) -> World:
@@ -104,7 +105,7 @@ class ColumnCollapse(Demo):
         L0 = _check_positive("width", self.width)
         h = L0 / self.cells_per_width
         est = float(lube_runout(a))
-        nx = int(math.ceil(L0 * (1.6 + 1.4 * est) / h))
+        nx = int(math.ceil(L0 * (2.0 + 2.0 * est) / h))
         ny = int(math.ceil(a * L0 * 1.05 / h)) + 2
         sand = DruckerPrager(E=self.E, nu=self.nu, density=self.density,
                              friction_angle=self.friction_angle)
@@ -119,18 +120,28 @@ class ColumnCollapse(Demo):
 
     def observe(self, solver, t) -> dict:
         x = solver.positions()
-        return {"front": float(x[:, 0].max()), "height": float(x[:, 1].max()),
+        return {"front": self.front(x, solver.h), "tip": float(x[:, 0].max()),
+                "height": float(x[:, 1].max()),
                 "kinetic": float(0.5 * np.sum(solver.scene.mass_per_particle
                                               * np.sum(solver.velocities() ** 2, axis=1)))}
 
+    def front(self, x, h):
+        """Farthest x at which the deposit is at least ``front_thickness`` H0 thick (columns
+        of width h); the tip, the farthest particle, belongs to a layer a grain thick."""
+        cols = np.floor(x[:, 0] / h).astype(int)
+        top = np.zeros(cols.max() + 1)
+        np.maximum.at(top, cols, x[:, 1])
+        thick = np.flatnonzero(top >= self.front_thickness * self.aspect * self.width)
+        return float((thick.max() + 1) * h) if len(thick) else 0.0
+
     def summary(self, solver, series) -> dict:
         L0 = self.width
-        front = series["front"][-1]
-        runout = (front - L0) / L0
+        runout = (series["front"][-1] - L0) / L0
         law = float(lube_runout(self.aspect))
         ke = np.asarray(series["kinetic"])
         return {"aspect": self.aspect, "runout": runout, "lube_runout": law,
                 "relative_error": (runout - law) / law,
+                "tip_runout": (series["tip"][-1] - L0) / L0,
                 "final_height": series["height"][-1] / L0,
                 "settled": bool(ke[-1] < 1e-3 * ke.max()) if ke.max() > 0 else True}
 

@@ -163,12 +163,15 @@ class DruckerPrager(SolidMaterial):
                 dgamma = 0.0
         s.plastic[p] += dgamma
         tau = ti.Vector.zero(ti.f64, d)
-        Se = ti.Matrix.zero(ti.f64, d, d)
         tr_e = eps.sum()
         for k in ti.static(range(d)):
-            Se[k, k] = ti.exp(eps[k])
             tau[k] = 2.0 * self.mu * eps[k] + self.lam * tr_e
-        s.F[p] = U @ Se @ V.transpose()
+        if dgamma > 0.0:  # plastic: the elastic part moves back onto the cone
+            Se = ti.Matrix.zero(ti.f64, d, d)
+            for k in ti.static(range(d)):
+                Se[k, k] = ti.exp(eps[k])
+            F = U @ Se @ V.transpose()
+        s.F[p] = F
         # Kirchhoff stress U diag(tau) U^T; Cauchy stress = tau V0 / V (the solver's volume
         # follows the total deformation, V = V0 det F_total)
         T = ti.Matrix.zero(ti.f64, d, d)

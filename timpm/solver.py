@@ -33,7 +33,7 @@ from .materials import Hypoelastic1D
 from .scene import Scene
 from .world import World
 
-__all__ = ["Solver", "SimulationError", "ERRORS"]
+__all__ = ["Solver", "SimulationError", "ERRORS", "SCATTERS"]
 
 ERRORS = {
     1: "left the grid",
@@ -84,6 +84,17 @@ def _mls_value(mom, b):
     return value
 
 
+#: P2G scatter strategies: parallel atomic adds, or the scatter loop on one thread (plain
+#: adds) while the gather loops stay parallel; "auto" picks serial on CPUs
+SCATTERS = ("auto", "atomic", "serial")
+
+
+def _on_cpu() -> bool:
+    from taichi.lang import impl
+
+    return impl.current_cfg().arch in (ti.x64, ti.arm64)
+
+
 class SimulationError(RuntimeError):
     """A run stopped because the state became invalid; the message names step and where."""
 
@@ -112,7 +123,8 @@ class Solver:
     def __init__(self, scene, track=(), record_every: int = 1, energies: bool = True,
                  mode: str = "auto", serial_threshold: int = 4096, history_chunk: int = 512,
                  track_crossings: bool | None = None, energy_guard: float | None = 2.0,
-                 grid_displacement: bool = False, small_mass: float = 1e-3):
+                 grid_displacement: bool = False, small_mass: float = 1e-3,
+                 scatter: str = "auto"):
         ensure_init()
         if not isinstance(scene, (Scene, World)):
             raise TypeError(f"Solver takes a timpm.Scene (1D) or a timpm.World (2D/3D), "
@@ -129,6 +141,15 @@ class Solver:
             if not 0 <= p < n:
                 raise ValueError(f"tracked particle {p} does not exist ({n} particles)")
         self.mode = ("serial" if n <= serial_threshold else "parallel") if mode == "auto" else mode
+        if scatter not in SCATTERS:
+            raise ValueError(f"unknown scatter {scatter!r}: choose one of {', '.join(SCATTERS)}")
+        if scatter == "auto":
+            # a contended atomic add costs ~5x a plain one on the CPU: scatter on one
+            # thread there, and in parallel (atomics) on GPUs
+            scatter = "serial" if _on_cpu() else "atomic"
+        self.scatter = scatter
+        # in the fused serial mode every loop runs on one thread anyway
+        self.serial_scatter = scatter == "serial" and self.mode == "parallel"
         self.record_every = int(record_every)
         self.history_chunk = int(history_chunk)
         self.n_particles = n
@@ -492,48 +513,57 @@ class Solver:
         # F_i = sum phi_i (m_p g + f_trac(t)) - sigma_p V_p dphi_i; with the affine transfer
         # (APIC) P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i in the same pass
         t = self.time[None]
-        for p in range(self.n_particles):
-            base, w, dw, xi, inside = self._stencil(p)
-            if not inside:
-                self._fail(1, p)
-            else:
-                mp = self.m[p]
-                fp = ti.Vector.zero(ti.f64, self.dim)
-                for k in ti.static(range(self.dim)):
-                    if ti.static(self.gravity[k] != 0.0):
-                        fp[k] += mp * self.gravity[k]
-                if ti.static(self.has_traction):
-                    if p == self.traction_particle:
-                        fp[0] += self.traction_amplitude * self.traction_fn.value(t)
-                stress_volume = self.sigma[p] * self.vol[p]
-                affine = ti.Matrix.zero(ti.f64, self.dim, self.dim)
+        if ti.static(self.serial_scatter):
+            ti.loop_config(serialize=True)  # plain adds instead of contended atomics
+            for p in range(self.n_particles):
+                self._p2g_particle(p, t)
+        else:
+            for p in range(self.n_particles):
+                self._p2g_particle(p, t)
+
+    @ti.func
+    def _p2g_particle(self, p, t):
+        base, w, dw, xi, inside = self._stencil(p)
+        if not inside:
+            self._fail(1, p)
+        else:
+            mp = self.m[p]
+            fp = ti.Vector.zero(ti.f64, self.dim)
+            for k in ti.static(range(self.dim)):
+                if ti.static(self.gravity[k] != 0.0):
+                    fp[k] += mp * self.gravity[k]
+            if ti.static(self.has_traction):
+                if p == self.traction_particle:
+                    fp[0] += self.traction_amplitude * self.traction_fn.value(t)
+            stress_volume = self.sigma[p] * self.vol[p]
+            affine = ti.Matrix.zero(ti.f64, self.dim, self.dim)
+            if ti.static(self.mls_mpm):
+                affine = mp * self.C[p] - (self.dt * self.D_inv) * stress_volume
+            if ti.static(self.mls):
+                fp[0] -= mp * self.gravity[0]  # gravity and mass come from the Gauss points
+                self._scatter_gauss_moments(p)
+            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                phi, grad = self._weight(w, dw, offset)
+                node = base + offset
                 if ti.static(self.mls_mpm):
-                    affine = mp * self.C[p] - (self.dt * self.D_inv) * stress_volume
-                if ti.static(self.mls):
-                    fp[0] -= mp * self.gravity[0]  # gravity and mass come from the Gauss points
-                    self._scatter_gauss_moments(p)
-                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
-                    phi, grad = self._weight(w, dw, offset)
-                    node = base + offset
-                    if ti.static(self.mls_mpm):
-                        dx = self._node_offset(node, xi)
-                        self.gm[node] += mp * phi
-                        self.gp[node] += phi * (mp * self.v[p] + self.dt * fp + affine @ dx)
-                    elif ti.static(self.apic):
-                        dx = self._node_offset(node, xi)
-                        self.gm[node] += mp * phi
-                        self.gp[node] += phi * (mp * (self.v[p] + self.C[p] @ dx) + self.dt * fp) \
-                            - self.dt * (stress_volume @ grad)
-                    elif ti.static(not self.mls):
-                        self.gm[node] += mp * phi
-                        self.gf[node] += phi * fp - stress_volume @ grad
-                    else:
-                        self.gf[node] += phi * fp
-                    if ti.static(not self.apic and (self.damping > 0.0 or self.has_walls)):
-                        self.gp[node] += mp * phi * self.v[p]
-                if ti.static(self.consistent):
-                    for a, c in ti.static(ti.ndrange(self.basis.support, self.basis.support)):
-                        self.band[base[0] + a, c - a + self.bandwidth] += mp * w[a, 0] * w[c, 0]
+                    dx = self._node_offset(node, xi)
+                    self.gm[node] += mp * phi
+                    self.gp[node] += phi * (mp * self.v[p] + self.dt * fp + affine @ dx)
+                elif ti.static(self.apic):
+                    dx = self._node_offset(node, xi)
+                    self.gm[node] += mp * phi
+                    self.gp[node] += phi * (mp * (self.v[p] + self.C[p] @ dx) + self.dt * fp) \
+                        - self.dt * (stress_volume @ grad)
+                elif ti.static(not self.mls):
+                    self.gm[node] += mp * phi
+                    self.gf[node] += phi * fp - stress_volume @ grad
+                else:
+                    self.gf[node] += phi * fp
+                if ti.static(not self.apic and (self.damping > 0.0 or self.has_walls)):
+                    self.gp[node] += mp * phi * self.v[p]
+            if ti.static(self.consistent):
+                for a, c in ti.static(ti.ndrange(self.basis.support, self.basis.support)):
+                    self.band[base[0] + a, c - a + self.bandwidth] += mp * w[a, 0] * w[c, 0]
 
     @ti.func
     def _grid_acceleration(self):
@@ -566,21 +596,30 @@ class Solver:
     @ti.func
     def _g2p_velocity(self):
         # G2P: v_p += dt sum_i phi_i(x_p) a_i; P2G: P_i = sum m_p phi_i(x_p) v_p (2.2.4)
-        for p in range(self.n_particles):
-            base, w, dw, xi, inside = self._stencil(p)
-            if inside:
-                acc = ti.Vector.zero(ti.f64, self.dim)
+        if ti.static(self.serial_scatter):
+            ti.loop_config(serialize=True)
+            for p in range(self.n_particles):
+                self._g2p_velocity_particle(p)
+        else:
+            for p in range(self.n_particles):
+                self._g2p_velocity_particle(p)
+
+    @ti.func
+    def _g2p_velocity_particle(self, p):
+        base, w, dw, xi, inside = self._stencil(p)
+        if inside:
+            acc = ti.Vector.zero(ti.f64, self.dim)
+            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                phi, grad = self._weight(w, dw, offset)
+                acc += phi * self.gf[base + offset]
+            vp = self.v[p] + self.dt * acc
+            self.v[p] = vp
+            if ti.static(self.mls):
+                self._scatter_node_moments(p, vp[0])
+            else:
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
-                    acc += phi * self.gf[base + offset]
-                vp = self.v[p] + self.dt * acc
-                self.v[p] = vp
-                if ti.static(self.mls):
-                    self._scatter_node_moments(p, vp[0])
-                else:
-                    for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
-                        phi, grad = self._weight(w, dw, offset)
-                        self.gp[base + offset] += self.m[p] * phi * vp
+                    self.gp[base + offset] += self.m[p] * phi * vp
 
     @ti.func
     def _g2p_update(self):

@@ -170,7 +170,7 @@ class World:
     ``walls`` is one wall for every side, or a dict of side name (``SIDES``) to wall with
     an optional ``"default"``.  ``dt=None`` picks ``courant`` times the CFL limit
     h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
-    (the initial speed plus the free-fall speed over the domain height); a given ``dt``
+    (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``
     above the limit is refused unless ``allow_unstable_dt``.
     """
 
@@ -323,7 +323,9 @@ class World:
     def _check_dt(self, h, g, domain):
         c = max(m.wave_speed for m in self.materials)
         v0 = float(np.max(np.linalg.norm(self.velocity, axis=1)))
-        v_fall = math.sqrt(2.0 * float(np.linalg.norm(g)) * float(np.max(domain)))
+        g_norm = float(np.linalg.norm(g))
+        height = float(np.abs(g) @ domain) / g_norm if g_norm > 0 else 0.0  # along gravity
+        v_fall = math.sqrt(2.0 * g_norm * height)
         limit = h / (c + v0 + v_fall)
         object.__setattr__(self, "_cfl", dict(c=c, v=v0 + v_fall, limit=limit))
         courant = float(self.courant)
@@ -343,7 +345,7 @@ class World:
             raise ValueError(
                 f"time step dt = {dt:g} s exceeds the CFL limit h / (c + |v|) = {limit:g} s "
                 f"(h = {h:g} m, wave speed c = {c:g} m/s of the stiffest material, |v| <= "
-                f"{v0 + v_fall:g} m/s: initial speed plus free fall over the domain); choose a "
+                f"{v0 + v_fall:g} m/s: initial speed plus free fall over the domain height); choose a "
                 "smaller dt, leave dt=None, or pass allow_unstable_dt=True")
 
     # ---- particles ---------------------------------------------------------------------
