@@ -155,7 +155,7 @@ def plot_demo(result, path):
 
 def plot_runout(rows, path):
     """Run-out (L_inf - L0) / L0 against the aspect ratio, with Lube et al.'s laws."""
-    from .demos import lube_runout
+    from .demos import lajeunesse_runout, lube_runout
 
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6, 4.5))
@@ -164,7 +164,9 @@ def plot_runout(rows, path):
     aa = np.geomspace(min(a.min(), 0.4), max(a.max(), 8), 100)
     ax.loglog(aa, 1.2 * aa, "k--", lw=1, label="1.2 a (Lube et al. 2005, small a)")
     ax.loglog(aa, 1.9 * aa ** (2 / 3), "k:", lw=1, label="1.9 a^(2/3) (Lube et al. 2005, large a)")
-    ax.loglog(aa, lube_runout(aa), color="0.6", lw=4, alpha=0.4, zorder=0, label="law used")
+    ax.loglog(aa, lube_runout(aa), color="0.6", lw=4, alpha=0.4, zorder=0, label="Lube: law used")
+    ax.loglog(aa, lajeunesse_runout(aa), "-.", color="tab:red", lw=1,
+              label="Lajeunesse et al. 2005: 1.8 a, 2.3 a^(2/3)")
     ax.set_xlabel("aspect ratio a = H0 / L0")
     ax.set_ylabel("run-out (L_inf - L0) / L0")
     ax.grid(True, which="both", alpha=0.3)
