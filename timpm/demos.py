@@ -163,7 +163,7 @@ class Disks(Demo):
     name = "disks"
     color = "von-mises"
     transfer: str = "apic"
-    cells: int = 80
+    cells: int = 128
     ppc: int = 2
     dim: int = 2
     E: float = 1000.0
