@@ -550,9 +550,16 @@ class Solver:
                     self.gm[node] += mp * phi
                     self.gp[node] += phi * (mp * self.v[p] + self.dt * fp + affine @ dx)
                 elif ti.static(self.apic):
-                    dx = self._node_offset(node, xi)
+                    # m_p C_p (x_i - x_p) phi_i; the linear basis keeps B_p in C and applies
+                    # D_p^-1 at the new position: B_p D_p^-1 (x_i - x_p) phi_i = B_p grad phi_i
+                    # (Jiang et al. 2015), bounded where a particle barely touches a node
+                    affine_momentum = ti.Vector.zero(ti.f64, self.dim)
+                    if ti.static(self.basis.support > 2):
+                        affine_momentum = phi * (self.C[p] @ self._node_offset(node, xi))
+                    else:
+                        affine_momentum = self.C[p] @ grad
                     self.gm[node] += mp * phi
-                    self.gp[node] += phi * (mp * (self.v[p] + self.C[p] @ dx) + self.dt * fp) \
+                    self.gp[node] += phi * (mp * self.v[p] + self.dt * fp) + mp * affine_momentum \
                         - self.dt * (stress_volume @ grad)
                 elif ti.static(not self.mls):
                     self.gm[node] += mp * phi
@@ -638,7 +645,7 @@ class Solver:
                     du += phi * dui
                     if ti.static(not self.mls_mpm):
                         grad_du += dui.outer_product(grad)
-                    if ti.static(self.apic and self.basis.support > 2):
+                    if ti.static(self.apic):
                         B += phi * self.gp[base + offset].outer_product(
                             self._node_offset(base + offset, xi))
                 if ti.static(self.apic):
@@ -658,7 +665,7 @@ class Solver:
                                 B[j, k] /= dk
                         self.C[p] = B
                     else:
-                        self.C[p] = grad_du / self.dt  # linear: B D^-1 = sum v_i grad phi^T
+                        self.C[p] = B  # linear: B_p, D_p^-1 applied in P2G (see _p2g)
                 deps = 0.5 * (grad_du + grad_du.transpose())
                 vol_old = self.vol[p]
                 sig_old = self.sigma[p]
@@ -1127,6 +1134,38 @@ class Solver:
 
     def velocities(self) -> np.ndarray:
         return self._component(self.v)
+
+    def _inertia(self):
+        """D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T of every particle (diagonal), (n, dim)."""
+        from .basis import stencils
+
+        x = self._component(self.x).reshape(self.n_particles, self.dim)
+        out = np.empty_like(x)
+        for k in range(self.dim):
+            xi = (x[:, k] - self.origin[k]) * self.inv_h
+            base, w, _ = stencils(self.basis, xi, self.grid_elements[k])
+            r = (base[:, None] + np.arange(self.basis.support) - self.node_offset - xi[:, None])
+            out[:, k] = np.sum(w * (r * self.h) ** 2, axis=1)
+        return out
+
+    def affine(self) -> np.ndarray:
+        """The affine velocity C_p = B_p D_p^-1 of the APIC transfers, (n, dim, dim)."""
+        if not self.apic:
+            raise RuntimeError(f"the {self.transfer} transfer keeps no affine velocity")
+        C = self.C.to_numpy()
+        if self.basis.support == 2:  # the linear basis stores B_p
+            C = C / self._inertia()[:, None, :]
+        return C
+
+    def set_affine(self, C):
+        """Set the affine velocity C_p of every particle ((n, dim, dim) or one matrix)."""
+        if not self.apic:
+            raise RuntimeError(f"the {self.transfer} transfer keeps no affine velocity")
+        C = np.broadcast_to(np.asarray(C, dtype=np.float64),
+                            (self.n_particles, self.dim, self.dim)).copy()
+        if self.basis.support == 2:
+            C = C * self._inertia()[:, None, :]
+        self.C.from_numpy(C)
 
     def stresses(self) -> np.ndarray:
         """Cauchy stress: one value per particle in 1D, else (n, dim, dim)."""
