@@ -2,7 +2,7 @@
 import argparse
 import math
 
-__all__ = ["param", "positive_int", "positive_float"]
+__all__ = ["param", "setting", "positive_int", "positive_float"]
 
 
 def param(text):
@@ -14,6 +14,19 @@ def param(text):
         return name, float(value)
     except ValueError:
         raise argparse.ArgumentTypeError(f"parameter {name}: {value!r} is not a number") from None
+
+
+def setting(text):
+    """NAME=VALUE where VALUE is a number (int or float) or a word (e.g. transfer=musl)."""
+    name, sep, value = text.partition("=")
+    if not sep or not name or not value:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    for kind in (int, float):
+        try:
+            return name, kind(value)
+        except ValueError:
+            pass
+    return name, value
 
 
 def positive_int(text):

@@ -4,7 +4,7 @@ import json
 import sys
 
 from . import __version__, speed_error
-from .argtypes import param, positive_int
+from .argtypes import param, positive_int, setting
 from .basis import BASES
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
@@ -71,8 +71,8 @@ def _parser():
     demo.add_argument("--color", help="colour by: speed, pressure, plastic, von-mises, body")
     demo.add_argument("--png-dir", metavar="DIR", help="also write every frame as PNG")
     demo.add_argument("--t-end", type=float, help="end time [s] (default: the demo's)")
-    demo.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
-                      help="override a demo parameter, e.g. aspect=1 or cells=40")
+    demo.add_argument("--param", type=setting, action="append", default=[], metavar="NAME=VALUE",
+                      help="override a demo parameter, e.g. aspect=1, cells=40, transfer=musl")
     demo.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel"])
     demo.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
     demo.add_argument("--plot", metavar="FILE.png", help="plot the demo's diagnostic")
@@ -132,9 +132,7 @@ def _demo(args):
     from . import runtime
     from .demos import run_demo
 
-    params = {}
-    for name, value in args.param:
-        params[name] = int(value) if value.is_integer() and name in _INTEGER_PARAMS else value
+    params = dict(args.param)
     if args.t_end is not None:
         params["t_end"] = args.t_end
     runtime.init(threads=args.threads)
@@ -156,10 +154,6 @@ def _demo(args):
         with open(args.json, "w") as fh:
             json.dump(doc, fh, indent=2)
     return 0
-
-
-#: demo parameters that are whole numbers
-_INTEGER_PARAMS = {"cells", "cells_per_width", "cells_per_a", "ppc", "dim"}
 
 
 def main(argv=None):
