@@ -10,6 +10,10 @@ One step is the study's Modified Lagrangian algorithm with Euler-Cromer time ste
 5. G2P: displacement and position u_p, x_p += sum_i phi_i v_i dt; strain increment
    d_eps = sum_i dphi_i v_i dt; stress, volume and density updates
 
+In 2D/3D (a :class:`timpm.world.World`) the same phases also run the affine transfers
+(APIC, MLS-MPM): P2G of mass and momentum with the affine part and dt times the force,
+v = P / m with the wall conditions, G2P of v_p, C_p and the velocity gradient.
+
 Every phase is a ``ti.func`` whose outermost loop runs over particles or nodes.  The same
 phases compile into two kernels: ``_step`` (one launch per step, the loops parallel over
 the CPU threads with atomic scatter) and ``_advance`` (many steps in one launch, the step
@@ -262,7 +266,8 @@ class Solver:
             self.plastic = ti.field(f64)  # accumulated plastic strain
             particle_fields.append(self.plastic)
         if self.apic:
-            self.C = ti.Matrix.field(d, d, f64)  # affine velocity of the APIC transfer
+            # affine velocity C_p of the APIC transfers (B_p = C_p D_p for the linear basis)
+            self.C = ti.Matrix.field(d, d, f64)
             particle_fields.append(self.C)
         if self.multi_material:
             self.mat = ti.field(ti.i32)
