@@ -903,7 +903,7 @@ class Solver:
         if ti.static(self.record_energies):
             self.h_energy[slot] = ti.Vector.zero(ti.f64, 4)
             for p in range(self.n_particles):
-                # potential of gravity: -m g . u (1D), -m g . x (2D/3D, shifted in energies())
+                # potential of gravity: -m g . u (1D), -m g . x (2D/3D, taken from its start in energies())
                 pot = 0.0
                 for k in ti.static(range(self.dim)):
                     if ti.static(self.gravity[k] != 0.0):
@@ -1201,8 +1201,9 @@ class Solver:
         if not self.record_energies:
             raise RuntimeError("this solver was built with energies=False")
         e = np.asarray(self.history["energy"])
+        gravity = e[:, 2] if self.has_u else e[:, 2] - e[0, 2]  # 2D/3D: -m g . (x - x0)
         out = {"t": np.asarray(self.history["t"]), "kinetic": e[:, 0], "strain": e[:, 1],
-               "gravity": e[:, 2], "external_work": e[:, 3]}
+               "gravity": gravity, "external_work": e[:, 3]}
         out["total"] = out["kinetic"] + out["strain"] + out["gravity"] - out["external_work"]
         return out
 
