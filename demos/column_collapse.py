@@ -7,12 +7,7 @@ scene, its parameters and the comparison it makes.
 """
 import sys
 
-from timpm.cli import main
+from timpm.demos import script
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    if "--out" not in args:
-        args += ["--out", "column_collapse.gif"]
-    if "--plot" not in args:
-        args += ["--plot", "column_collapse.png"]
-    sys.exit(main(["demo", "column-collapse", *args]))
+    sys.exit(script("column-collapse"))

@@ -7,12 +7,7 @@ scene, its parameters and the comparison it makes.
 """
 import sys
 
-from timpm.cli import main
+from timpm.demos import script
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    if "--out" not in args:
-        args += ["--out", "disks.gif"]
-    if "--plot" not in args:
-        args += ["--plot", "disks.png"]
-    sys.exit(main(["demo", "disks", *args]))
+    sys.exit(script("disks"))

@@ -20,6 +20,7 @@ import numpy as np
 
 from .materials import DruckerPrager, NeoHookean, WeaklyCompressibleFluid
 from .render import GifWriter, Renderer
+from .scene import _positive
 from .solver import Solver, _Progress
 from .world import Ball, Body, Box, Wall, World
 
@@ -55,13 +56,6 @@ def lajeunesse_runout(a):
     return np.where(a < 3.0, 1.8 * a, 2.3 * a ** (2.0 / 3.0))
 
 
-def _check_positive(name, value):
-    value = float(value)
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
-    return value
-
-
 @dataclass
 class Demo:
     """A scene with a default length of run, colour and per-frame diagnostics."""
@@ -85,7 +79,7 @@ class Demo:
         return {}
 
     def end_time(self):
-        return self.default_t_end() if self.t_end is None else _check_positive("t_end", self.t_end)
+        return self.default_t_end() if self.t_end is None else _positive("t_end", self.t_end)
 
 
 @dataclass
@@ -108,8 +102,8 @@ class ColumnCollapse(Demo):
     courant: float = 0.8
 
     def world(self) -> World:
-        a = _check_positive("aspect", self.aspect)
-        L0 = _check_positive("width", self.width)
+        a = _positive("aspect", self.aspect)
+        L0 = _positive("width", self.width)
         h = L0 / self.cells_per_width
         est = float(lube_runout(a))
         nx = int(math.ceil(L0 * (2.0 + 2.0 * est) / h))
@@ -213,7 +207,7 @@ class DamBreak(Demo):
     courant: float = 0.8
 
     def world(self) -> World:
-        a = _check_positive("a", self.a)
+        a = _positive("a", self.a)
         h = a / self.cells_per_a
         c = self.mach_inverse * 2.0 * math.sqrt(9.81 * 2 * a)
         water = WeaklyCompressibleFluid(bulk_modulus=self.density * c * c, density=self.density,
@@ -369,3 +363,19 @@ def run_demo(name, out=None, frames=60, fps=20, width=480, color=None, png_dir=N
     result.solver = solver
     return result
 
+
+
+def script(name, argv=None):
+    """Entry of the scripts in demos/: ``timpm demo NAME`` writing NAME.gif and NAME.png
+    (underscores for dashes) unless ``--out`` / ``--plot`` are given."""
+    import sys
+
+    from .cli import main
+
+    args = list(sys.argv[1:] if argv is None else argv)
+    stem = name.replace("-", "_")
+    if "--out" not in args:
+        args += ["--out", f"{stem}.gif"]
+    if "--plot" not in args:
+        args += ["--plot", f"{stem}.png"]
+    return main(["demo", name, *args])

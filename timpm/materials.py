@@ -7,7 +7,7 @@ A material is a ``@ti.data_oriented`` object of compile-time constants with one
 
 called in G2P with the displacement-increment gradient ``grad_du = sum_i u_i^inc
 grad(phi_i)^T`` of particle ``p`` (so ``I + grad_du`` is the incremental deformation
-gradient).  It advances the particle state the material owns (``needs``: the
+gradient), after the solver has stored the particle's new volume in ``solver.vol[p]``.  It advances the particle state the material owns (``needs``: the
 deformation gradient ``F``, the plastic strain ``plastic``) and returns the new Cauchy
 stress.  The solver allocates a state field only when a material of the scene needs it
 and compiles only the update functions of the scene's materials.
@@ -22,18 +22,10 @@ import math
 
 import taichi as ti
 
+from .scene import _positive
+
 __all__ = ["SolidMaterial", "LinearElastic", "NeoHookean", "DruckerPrager",
            "WeaklyCompressibleFluid", "Hypoelastic1D", "MATERIALS", "get_material"]
-
-
-def _positive(owner, name, value):
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{owner}: {name} must be a positive number, got {value!r}") from None
-    if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{owner}: {name} must be a positive finite number, got {value!r}")
-    return value
 
 
 @ti.data_oriented
@@ -48,7 +40,7 @@ class Material:
     wave_speed = 0.0
 
     def __init__(self, density):
-        self.density = _positive(self.name, "density", density)
+        self.density = _positive(f"{self.name}: density", density)
 
     def __repr__(self):
         params = ", ".join(f"{k}={v:g}" for k, v in self.parameters().items())
@@ -65,7 +57,7 @@ class SolidMaterial(Material):
 
     def __init__(self, E, nu, density):
         super().__init__(density)
-        self.E = _positive(self.name, "Young's modulus E", E)
+        self.E = _positive(f"{self.name}: Young's modulus E", E)
         try:
             nu = float(nu)
         except (TypeError, ValueError):
@@ -82,6 +74,11 @@ class SolidMaterial(Material):
     def parameters(self) -> dict:
         return {"E": self.E, "nu": self.nu, "density": self.density}
 
+    @ti.func
+    def _trial_F(self, s: ti.template(), p, grad_du):
+        """F_trial = (I + grad du) F_p: the deformation gradient advanced by the step."""
+        return (ti.Matrix.identity(ti.f64, s.dim) + grad_du) @ s.F[p]
+
 
 class LinearElastic(SolidMaterial):
     """Small-strain linear elasticity: sigma = lambda tr(eps) I + 2 mu eps, eps = sym(F) - I."""
@@ -90,7 +87,7 @@ class LinearElastic(SolidMaterial):
 
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
-        F = (ti.Matrix.identity(ti.f64, s.dim) + grad_du) @ s.F[p]
+        F = self._trial_F(s, p, grad_du)
         s.F[p] = F
         eps = 0.5 * (F + F.transpose()) - ti.Matrix.identity(ti.f64, s.dim)
         return self.lam * eps.trace() * ti.Matrix.identity(ti.f64, s.dim) + 2.0 * self.mu * eps
@@ -103,7 +100,7 @@ class NeoHookean(SolidMaterial):
 
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
-        F = (ti.Matrix.identity(ti.f64, s.dim) + grad_du) @ s.F[p]
+        F = self._trial_F(s, p, grad_du)
         s.F[p] = F
         J = F.determinant()
         eye = ti.Matrix.identity(ti.f64, s.dim)
@@ -142,7 +139,7 @@ class DruckerPrager(SolidMaterial):
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         d = ti.static(s.dim)
-        F = (ti.Matrix.identity(ti.f64, d) + grad_du) @ s.F[p]
+        F = self._trial_F(s, p, grad_du)
         U, S, V = ti.svd(F)
         eps = ti.Vector.zero(ti.f64, d)
         for k in ti.static(range(d)):
@@ -178,8 +175,7 @@ class DruckerPrager(SolidMaterial):
         for k in ti.static(range(d)):
             T[k, k] = tau[k]
         vol0 = s.m[p] / self.density
-        vol = s.vol[p] * (ti.Matrix.identity(ti.f64, d) + grad_du).determinant()
-        return U @ T @ U.transpose() * (vol0 / vol)
+        return U @ T @ U.transpose() * (vol0 / s.vol[p])
 
 
 class WeaklyCompressibleFluid(Material):
@@ -194,8 +190,8 @@ class WeaklyCompressibleFluid(Material):
 
     def __init__(self, bulk_modulus, density, gamma=7.0, viscosity=0.0, tension=False):
         super().__init__(density)
-        self.bulk_modulus = _positive(self.name, "bulk modulus", bulk_modulus)
-        self.gamma = _positive(self.name, "Tait exponent gamma", gamma)
+        self.bulk_modulus = _positive(f"{self.name}: bulk modulus", bulk_modulus)
+        self.gamma = _positive(f"{self.name}: Tait exponent gamma", gamma)
         try:
             viscosity = float(viscosity)
         except (TypeError, ValueError):
@@ -215,7 +211,7 @@ class WeaklyCompressibleFluid(Material):
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         d = ti.static(s.dim)
         eye = ti.Matrix.identity(ti.f64, d)
-        J = s.vol[p] * (eye + grad_du).determinant() * self.density / s.m[p]
+        J = s.vol[p] * self.density / s.m[p]
         pressure = self.bulk_modulus / self.gamma * (ti.pow(J, -self.gamma) - 1.0)
         if ti.static(not self.tension):
             pressure = ti.max(pressure, 0.0)

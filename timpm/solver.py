@@ -677,9 +677,9 @@ class Solver:
                 jac = 1.0 + grad_du[0, 0]
                 if ti.static(self.dim > 1):
                     jac = (ti.Matrix.identity(ti.f64, self.dim) + grad_du).determinant()
+                self.vol[p] = vol_old * jac  # the materials read the new volume
                 sig_new = self._material_update(p, grad_du, sig_old)
                 self.sigma[p] = sig_new
-                self.vol[p] = vol_old * jac
                 if ti.static(self.record_energies):
                     # strain energy: trapezoidal path integral of sigma : d_eps V
                     self.work[p] += 0.5 * ((sig_old * vol_old + sig_new * vol_old * jac) * deps).sum()

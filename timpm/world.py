@@ -17,6 +17,7 @@ import numpy as np
 
 from .basis import get_basis
 from .materials import MATERIALS, Material, get_material
+from .scene import _positive
 
 __all__ = ["Box", "Ball", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WALL_KINDS",
            "SIDES", "PRESETS"]
@@ -356,12 +357,7 @@ class World:
         if self.dt is None:
             object.__setattr__(self, "dt", courant * limit)
             return
-        try:
-            dt = float(self.dt)
-        except (TypeError, ValueError):
-            dt = float("nan")
-        if not (math.isfinite(dt) and dt > 0):
-            raise ValueError(f"time step dt must be a positive finite number, got {self.dt!r}")
+        dt = _positive("time step dt", self.dt)
         object.__setattr__(self, "dt", dt)
         if dt > limit and not self.allow_unstable_dt:
             raise ValueError(
