@@ -138,8 +138,65 @@ class DruckerPrager(SolidMaterial):
 
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
-        d = ti.static(s.dim)
         F = self._trial_F(s, p, grad_du)
+        sig = ti.Matrix.zero(ti.f64, s.dim, s.dim)
+        if ti.static(s.dim == 2):
+            sig = self._update_2d(s, p, F)
+        else:
+            sig = self._update_svd(s, p, F)
+        return sig
+
+    @ti.func
+    def _update_2d(self, s: ti.template(), p, F):
+        """The same return mapping in 2D from the spectral form of b = F F^T, no SVD: with
+        b's eigenvalues l1 >= l2 and A = (b - m I) / r (m, r: mean and half gap), a
+        function of b is f(b) = (f1 + f2) / 2 I + (f1 - f2) / 2 A (about 2x faster)."""
+        eye = ti.Matrix.identity(ti.f64, 2)
+        b = F @ F.transpose()
+        m = 0.5 * (b[0, 0] + b[1, 1])
+        r = ti.sqrt(0.25 * (b[0, 0] - b[1, 1]) ** 2 + b[0, 1] ** 2)
+        l1 = m + r
+        l2 = ti.max(b.determinant(), 1e-24) / ti.max(l1, 1e-12)  # m - r without cancellation
+        A = ti.Matrix.zero(ti.f64, 2, 2)
+        if r > 1e-14 * m:
+            A = (b - m * eye) / r
+        e1 = 0.5 * ti.log(ti.max(l1, 1e-24))  # principal Hencky strains, e1 >= e2
+        e2 = 0.5 * ti.log(l2)
+        # return mapping (Klar et al. 2016, Alg. 2); in 2D the deviatoric direction of
+        # (e1, e2) is (1, -1) / sqrt 2, so the plastic correction scales b's eigenvectors by
+        # exp(-+ dgamma / sqrt 2)
+        tr = e1 + e2
+        dgamma = 0.0
+        g1, g2 = 1.0, 1.0  # exp(e_new - e) along each eigenvector
+        if tr >= 0.0:  # tension: back to the cone tip
+            dgamma = ti.sqrt(e1 * e1 + e2 * e2)
+            e1, e2 = 0.0, 0.0
+            g1, g2 = 1.0 / ti.sqrt(ti.max(l1, 1e-24)), 1.0 / ti.sqrt(l2)
+        else:
+            dev_norm = (e1 - e2) / ti.sqrt(2.0)
+            dgamma = dev_norm + (2.0 * self.lam + 2.0 * self.mu) / (2.0 * self.mu) * tr * self.alpha
+            if dgamma > 0.0:
+                shift = dgamma / ti.sqrt(2.0)
+                e1 -= shift
+                e2 += shift
+                g1 = ti.exp(-shift)
+                g2 = 1.0 / g1
+            else:
+                dgamma = 0.0
+        s.plastic[p] += dgamma
+        if dgamma > 0.0:  # plastic: the elastic part moves back onto the cone
+            F = (0.5 * (g1 + g2) * eye + 0.5 * (g1 - g2) * A) @ F
+        s.F[p] = F
+        tr_e = e1 + e2
+        tau1 = 2.0 * self.mu * e1 + self.lam * tr_e
+        tau2 = 2.0 * self.mu * e2 + self.lam * tr_e
+        T = 0.5 * (tau1 + tau2) * eye + 0.5 * (tau1 - tau2) * A
+        vol0 = s.m[p] / self.density
+        return T * (vol0 / s.vol[p])
+
+    @ti.func
+    def _update_svd(self, s: ti.template(), p, F):
+        d = ti.static(s.dim)
         U, S, V = ti.svd(F)
         eps = ti.Vector.zero(ti.f64, d)
         for k in ti.static(range(d)):

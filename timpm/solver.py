@@ -88,15 +88,34 @@ def _mls_value(mom, b):
     return value
 
 
-#: P2G scatter strategies: parallel atomic adds, or the scatter loop on one thread (plain
-#: adds) while the gather loops stay parallel; "auto" picks serial on CPUs
-SCATTERS = ("auto", "atomic", "serial")
+#: P2G scatter strategies: parallel atomic adds (the GPU path); the scatter loop on one
+#: thread (plain adds); or one private grid copy per CPU thread, each filled with plain adds
+#: by its share of the particles and summed into the grid afterwards.  "auto" picks
+#: private on a multi-threaded CPU, serial on one thread and atomic on a GPU.
+SCATTERS = ("auto", "atomic", "serial", "private")
 
 
 def _on_cpu() -> bool:
     from taichi.lang import impl
 
     return impl.current_cfg().arch in (ti.x64, ti.arm64)
+
+
+def _cpu_threads() -> int:
+    from taichi.lang import impl
+
+    return max(1, int(impl.current_cfg().cpu_max_num_threads))
+
+
+#: Taichi's CPU range-for hands each thread one contiguous block of at least this many
+#: iterations (pass make_cpu_multithreading_loop); shorter loops run on one thread
+_MIN_CPU_BLOCK = 512
+
+
+def _static_cpu_blocks() -> bool:
+    from taichi.lang import impl
+
+    return bool(getattr(impl.current_cfg(), "make_cpu_multithreading_loop", False))
 
 
 class SimulationError(RuntimeError):
@@ -147,13 +166,30 @@ class Solver:
         self.mode = ("serial" if n <= serial_threshold else "parallel") if mode == "auto" else mode
         if scatter not in SCATTERS:
             raise ValueError(f"unknown scatter {scatter!r}: choose one of {', '.join(SCATTERS)}")
+        private_ok = not (isinstance(scene, Scene) and
+                          (scene.mass == "consistent" or scene.projection == "mls"))
+        if scatter == "private" and not private_ok:
+            raise ValueError("the private scatter needs a lumped mass without the MLS "
+                             "projection; use scatter='serial' or 'atomic'")
         if scatter == "auto":
-            # a contended atomic add costs ~5x a plain one on the CPU: scatter on one
-            # thread there, and in parallel (atomics) on GPUs
-            scatter = "serial" if _on_cpu() else "atomic"
+            # a float atomic add is a compare-and-swap loop on the CPU, ~5x a plain add:
+            # plain adds into a grid copy per thread there, atomics on GPUs
+            if not _on_cpu():
+                scatter = "atomic"
+            elif _cpu_threads() > 1 and private_ok and self.mode == "parallel":
+                scatter = "private"
+            else:
+                scatter = "serial"
         self.scatter = scatter
         # in the fused serial mode every loop runs on one thread anyway
         self.serial_scatter = scatter == "serial" and self.mode == "parallel"
+        # private: at least two copies, so that the path is the same on a one-core machine
+        self.n_copies = max(2, _cpu_threads()) if scatter == "private" and self.mode == "parallel" else 1
+        if self.n_copies > 1 and not _static_cpu_blocks():
+            raise ValueError("the private scatter relies on Taichi's static split of CPU "
+                             "range-for loops (make_cpu_multithreading_loop), which is off")
+        self.scatter_block = max(_MIN_CPU_BLOCK, -(-n // self.n_copies))
+        self.private_scatter = self.n_copies > 1
         self.record_every = int(record_every)
         self.history_chunk = int(history_chunk)
         self.n_particles = n
@@ -293,6 +329,15 @@ class Solver:
             grid_fields.append(self.fixed)
         fb.dense(ti.axes(*range(d)), self.grid_nodes).place(*grid_fields)
         self._grid_fields = grid_fields
+        # private scatter: thread k > 0 fills copy k - 1 of each scattered grid field
+        self.copies = {}
+        if self.private_scatter:
+            scattered = ["gm", "gp"] + ([] if self.apic else ["gf"])
+            for name in scattered:
+                self.copies[name] = [ti.field(f64) if name == "gm" else ti.Vector.field(d, f64)
+                                     for _ in range(self.n_copies - 1)]
+                for fld in self.copies[name]:
+                    fb.dense(ti.axes(*range(d)), self.grid_nodes).place(fld)
         if self.grid_displacement:
             self.gu = ti.Vector.field(d, f64)
             fb.dense(ti.axes(*range(d)), self.grid_nodes).place(self.gu)
@@ -513,21 +558,71 @@ class Solver:
                 self.n_vel[i] = ti.Vector.zero(ti.f64, 2)
 
     @ti.func
+    def _add(self, name: ti.template(), copy, node, value):
+        """grid field ``name`` at ``node`` += value, by the scatter strategy: into the
+        calling thread's private copy (plain adds) or the grid itself (atomic in a
+        parallel loop, plain in a serial one)."""
+        grid = ti.static(getattr(self, name))
+        if ti.static(self.private_scatter):
+            if copy == 0:
+                grid[node] = grid[node] + value
+            for k in ti.static(range(1, self.n_copies)):
+                if copy == k:
+                    fld = ti.static(self.copies[name][k - 1])
+                    fld[node] = fld[node] + value
+        else:
+            grid[node] += value
+
+    @ti.func
+    def _merge_copies(self, names: ti.template()):
+        # private scatter: sum the threads' grid copies into the grid, and clear them
+        for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
+            for name in ti.static(names):
+                grid = ti.static(getattr(self, name))
+                for fld in ti.static(self.copies[name]):
+                    grid[I] = grid[I] + fld[I]  # a plain add: no other thread writes node I
+                    if ti.static(name == "gm"):
+                        fld[I] = 0.0
+                    else:
+                        fld[I] = ti.Vector.zero(ti.f64, self.dim)
+
+    @ti.func
+    def _scatter_particles(self, phase: ti.template()):
+        """Run the scattering particle phase ("p2g" or "g2p-velocity") for every particle,
+        by the scatter strategy."""
+        if ti.static(self.private_scatter):
+            # Taichi's CPU range-for gives thread c the iterations [c B, (c + 1) B) with
+            # B = max(ceil(N / threads), 512): iteration p writes the copy of thread p // B
+            B = ti.static(self.scatter_block)
+            for p in range(self.n_copies * B):
+                if p < self.n_particles:
+                    self._scatter_particle(phase, p, p // B)
+        elif ti.static(self.serial_scatter):
+            ti.loop_config(serialize=True)  # plain adds instead of contended atomics
+            for p in range(self.n_particles):
+                self._scatter_particle(phase, p, 0)
+        else:
+            for p in range(self.n_particles):
+                self._scatter_particle(phase, p, 0)
+
+    @ti.func
+    def _scatter_particle(self, phase: ti.template(), p, copy):
+        if ti.static(phase == "p2g"):
+            self._p2g_particle(p, copy)
+        else:
+            self._g2p_velocity_particle(p, copy)
+
+    @ti.func
     def _p2g(self):
         # P2G (2.2.4): M_ij = sum m_p phi_i phi_j (A.1) or M_ii = sum m_p phi_i (A.2);
         # F_i = sum phi_i (m_p g + f_trac(t)) - sigma_p V_p dphi_i; with the affine transfer
         # (APIC) P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i in the same pass
-        t = self.time[None]
-        if ti.static(self.serial_scatter):
-            ti.loop_config(serialize=True)  # plain adds instead of contended atomics
-            for p in range(self.n_particles):
-                self._p2g_particle(p, t)
-        else:
-            for p in range(self.n_particles):
-                self._p2g_particle(p, t)
+        self._scatter_particles("p2g")
+        if ti.static(self.private_scatter):
+            self._merge_copies(ti.static(tuple(self.copies)))
 
     @ti.func
-    def _p2g_particle(self, p, t):
+    def _p2g_particle(self, p, copy):
         base, w, dw, xi, inside = self._stencil(p)
         if not inside:
             self._fail(1, p)
@@ -539,7 +634,7 @@ class Solver:
                     fp[k] += mp * self.gravity[k]
             if ti.static(self.has_traction):
                 if p == self.traction_particle:
-                    fp[0] += self.traction_amplitude * self.traction_fn.value(t)
+                    fp[0] += self.traction_amplitude * self.traction_fn.value(self.time[None])
             stress_volume = self.sigma[p] * self.vol[p]
             affine = ti.Matrix.zero(ti.f64, self.dim, self.dim)
             if ti.static(self.mls_mpm):
@@ -552,8 +647,8 @@ class Solver:
                 node = base + offset
                 if ti.static(self.mls_mpm):
                     dx = self._node_offset(node, xi)
-                    self.gm[node] += mp * phi
-                    self.gp[node] += phi * (mp * self.v[p] + self.dt * fp + affine @ dx)
+                    self._add("gm", copy, node, mp * phi)
+                    self._add("gp", copy, node, phi * (mp * self.v[p] + self.dt * fp + affine @ dx))
                 elif ti.static(self.apic):
                     # m_p C_p (x_i - x_p) phi_i; the linear basis keeps B_p in C and applies
                     # D_p^-1 at the new position: B_p D_p^-1 (x_i - x_p) phi_i = B_p grad phi_i
@@ -563,16 +658,16 @@ class Solver:
                         affine_momentum = phi * (self.C[p] @ self._node_offset(node, xi))
                     else:
                         affine_momentum = self.C[p] @ grad
-                    self.gm[node] += mp * phi
-                    self.gp[node] += phi * (mp * self.v[p] + self.dt * fp) + mp * affine_momentum \
-                        - self.dt * (stress_volume @ grad)
+                    self._add("gm", copy, node, mp * phi)
+                    self._add("gp", copy, node, phi * (mp * self.v[p] + self.dt * fp)
+                              + mp * affine_momentum - self.dt * (stress_volume @ grad))
                 elif ti.static(not self.mls):
-                    self.gm[node] += mp * phi
-                    self.gf[node] += phi * fp - stress_volume @ grad
+                    self._add("gm", copy, node, mp * phi)
+                    self._add("gf", copy, node, phi * fp - stress_volume @ grad)
                 else:
                     self.gf[node] += phi * fp
                 if ti.static(not self.apic and (self.damping > 0.0 or self.has_walls)):
-                    self.gp[node] += mp * phi * self.v[p]
+                    self._add("gp", copy, node, mp * phi * self.v[p])
             if ti.static(self.consistent):
                 for a, c in ti.static(ti.ndrange(self.basis.support, self.basis.support)):
                     self.band[base[0] + a, c - a + self.bandwidth] += mp * w[a, 0] * w[c, 0]
@@ -608,16 +703,12 @@ class Solver:
     @ti.func
     def _g2p_velocity(self):
         # G2P: v_p += dt sum_i phi_i(x_p) a_i; P2G: P_i = sum m_p phi_i(x_p) v_p (2.2.4)
-        if ti.static(self.serial_scatter):
-            ti.loop_config(serialize=True)
-            for p in range(self.n_particles):
-                self._g2p_velocity_particle(p)
-        else:
-            for p in range(self.n_particles):
-                self._g2p_velocity_particle(p)
+        self._scatter_particles("g2p-velocity")
+        if ti.static(self.private_scatter):
+            self._merge_copies(("gp",))
 
     @ti.func
-    def _g2p_velocity_particle(self, p):
+    def _g2p_velocity_particle(self, p, copy):
         base, w, dw, xi, inside = self._stencil(p)
         if inside:
             acc = ti.Vector.zero(ti.f64, self.dim)
@@ -631,7 +722,7 @@ class Solver:
             else:
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
-                    self.gp[base + offset] += self.m[p] * phi * vp
+                    self._add("gp", copy, base + offset, self.m[p] * phi * vp)
 
     @ti.func
     def _g2p_update(self):
