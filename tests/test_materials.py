@@ -13,11 +13,11 @@ class _Particles:
     def __init__(self, F, density):
         n = len(F)
         self.dim = 2
-        self.F = ti.Matrix.field(2, 2, ti.f64, n)
-        self.plastic = ti.field(ti.f64, n)
-        self.m = ti.field(ti.f64, n)
-        self.vol = ti.field(ti.f64, n)
-        self.sigma = ti.Matrix.field(2, 2, ti.f64, n)
+        self.F = ti.Matrix.field(2, 2, float, n)
+        self.plastic = ti.field(float, n)
+        self.m = ti.field(float, n)
+        self.vol = ti.field(float, n)
+        self.sigma = ti.Matrix.field(2, 2, float, n)
         self.F.from_numpy(F)
         self.m.fill(density)  # unit initial volume
         self.vol.from_numpy(np.abs(np.linalg.det(F)))

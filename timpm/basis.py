@@ -121,8 +121,8 @@ def _de_boor(x, knot, degree: ti.template()):
     Cox-de Boor's triangular scheme (Piegl & Tiller, A2.2), the derivatives from the
     degree - 1 values.  Fully unrolled: no loop or branch depends on run-time values.
     """
-    n = ti.Vector.zero(ti.f64, degree + 1)
-    low = ti.Vector.zero(ti.f64, degree + 1)  # the degree - 1 values
+    n = ti.Vector.zero(float, degree + 1)
+    low = ti.Vector.zero(float, degree + 1)  # the degree - 1 values
     n[0] = 1.0
     for j in ti.static(range(1, degree + 1)):
         if ti.static(j == degree):
@@ -135,7 +135,7 @@ def _de_boor(x, knot, degree: ti.template()):
             n[r] = saved + right * temp
             saved = left * temp
         n[j] = saved
-    dn = ti.Vector.zero(ti.f64, degree + 1)
+    dn = ti.Vector.zero(float, degree + 1)
     for r in ti.static(range(degree + 1)):
         # N'_{i,p} = p N_{i,p-1} / (t_{i+p} - t_i) - p N_{i+1,p-1} / (t_{i+p+1} - t_{i+1});
         # a repeated knot makes a denominator zero exactly where N_{.,p-1} is zero
@@ -174,9 +174,9 @@ class _ClampedBSpline(Basis):
         def stencil(xi, n_elements):
             e = ti.min(ti.max(ti.floor(xi, ti.i32), 0), n_elements - 1)
             # knots t_{e+k} of the clamped vector t_j = clamp(j - p, 0, n), k = 0 .. 2p + 1
-            knot = ti.Vector.zero(ti.f64, 2 * degree + 2)
+            knot = ti.Vector.zero(float, 2 * degree + 2)
             for k in ti.static(range(2 * degree + 2)):
-                knot[k] = ti.cast(ti.min(ti.max(e + k - degree, 0), n_elements), ti.f64)
+                knot[k] = ti.cast(ti.min(ti.max(e + k - degree, 0), n_elements), float)
             w, dw = _de_boor(xi, knot, degree)
             return e, w, dw
 
@@ -228,7 +228,7 @@ class _UniformBSpline(Basis):
             # the function of node j is centred at x_j, knots j - (p + 1) / 2 + m: a
             # particle touches the nodes from b = floor(xi - (p - 1) / 2) on
             b = ti.floor(xi - 0.5 * (degree - 1), ti.i32)
-            knot = ti.Vector.zero(ti.f64, 2 * degree + 2)
+            knot = ti.Vector.zero(float, 2 * degree + 2)
             for k in ti.static(range(2 * degree + 2)):
                 knot[k] = b + k - 0.5 * (degree + 1)
             w, dw = _de_boor(xi, knot, degree)

@@ -79,6 +79,9 @@ def _parser():
     demo.add_argument("--json", metavar="FILE", help="write times, summary and series as JSON")
     demo.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                       help="progress bar (default: on a terminal, for runs over 2 s)")
+    # parsed by timpm.bench itself (see main): listed here for the help
+    sub.add_parser("bench", help="throughput side by side with Taichi's mpm88 and NumPy, and "
+                   "the machine's bounds (timpm bench --help)", add_help=False)
     study = sub.add_parser("study", help="studies over many runs: speed-error")
     speed_error.add_parser(study.add_subparsers(dest="study", required=True))
     return ap
@@ -157,6 +160,11 @@ def _demo(args):
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"]:
+        from .bench import main as bench_main
+
+        return bench_main(argv[1:])
     args = _parser().parse_args(argv)
     if args.command == "study":
         return args.func(args)

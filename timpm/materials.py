@@ -25,7 +25,7 @@ import taichi as ti
 from .scene import _positive
 
 __all__ = ["SolidMaterial", "LinearElastic", "NeoHookean", "DruckerPrager",
-           "WeaklyCompressibleFluid", "Hypoelastic1D", "MATERIALS", "get_material"]
+           "WeaklyCompressibleFluid", "JFluid", "Hypoelastic1D", "MATERIALS", "get_material"]
 
 
 @ti.data_oriented
@@ -77,7 +77,7 @@ class SolidMaterial(Material):
     @ti.func
     def _trial_F(self, s: ti.template(), p, grad_du):
         """F_trial = (I + grad du) F_p: the deformation gradient advanced by the step."""
-        return (ti.Matrix.identity(ti.f64, s.dim) + grad_du) @ s.F[p]
+        return (ti.Matrix.identity(float, s.dim) + grad_du) @ s.F[p]
 
 
 class LinearElastic(SolidMaterial):
@@ -89,8 +89,8 @@ class LinearElastic(SolidMaterial):
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         F = self._trial_F(s, p, grad_du)
         s.F[p] = F
-        eps = 0.5 * (F + F.transpose()) - ti.Matrix.identity(ti.f64, s.dim)
-        return self.lam * eps.trace() * ti.Matrix.identity(ti.f64, s.dim) + 2.0 * self.mu * eps
+        eps = 0.5 * (F + F.transpose()) - ti.Matrix.identity(float, s.dim)
+        return self.lam * eps.trace() * ti.Matrix.identity(float, s.dim) + 2.0 * self.mu * eps
 
 
 class NeoHookean(SolidMaterial):
@@ -103,7 +103,7 @@ class NeoHookean(SolidMaterial):
         F = self._trial_F(s, p, grad_du)
         s.F[p] = F
         J = F.determinant()
-        eye = ti.Matrix.identity(ti.f64, s.dim)
+        eye = ti.Matrix.identity(float, s.dim)
         return (self.mu * (F @ F.transpose() - eye) + self.lam * ti.log(J) * eye) / J
 
 
@@ -139,7 +139,7 @@ class DruckerPrager(SolidMaterial):
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         F = self._trial_F(s, p, grad_du)
-        sig = ti.Matrix.zero(ti.f64, s.dim, s.dim)
+        sig = ti.Matrix.zero(float, s.dim, s.dim)
         if ti.static(s.dim == 2):
             sig = self._update_2d(s, p, F)
         else:
@@ -151,13 +151,13 @@ class DruckerPrager(SolidMaterial):
         """The same return mapping in 2D from the spectral form of b = F F^T, no SVD: with
         b's eigenvalues l1 >= l2 and A = (b - m I) / r (m, r: mean and half gap), a
         function of b is f(b) = (f1 + f2) / 2 I + (f1 - f2) / 2 A (about 2x faster)."""
-        eye = ti.Matrix.identity(ti.f64, 2)
+        eye = ti.Matrix.identity(float, 2)
         b = F @ F.transpose()
         m = 0.5 * (b[0, 0] + b[1, 1])
         r = ti.sqrt(0.25 * (b[0, 0] - b[1, 1]) ** 2 + b[0, 1] ** 2)
         l1 = m + r
         l2 = ti.max(b.determinant(), 1e-24) / ti.max(l1, 1e-12)  # m - r without cancellation
-        A = ti.Matrix.zero(ti.f64, 2, 2)
+        A = ti.Matrix.zero(float, 2, 2)
         if r > 1e-14 * m:
             A = (b - m * eye) / r
         e1 = 0.5 * ti.log(ti.max(l1, 1e-24))  # principal Hencky strains, e1 >= e2
@@ -198,7 +198,7 @@ class DruckerPrager(SolidMaterial):
     def _update_svd(self, s: ti.template(), p, F):
         d = ti.static(s.dim)
         U, S, V = ti.svd(F)
-        eps = ti.Vector.zero(ti.f64, d)
+        eps = ti.Vector.zero(float, d)
         for k in ti.static(range(d)):
             eps[k] = ti.log(ti.max(ti.abs(S[k, k]), 1e-12))
         # return mapping on the principal Hencky strains (Klar et al. 2016, Alg. 2)
@@ -208,7 +208,7 @@ class DruckerPrager(SolidMaterial):
         dgamma = 0.0
         if tr >= 0.0:  # tension: cohesionless sand carries none, back to the cone tip
             dgamma = eps.norm()
-            eps = ti.Vector.zero(ti.f64, d)
+            eps = ti.Vector.zero(float, d)
         else:
             dgamma = dev_norm + (d * self.lam + 2.0 * self.mu) / (2.0 * self.mu) * tr * self.alpha
             if dgamma > 0.0:
@@ -216,19 +216,19 @@ class DruckerPrager(SolidMaterial):
             else:
                 dgamma = 0.0
         s.plastic[p] += dgamma
-        tau = ti.Vector.zero(ti.f64, d)
+        tau = ti.Vector.zero(float, d)
         tr_e = eps.sum()
         for k in ti.static(range(d)):
             tau[k] = 2.0 * self.mu * eps[k] + self.lam * tr_e
         if dgamma > 0.0:  # plastic: the elastic part moves back onto the cone
-            Se = ti.Matrix.zero(ti.f64, d, d)
+            Se = ti.Matrix.zero(float, d, d)
             for k in ti.static(range(d)):
                 Se[k, k] = ti.exp(eps[k])
             F = U @ Se @ V.transpose()
         s.F[p] = F
         # Kirchhoff stress U diag(tau) U^T; Cauchy stress = tau V0 / V (the solver's volume
         # follows the total deformation, V = V0 det F_total)
-        T = ti.Matrix.zero(ti.f64, d, d)
+        T = ti.Matrix.zero(float, d, d)
         for k in ti.static(range(d)):
             T[k, k] = tau[k]
         vol0 = s.m[p] / self.density
@@ -267,7 +267,7 @@ class WeaklyCompressibleFluid(Material):
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         d = ti.static(s.dim)
-        eye = ti.Matrix.identity(ti.f64, d)
+        eye = ti.Matrix.identity(float, d)
         J = s.vol[p] * self.density / s.m[p]
         pressure = self.bulk_modulus / self.gamma * (ti.pow(J, -self.gamma) - 1.0)
         if ti.static(not self.tension):
@@ -276,6 +276,31 @@ class WeaklyCompressibleFluid(Material):
         if ti.static(self.viscosity > 0.0):
             sigma += self.viscosity / s.dt * (grad_du + grad_du.transpose())
         return sigma
+
+
+class JFluid(Material):
+    """The fluid of Taichi's ``mpm88`` (Hu et al. 2018): J advances by its linearised rate,
+    J <- J (1 + tr grad du), and the pressure K (1 - J) acts on the initial volume
+    (sigma V = K (J - 1) V0 I).  Cheaper than :class:`WeaklyCompressibleFluid` and
+    first-order in the step; here to run mpm88's physics side by side with it."""
+
+    name = "j-fluid"
+    needs = frozenset({"J"})
+
+    def __init__(self, bulk_modulus, density):
+        super().__init__(density)
+        self.bulk_modulus = _positive(f"{self.name}: bulk modulus", bulk_modulus)
+        self.wave_speed = math.sqrt(self.bulk_modulus / self.density)
+
+    def parameters(self) -> dict:
+        return {"bulk_modulus": self.bulk_modulus, "density": self.density}
+
+    @ti.func
+    def update(self, s: ti.template(), p, grad_du, sigma_old):
+        J = s.J[p] * (1.0 + grad_du.trace())
+        s.J[p] = J
+        vol0 = s.m[p] / self.density
+        return (self.bulk_modulus * (J - 1.0) * vol0 / s.vol[p]) * ti.Matrix.identity(float, s.dim)
 
 
 @ti.data_oriented
@@ -298,7 +323,7 @@ class Hypoelastic1D:
 
 
 MATERIALS = {cls.name: cls for cls in (LinearElastic, NeoHookean, DruckerPrager,
-                                       WeaklyCompressibleFluid)}
+                                       WeaklyCompressibleFluid, JFluid)}
 
 
 def get_material(name: str, **params) -> Material:

@@ -147,7 +147,7 @@ class Solver:
                  mode: str = "auto", serial_threshold: int = 4096, history_chunk: int = 512,
                  track_crossings: bool | None = None, energy_guard: float | None = 2.0,
                  grid_displacement: bool = False, small_mass: float = 1e-3,
-                 scatter: str = "auto"):
+                 scatter: str = "auto", check_every: int = 16):
         ensure_init()
         if not isinstance(scene, (Scene, World)):
             raise TypeError(f"Solver takes a timpm.Scene (1D) or a timpm.World (2D/3D), "
@@ -191,6 +191,9 @@ class Solver:
         self.scatter_block = max(_MIN_CPU_BLOCK, -(-n // self.n_copies))
         self.private_scatter = self.n_copies > 1
         self.record_every = int(record_every)
+        if int(check_every) < 1:
+            raise ValueError(f"check_every must be a positive integer, got {check_every!r}")
+        self.check_every = int(check_every)
         self.history_chunk = int(history_chunk)
         self.n_particles = n
         self.h = scene.grid.h if isinstance(scene, Scene) else scene.h
@@ -281,35 +284,38 @@ class Solver:
     def _allocate(self, scene, track):
         d, n = self.dim, self.n_particles
         fb = ti.FieldsBuilder()
-        f64 = ti.f64
-        self.x = ti.Vector.field(d, f64)
-        self.v = ti.Vector.field(d, f64)
-        self.m = ti.field(f64)
-        self.vol = ti.field(f64)
-        self.sigma = ti.Matrix.field(d, d, f64)
+        real = float  # Taichi's default_fp: timpm.init(precision=...)
+        self.x = ti.Vector.field(d, real)
+        self.v = ti.Vector.field(d, real)
+        self.m = ti.field(real)
+        self.vol = ti.field(real)
+        self.sigma = ti.Matrix.field(d, d, real)
         particle_fields = [self.x, self.v, self.m, self.vol, self.sigma]
         # state only where a feature of the scene needs it
         if self.has_u:
-            self.u = ti.Vector.field(d, f64)  # displacement, for the 1D analytic solutions
+            self.u = ti.Vector.field(d, real)  # displacement, for the 1D analytic solutions
             particle_fields.append(self.u)
         if "eps" in self.needs:
-            self.eps = ti.Matrix.field(d, d, f64)  # accumulated strain (1D law)
+            self.eps = ti.Matrix.field(d, d, real)  # accumulated strain (1D law)
             particle_fields.append(self.eps)
         if "F" in self.needs:
-            self.F = ti.Matrix.field(d, d, f64)  # (elastic) deformation gradient
+            self.F = ti.Matrix.field(d, d, real)  # (elastic) deformation gradient
             particle_fields.append(self.F)
+        if "J" in self.needs:
+            self.J = ti.field(real)  # volume ratio advanced by its linearised rate (JFluid)
+            particle_fields.append(self.J)
         if "plastic" in self.needs:
-            self.plastic = ti.field(f64)  # accumulated plastic strain
+            self.plastic = ti.field(real)  # accumulated plastic strain
             particle_fields.append(self.plastic)
         if self.apic:
             # affine velocity C_p of the APIC transfers (B_p = C_p D_p for the linear basis)
-            self.C = ti.Matrix.field(d, d, f64)
+            self.C = ti.Matrix.field(d, d, real)
             particle_fields.append(self.C)
         if self.multi_material:
             self.mat = ti.field(ti.i32)
             particle_fields.append(self.mat)
         if self.record_energies:
-            self.work = ti.field(f64)  # strain energy, integrated along the path
+            self.work = ti.field(real)  # strain energy, integrated along the path
             particle_fields.append(self.work)
         if self.track_crossings:
             self.elem = ti.Vector.field(d, ti.i32)
@@ -318,12 +324,15 @@ class Solver:
         self._particle_fields = particle_fields
         # grid: mass, momentum then velocity, force then acceleration (the affine transfer
         # folds the force into the momentum), Dirichlet mask (1D)
-        self.gm = ti.field(f64)
-        self.gp = ti.Vector.field(d, f64)
+        self.gm = ti.field(real)
+        self.gp = ti.Vector.field(d, real)
         grid_fields = [self.gm, self.gp]
         if not self.apic:
-            self.gf = ti.Vector.field(d, f64)
+            self.gf = ti.Vector.field(d, real)
             grid_fields.append(self.gf)
+        else:
+            self.gv = ti.Vector.field(d, real)  # velocity of the last grid update
+            grid_fields.append(self.gv)
         if self.fixed_nodes:
             self.fixed = ti.field(ti.i32)
             grid_fields.append(self.fixed)
@@ -334,35 +343,35 @@ class Solver:
         if self.private_scatter:
             scattered = ["gm", "gp"] + ([] if self.apic else ["gf"])
             for name in scattered:
-                self.copies[name] = [ti.field(f64) if name == "gm" else ti.Vector.field(d, f64)
+                self.copies[name] = [ti.field(real) if name == "gm" else ti.Vector.field(d, real)
                                      for _ in range(self.n_copies - 1)]
                 for fld in self.copies[name]:
                     fb.dense(ti.axes(*range(d)), self.grid_nodes).place(fld)
         if self.grid_displacement:
-            self.gu = ti.Vector.field(d, f64)
+            self.gu = ti.Vector.field(d, real)
             fb.dense(ti.axes(*range(d)), self.grid_nodes).place(self.gu)
         nn = self.grid_nodes[0]
         if self.consistent:
             if d != 1:
                 raise ValueError("the consistent mass matrix is implemented for 1D scenes only")
-            self.band = ti.field(f64)  # M[i, i + k - b] stored at band[i, k]
+            self.band = ti.field(real)  # M[i, i + k - b] stored at band[i, k]
             self.inactive = ti.field(ti.i32)  # fixed or untouched rows of M
             fb.dense(ti.ij, (nn, 2 * self.bandwidth + 1)).place(self.band)
             fb.dense(ti.i, nn).place(self.inactive)
         if self.mls:
             ne, ng = self.n_elements, len(GAUSS_POINTS)
-            self.g_mom = ti.Vector.field(3, f64)  # MLS moments sum w [1, d, d^2] at Gauss points
-            self.g_rho = ti.Vector.field(2, f64)  # sum w rho_p [1, d]
-            self.g_sig = ti.Vector.field(2, f64)  # sum w sigma_p [1, d]
+            self.g_mom = ti.Vector.field(3, real)  # MLS moments sum w [1, d, d^2] at Gauss points
+            self.g_rho = ti.Vector.field(2, real)  # sum w rho_p [1, d]
+            self.g_sig = ti.Vector.field(2, real)  # sum w sigma_p [1, d]
             fb.dense(ti.ij, (ne, ng)).place(self.g_mom, self.g_rho, self.g_sig)
-            self.body = ti.Vector.field(2, f64)  # extent of the body: union of x_p -+ V_p / 2
+            self.body = ti.Vector.field(2, real)  # extent of the body: union of x_p -+ V_p / 2
             fb.place(self.body)
-            self.n_mom = ti.Vector.field(3, f64)  # the same at the nodes, for the velocity
-            self.n_vel = ti.Vector.field(2, f64)
+            self.n_mom = ti.Vector.field(3, real)  # the same at the nodes, for the velocity
+            self.n_vel = ti.Vector.field(2, real)
             fb.dense(ti.i, nn).place(self.n_mom, self.n_vel)
         # run state and the first error
         self.step_count = ti.field(ti.i64)
-        self.time = ti.field(f64)
+        self.time = ti.field(ti.f64)
         self.crossings = ti.field(ti.i64)
         self.err = ti.field(ti.i32)
         self.err_count = ti.field(ti.i32)
@@ -374,37 +383,40 @@ class Solver:
         if self.recording:
             cap = self.history_chunk
             self.rec_count = ti.field(ti.i32)
-            self.h_t = ti.field(f64)
+            self.h_t = ti.field(real)
             self.h_step = ti.field(ti.i64)
             fb.place(self.rec_count)
             fb.dense(ti.i, cap).place(self.h_t, self.h_step)
             if self.record_energies:
-                self.h_energy = ti.Vector.field(4, f64)  # kinetic, strain, gravity, external
+                self.h_energy = ti.Vector.field(4, real)  # kinetic, strain, gravity, external
                 fb.dense(ti.i, cap).place(self.h_energy)
             if self.n_tracked:
                 self.track_ids = ti.field(ti.i32)
                 fb.dense(ti.i, self.n_tracked).place(self.track_ids)
-                self.h_x = ti.Vector.field(d, f64)
-                self.h_v = ti.Vector.field(d, f64)
-                self.h_s = ti.Matrix.field(d, d, f64)
+                self.h_x = ti.Vector.field(d, real)
+                self.h_v = ti.Vector.field(d, real)
+                self.h_s = ti.Matrix.field(d, d, real)
                 fb.dense(ti.ij, (cap, self.n_tracked)).place(self.h_x, self.h_v, self.h_s)
                 if self.has_u:
-                    self.h_u = ti.Vector.field(d, f64)
+                    self.h_u = ti.Vector.field(d, real)
                     fb.dense(ti.ij, (cap, self.n_tracked)).place(self.h_u)
         if self.record_energies and self.has_traction:
-            self.ext_work = ti.field(f64)
+            self.ext_work = ti.field(real)
             fb.place(self.ext_work)
         self._tree = fb.finalize()
 
         x = scene.positions.reshape(n, d)
-        self.x.from_numpy(x)
-        self.v.from_numpy(scene.velocity.reshape(n, d))
-        self.m.from_numpy(scene.mass_per_particle)
-        self.vol.from_numpy(scene.volume)
+        real_np = np.float64 if self.x.dtype == ti.f64 else np.float32
+        self.x.from_numpy(x.astype(real_np))
+        self.v.from_numpy(scene.velocity.reshape(n, d).astype(real_np))
+        self.m.from_numpy(scene.mass_per_particle.astype(real_np))
+        self.vol.from_numpy(scene.volume.astype(real_np))
         if self.has_u:
-            self.u.from_numpy(np.zeros((n, d)))
+            self.u.from_numpy(np.zeros((n, d), dtype=real_np))
+        if "J" in self.needs:
+            self.J.fill(1.0)
         if "F" in self.needs:
-            self.F.from_numpy(np.broadcast_to(np.eye(d), (n, d, d)).copy())
+            self.F.from_numpy(np.broadcast_to(np.eye(d, dtype=real_np), (n, d, d)).copy())
         if self.multi_material:
             self.mat.from_numpy(np.asarray(scene.material_index, dtype=np.int32))
         if self.fixed_nodes:
@@ -441,10 +453,10 @@ class Solver:
     def _stencil(self, p):
         """Node base, weights and gradients of particle p, its coordinate in element units,
         and whether p is on the grid."""
-        xi = ti.Vector.zero(ti.f64, self.dim)
+        xi = ti.Vector.zero(float, self.dim)
         base = ti.Vector.zero(ti.i32, self.dim)
-        w = ti.Matrix.zero(ti.f64, self.basis.support, self.dim)
-        dw = ti.Matrix.zero(ti.f64, self.basis.support, self.dim)
+        w = ti.Matrix.zero(float, self.basis.support, self.dim)
+        dw = ti.Matrix.zero(float, self.basis.support, self.dim)
         inside = 1
         for k in ti.static(range(self.dim)):
             xi[k] = (self.x[p][k] - self.origin[k]) * self.inv_h
@@ -464,7 +476,7 @@ class Solver:
     def _weight(self, w, dw, offset):
         """Tensor-product value and gradient of the basis function at stencil ``offset``."""
         phi = 1.0
-        grad = ti.Vector.zero(ti.f64, self.dim)
+        grad = ti.Vector.zero(float, self.dim)
         for k in ti.static(range(self.dim)):
             phi *= w[offset[k], k]
         for j in ti.static(range(self.dim)):
@@ -480,7 +492,7 @@ class Solver:
     @ti.func
     def _node_offset(self, node, xi):
         """x_i - x_p of grid node ``node`` seen from a particle at ``xi`` (element units)."""
-        return (ti.cast(node, ti.f64) - self.node_offset - xi) * self.h
+        return (ti.cast(node, float) - self.node_offset - xi) * self.h
 
     @ti.func
     def _fail(self, code, where):
@@ -510,7 +522,7 @@ class Solver:
                 if hit:
                     vn = v[k] if ti.static(side == 0) else -v[k]  # along the inward normal
                     if ti.static(kind == "sticky"):
-                        v = ti.Vector.zero(ti.f64, self.dim)
+                        v = ti.Vector.zero(float, self.dim)
                     elif vn < 0.0:
                         if ti.static(kind == "friction"):
                             vt = v
@@ -541,21 +553,21 @@ class Solver:
     def _clear_grid(self):
         for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
             self.gm[I] = 0.0
-            self.gp[I] = ti.Vector.zero(ti.f64, self.dim)
+            self.gp[I] = ti.Vector.zero(float, self.dim)
             if ti.static(not self.apic):
-                self.gf[I] = ti.Vector.zero(ti.f64, self.dim)
+                self.gf[I] = ti.Vector.zero(float, self.dim)
         if ti.static(self.consistent):
             for i, k in ti.ndrange(self.n_nodes, 2 * self.bandwidth + 1):
                 self.band[i, k] = 0.0
         if ti.static(self.mls):
             for e, g in ti.ndrange(self.n_elements, ti.static(len(GAUSS_POINTS))):
-                self.g_mom[e, g] = ti.Vector.zero(ti.f64, 3)
-                self.g_rho[e, g] = ti.Vector.zero(ti.f64, 2)
-                self.g_sig[e, g] = ti.Vector.zero(ti.f64, 2)
+                self.g_mom[e, g] = ti.Vector.zero(float, 3)
+                self.g_rho[e, g] = ti.Vector.zero(float, 2)
+                self.g_sig[e, g] = ti.Vector.zero(float, 2)
             self.body[None] = ti.Vector([1e300, -1e300])
             for i in range(self.n_nodes):
-                self.n_mom[i] = ti.Vector.zero(ti.f64, 3)
-                self.n_vel[i] = ti.Vector.zero(ti.f64, 2)
+                self.n_mom[i] = ti.Vector.zero(float, 3)
+                self.n_vel[i] = ti.Vector.zero(float, 2)
 
     @ti.func
     def _add(self, name: ti.template(), copy, node, value):
@@ -584,7 +596,7 @@ class Solver:
                     if ti.static(name == "gm"):
                         fld[I] = 0.0
                     else:
-                        fld[I] = ti.Vector.zero(ti.f64, self.dim)
+                        fld[I] = ti.Vector.zero(float, self.dim)
 
     @ti.func
     def _scatter_particles(self, phase: ti.template()):
@@ -607,10 +619,17 @@ class Solver:
 
     @ti.func
     def _scatter_particle(self, phase: ti.template(), p, copy):
-        if ti.static(phase == "p2g"):
-            self._p2g_particle(p, copy)
-        else:
-            self._g2p_velocity_particle(p, copy)
+        if not self._halted():
+            if ti.static(phase == "p2g"):
+                self._p2g_particle(p, copy)
+            else:
+                self._g2p_velocity_particle(p, copy)
+
+    @ti.func
+    def _halted(self):
+        """A step before this one failed: the particles stay as they were at the failure
+        (Python reads the error back every ``check_every`` steps)."""
+        return self.err_count[None] != 0 and self.err_step[None] < self.step_count[None]
 
     @ti.func
     def _p2g(self):
@@ -618,8 +637,8 @@ class Solver:
         # F_i = sum phi_i (m_p g + f_trac(t)) - sigma_p V_p dphi_i; with the affine transfer
         # (APIC) P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i in the same pass
         self._scatter_particles("p2g")
-        if ti.static(self.private_scatter):
-            self._merge_copies(ti.static(tuple(self.copies)))
+        if ti.static(self.private_scatter and not self.apic):
+            self._merge_copies(ti.static(tuple(self.copies)))  # the affine grid pass sums them
 
     @ti.func
     def _p2g_particle(self, p, copy):
@@ -628,7 +647,7 @@ class Solver:
             self._fail(1, p)
         else:
             mp = self.m[p]
-            fp = ti.Vector.zero(ti.f64, self.dim)
+            fp = ti.Vector.zero(float, self.dim)
             for k in ti.static(range(self.dim)):
                 if ti.static(self.gravity[k] != 0.0):
                     fp[k] += mp * self.gravity[k]
@@ -636,7 +655,7 @@ class Solver:
                 if p == self.traction_particle:
                     fp[0] += self.traction_amplitude * self.traction_fn.value(self.time[None])
             stress_volume = self.sigma[p] * self.vol[p]
-            affine = ti.Matrix.zero(ti.f64, self.dim, self.dim)
+            affine = ti.Matrix.zero(float, self.dim, self.dim)
             if ti.static(self.mls_mpm):
                 affine = mp * self.C[p] - (self.dt * self.D_inv) * stress_volume
             if ti.static(self.mls):
@@ -653,7 +672,7 @@ class Solver:
                     # m_p C_p (x_i - x_p) phi_i; the linear basis keeps B_p in C and applies
                     # D_p^-1 at the new position: B_p D_p^-1 (x_i - x_p) phi_i = B_p grad phi_i
                     # (Jiang et al. 2015), bounded where a particle barely touches a node
-                    affine_momentum = ti.Vector.zero(ti.f64, self.dim)
+                    affine_momentum = ti.Vector.zero(float, self.dim)
                     if ti.static(self.basis.support > 2):
                         affine_momentum = phi * (self.C[p] @ self._node_offset(node, xi))
                     else:
@@ -680,25 +699,37 @@ class Solver:
             if ti.static(self.damping > 0.0):
                 self.gf[I] -= self.damping * ti.math.sign(self.gp[I]) * ti.abs(self.gf[I])
             if ti.static(self.has_walls):
-                a = ti.Vector.zero(ti.f64, self.dim)
+                a = ti.Vector.zero(float, self.dim)
                 if self.gm[I] > self.mass_tol:
                     vn = self.gp[I] / self.gm[I]
                     a = (self._wall(I, vn + self.dt * self.gf[I] / self.gm[I]) - vn) / self.dt
                 self.gf[I] = a
-            self.gp[I] = ti.Vector.zero(ti.f64, self.dim)
+            self.gp[I] = ti.Vector.zero(float, self.dim)
         if ti.static(not self.has_walls):
             self._solve_mass(self.gf, False)
 
     @ti.func
     def _grid_velocity(self):
-        # grid (APIC): v_i = P_i / m_i, wall conditions applied
+        # grid (APIC): v_i = P_i / m_i, wall conditions applied; in the same pass the
+        # private copies are summed in and m_i, P_i cleared for the next P2G
         for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
-            v = ti.Vector.zero(ti.f64, self.dim)
-            if self.gm[I] > self.mass_tol and not self._is_fixed(I):
-                v = self.gp[I] / self.gm[I]
+            m = self.gm[I]
+            P = self.gp[I]
+            if ti.static(self.private_scatter):
+                for k in ti.static(range(self.n_copies - 1)):
+                    cm, cp = ti.static(self.copies["gm"][k], self.copies["gp"][k])
+                    m += cm[I]
+                    P += cp[I]
+                    cm[I] = 0.0
+                    cp[I] = ti.Vector.zero(float, self.dim)
+            v = ti.Vector.zero(float, self.dim)
+            if m > self.mass_tol and not self._is_fixed(I):
+                v = P / m
                 if ti.static(self.has_walls):
                     v = self._wall(I, v)
-            self.gp[I] = v
+            self.gv[I] = v
+            self.gm[I] = 0.0
+            self.gp[I] = ti.Vector.zero(float, self.dim)
 
     @ti.func
     def _g2p_velocity(self):
@@ -711,7 +742,7 @@ class Solver:
     def _g2p_velocity_particle(self, p, copy):
         base, w, dw, xi, inside = self._stencil(p)
         if inside:
-            acc = ti.Vector.zero(ti.f64, self.dim)
+            acc = ti.Vector.zero(float, self.dim)
             for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                 phi, grad = self._weight(w, dw, offset)
                 acc += phi * self.gf[base + offset]
@@ -731,19 +762,23 @@ class Solver:
         # transfer v_p = sum_i phi_i v_i and C_p = sum_i phi_i v_i (x_i - x_p)^T D_p^-1
         for p in range(self.n_particles):
             base, w, dw, xi, inside = self._stencil(p)
-            if inside:
-                du = ti.Vector.zero(ti.f64, self.dim)
-                grad_du = ti.Matrix.zero(ti.f64, self.dim, self.dim)
-                B = ti.Matrix.zero(ti.f64, self.dim, self.dim)
+            if inside and not self._halted():
+                du = ti.Vector.zero(float, self.dim)
+                grad_du = ti.Matrix.zero(float, self.dim, self.dim)
+                B = ti.Matrix.zero(float, self.dim, self.dim)
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
-                    dui = self.gp[base + offset] * self.dt
+                    vi = ti.Vector.zero(float, self.dim)
+                    if ti.static(self.apic):
+                        vi = self.gv[base + offset]
+                    else:
+                        vi = self.gp[base + offset]
+                    dui = vi * self.dt
                     du += phi * dui
                     if ti.static(not self.mls_mpm):
                         grad_du += dui.outer_product(grad)
                     if ti.static(self.apic):
-                        B += phi * self.gp[base + offset].outer_product(
-                            self._node_offset(base + offset, xi))
+                        B += phi * vi.outer_product(self._node_offset(base + offset, xi))
                 if ti.static(self.apic):
                     self.v[p] = du / self.dt
                     if ti.static(self.mls_mpm):
@@ -767,7 +802,7 @@ class Solver:
                 sig_old = self.sigma[p]
                 jac = 1.0 + grad_du[0, 0]
                 if ti.static(self.dim > 1):
-                    jac = (ti.Matrix.identity(ti.f64, self.dim) + grad_du).determinant()
+                    jac = (ti.Matrix.identity(float, self.dim) + grad_du).determinant()
                 self.vol[p] = vol_old * jac  # the materials read the new volume
                 sig_new = self._material_update(p, grad_du, sig_old)
                 self.sigma[p] = sig_new
@@ -787,7 +822,7 @@ class Solver:
                     self._fail(2, p)
                 if not (jac > 0.0):
                     self._fail(3, p)
-                xn = ti.Vector.zero(ti.f64, self.dim)
+                xn = ti.Vector.zero(float, self.dim)
                 for k in ti.static(range(self.dim)):
                     xn[k] = (self.x[p][k] - self.origin[k]) * self.inv_h
                     if not (xn[k] >= 0.0 and xn[k] <= self.grid_elements[k]):
@@ -807,7 +842,7 @@ class Solver:
         if ti.static(not self.consistent):
             for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
                 if self._is_fixed(I) or self.gm[I] <= self.mass_tol:
-                    rhs[I] = ti.Vector.zero(ti.f64, self.dim)
+                    rhs[I] = ti.Vector.zero(float, self.dim)
                 else:
                     rhs[I] = rhs[I] / self.gm[I]
                     if ti.static(walls and self.has_walls):
@@ -856,7 +891,7 @@ class Solver:
         for _ in range(1):
             for i in range(nn):
                 if self.inactive[i]:
-                    rhs[i] = ti.Vector.zero(ti.f64, self.dim)
+                    rhs[i] = ti.Vector.zero(float, self.dim)
             for i in range(nn):  # forward: L y = rhs
                 acc = rhs[i]
                 for r in ti.static(range(1, b + 1)):
@@ -873,13 +908,14 @@ class Solver:
 
     @ti.func
     def _one_step(self):
-        self._clear_grid()
         if ti.static(self.apic):
-            # affine transfer: P2G of mass and momentum + dt force, v = P / m, G2P
+            # affine transfer: P2G of mass and momentum + dt force, v = P / m (the grid
+            # pass leaves m and P cleared: no separate clearing pass), G2P
             self._p2g()
             self._grid_velocity()
             self._g2p_update()
         else:
+            self._clear_grid()
             # the study's MUSL scheme with Euler-Cromer stepping (2.2.4, Figure 2.7)
             if ti.static(self.mls):
                 self._body_extent()
@@ -898,8 +934,9 @@ class Solver:
                 for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
                     self.gu[I] += self.gp[I] * self.dt  # u_i += v_i dt (5.2)
             self._g2p_update()
-        self.step_count[None] += 1
-        self.time[None] = self.step_count[None] * self.dt
+        if not self._halted():
+            self.step_count[None] += 1
+            self.time[None] = self.step_count[None] * self.dt
 
     # ---- moving-least-squares projection (study 4.4) -----------------------------------
     @ti.func
@@ -934,8 +971,8 @@ class Solver:
     @ti.func
     def _gauss_point(self, e, g: ti.template()):
         """Gauss point g of element e's part of the body, and its weight times length."""
-        a = ti.max(ti.cast(e, ti.f64), self.body[None][0])
-        b = ti.min(ti.cast(e + 1, ti.f64), self.body[None][1])
+        a = ti.max(ti.cast(e, float), self.body[None][0])
+        b = ti.min(ti.cast(e + 1, float), self.body[None][1])
         return a + (b - a) * GAUSS_POINTS[g], GAUSS_WEIGHTS[g] * ti.max(b - a, 0.0) * self.h
 
     @ti.func
@@ -992,7 +1029,7 @@ class Solver:
                 self.h_v[slot, j] = self.v[p]
                 self.h_s[slot, j] = self.sigma[p]
         if ti.static(self.record_energies):
-            self.h_energy[slot] = ti.Vector.zero(ti.f64, 4)
+            self.h_energy[slot] = ti.Vector.zero(float, 4)
             for p in range(self.n_particles):
                 # potential of gravity: -m g . u (1D), -m g . x (2D/3D, taken from its start in energies())
                 pot = 0.0
@@ -1024,6 +1061,10 @@ class Solver:
     def _project_kernel(self):
         self._clear_grid()
         self._project()
+
+    @ti.kernel
+    def _clear_kernel(self):
+        self._clear_grid()
 
     @ti.kernel
     def _step(self):
@@ -1105,24 +1146,32 @@ class Solver:
                 done += int(self._advance(chunk, self.record_every))
                 self._drain()
                 self._check()
-            else:
+            elif self._timed_steps < 2:
                 t0 = time.perf_counter()
                 self._step()
                 took = time.perf_counter() - t0
                 # the first launch compiles: book its excess over the second apart
                 if self._timed_steps == 0:
                     self._first_step = took
-                elif self._timed_steps == 1:
+                else:
                     extra = max(self._first_step - took, 0.0)
                     self.compile_seconds += extra
                     start += extra
                 self._timed_steps += 1
                 done += 1
                 self._check()
-                if self.recording and self.step % self.record_every == 0:
-                    self._record_kernel()
-                    if self.rec_count[None] == self.history_chunk:
-                        self._drain()
+                self._record_step()
+            else:
+                # one launch per step; the checks read back every check_every steps (a
+                # failed particle is skipped by later steps, the first failure is kept)
+                chunk = min(total - done, self.check_every, bar.suggested_chunk(done))
+                if self.recording:
+                    chunk = min(chunk, self.record_every - self.step % self.record_every)
+                for _ in range(chunk):
+                    self._step()
+                done += chunk
+                self._check()
+                self._record_step()
             bar.update(done)
         bar.close()
         if self.recording:
@@ -1131,6 +1180,12 @@ class Solver:
                 self._record_now()
         self.run_seconds += time.perf_counter() - start
         return self
+
+    def _record_step(self):
+        if self.recording and self.step % self.record_every == 0:
+            self._record_kernel()
+            if self.rec_count[None] == self.history_chunk:
+                self._drain()
 
     def _record_now(self):
         self._record_kernel()
@@ -1210,7 +1265,10 @@ class Solver:
         For inspection and tests; it overwrites the grid, so call it between steps only.
         """
         self._project_kernel()
-        return self.gm.to_numpy(), self._component(self.gp)
+        out = self.gm.to_numpy(), self._component(self.gp)
+        if self.apic:
+            self._clear_kernel()  # the affine step expects a cleared grid
+        return out
 
     def positions(self) -> np.ndarray:
         return self._component(self.x)
@@ -1323,7 +1381,7 @@ def _field_bytes(f) -> int:
         count = f.n * f.m
     else:
         count = 1
-    return count * (8 if f.dtype in (ti.f64, ti.i64) else 4)
+    return count * (8 if f.dtype in (ti.f64, ti.i64, ti.u64) else 4)
 
 
 class _Progress:

@@ -19,7 +19,7 @@ from .basis import get_basis
 from .materials import MATERIALS, Material, get_material
 from .scene import _positive
 
-__all__ = ["Box", "Ball", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WALL_KINDS",
+__all__ = ["Box", "Ball", "Points", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WALL_KINDS",
            "SIDES", "PRESETS"]
 
 #: bases on uniform multi-dimensional grids
@@ -115,6 +115,49 @@ class Ball:
         return np.sum((x - np.array(self.center)) ** 2, axis=-1) <= self.radius ** 2
 
 
+@dataclass(frozen=True, eq=False)
+class Points:
+    """Particles at given ``positions`` (n x dim), each of ``volume`` (one value or n):
+    for scenes built elsewhere (a point cloud, another code's initial state).  A body of
+    points ignores ``ppc`` and holds no region, so other bodies may not be tested against it
+    for overlap."""
+
+    positions: object
+    volume: object
+
+    def __post_init__(self):
+        try:
+            x = np.array(self.positions, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError("Points positions must be an (n, dim) array of numbers") from None
+        if x.ndim != 2 or x.shape[0] == 0 or x.shape[1] not in (2, 3):
+            raise ValueError(f"Points positions must be an (n, 2) or (n, 3) array, got shape "
+                             f"{x.shape}")
+        if not np.all(np.isfinite(x)):
+            bad = int(np.flatnonzero(~np.all(np.isfinite(x), axis=1))[0])
+            raise ValueError(f"Points position {bad} is not finite: {x[bad]}")
+        vol = np.broadcast_to(np.array(self.volume, dtype=np.float64), (len(x),)).copy()
+        if not np.all(np.isfinite(vol) & (vol > 0)):
+            raise ValueError(f"Points volume must be positive and finite, got {self.volume!r}")
+        x.setflags(write=False)
+        vol.setflags(write=False)
+        object.__setattr__(self, "positions", x)
+        object.__setattr__(self, "volume", vol)
+
+    def __repr__(self):
+        return f"Points({len(self.positions)} particles)"
+
+    @property
+    def dim(self):
+        return self.positions.shape[1]
+
+    def bounds(self):
+        return self.positions.min(axis=0), self.positions.max(axis=0)
+
+    def contains(self, x):
+        return np.zeros(np.shape(x)[:-1], dtype=bool)
+
+
 @dataclass(frozen=True)
 class Body:
     """A shape filled with one material, moving at ``velocity``, ``ppc`` particles per cell
@@ -139,7 +182,7 @@ class Body:
             raise ValueError(f"body material must be a timpm material or a preset name, got {mat!r}")
         object.__setattr__(self, "material", mat)
         if not hasattr(self.shape, "contains"):
-            raise ValueError(f"body shape must be a Box or a Ball, got {self.shape!r}")
+            raise ValueError(f"body shape must be a Box, a Ball or Points, got {self.shape!r}")
         if isinstance(self.ppc, bool) or not isinstance(self.ppc, (int, np.integer)) or self.ppc < 1:
             raise ValueError(f"ppc (particles per cell and axis) must be a positive integer, "
                              f"got {self.ppc!r}")
@@ -302,12 +345,16 @@ class World:
             if np.any(lo < -1e-12 * domain) or np.any(hi > domain * (1 + 1e-12)):
                 raise ValueError(f"{label}: {body.shape} extends outside the domain "
                                  f"[0, {tuple(float(d) for d in domain)}]")
-            # a regular lattice of ppc points per cell and axis, kept where inside the shape
-            dx = h / body.ppc
-            axes = [np.arange(np.floor(lo[a] / dx), np.ceil(hi[a] / dx)) * dx + 0.5 * dx
-                    for a in range(dim)]
-            pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dim)
-            pts = pts[body.shape.contains(pts)]
+            if isinstance(body.shape, Points):
+                pts, vol = body.shape.positions, body.shape.volume
+            else:
+                # a regular lattice of ppc points per cell and axis, kept inside the shape
+                dx = h / body.ppc
+                axes = [np.arange(np.floor(lo[a] / dx), np.ceil(hi[a] / dx)) * dx + 0.5 * dx
+                        for a in range(dim)]
+                pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dim)
+                pts = pts[body.shape.contains(pts)]
+                vol = np.full(len(pts), dx ** dim)
             if len(pts) == 0:
                 raise ValueError(f"{label}: {body.shape} holds no particle at {body.ppc} per "
                                  f"cell and axis (h = {h:g}): make it larger or raise ppc")
@@ -317,7 +364,7 @@ class World:
                 materials.append(body.material)
             xs.append(pts)
             vs.append(np.broadcast_to(v, pts.shape))
-            vols.append(np.full(len(pts), dx ** dim))
+            vols.append(vol)
             mats.append(np.full(len(pts), materials.index(body.material), np.int32))
             ids.append(np.full(len(pts), k, np.int32))
         if not self.allow_overlap:

@@ -1,0 +1,143 @@
+"""Taichi's own ``mpm88`` example run headless, and the same physics as a timpm World.
+
+:func:`run_mpm88` executes ``examples/simulation/mpm88.py`` of the installed taichi
+package in a fresh process, its code unchanged except for the particle count (a
+constant of the script, for the 128k runs): only ``ti.GUI`` is replaced by a headless
+stand-in that times the frames (50 substeps each) and records the particles.  The CPU
+backend and the thread count come from Taichi's own environment variables (``TI_ARCH``,
+``TI_CPU_MAX_NUM_THREADS``), so ``ti.init`` in the script is untouched.
+
+:func:`mpm88_world` builds the same physics in timpm: quadratic B-splines, the MLS-MPM
+transfer, :class:`timpm.materials.JFluid` (mpm88's fluid), walls where mpm88 clamps the
+grid velocity, the same particles, masses, grid, gravity and time step.
+"""
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .numpy_mpm import MPM88
+
+__all__ = ["mpm88_path", "run_mpm88", "mpm88_world"]
+
+SUBSTEPS_PER_FRAME = 50
+
+
+def mpm88_path() -> Path:
+    import taichi
+
+    path = Path(taichi.__file__).parent / "examples" / "simulation" / "mpm88.py"
+    if not path.is_file():
+        raise FileNotFoundError(f"Taichi's mpm88 example is not installed at {path}")
+    return path
+
+
+def _source(n_particles):
+    src = mpm88_path().read_text()
+    if n_particles != 8192:
+        src, k = re.subn(r"^n_particles = 8192$", f"n_particles = {int(n_particles)}", src,
+                         flags=re.M)
+        if k != 1:
+            raise RuntimeError("mpm88.py no longer sets n_particles = 8192 on one line")
+    return src
+
+
+def _worker(n_particles, frames, out):
+    """Run mpm88 for ``frames`` frames with a headless GUI; save timings and particles."""
+    import taichi as ti
+
+    record = {"frame_times": []}
+    namespace = {"__name__": "__mpm88__"}
+
+    class HeadlessGUI:
+        ESCAPE = "Escape"
+
+        def __init__(self, *args, **kwargs):
+            self.frames = 0
+
+        @property
+        def running(self):
+            return self.frames < frames
+
+        def get_event(self, *args):
+            if "x0" not in record:  # before the first substep
+                record["x0"] = namespace["x"].to_numpy()
+                record["t_start"] = time.perf_counter()
+            return False
+
+        def clear(self, *args, **kwargs):
+            pass
+
+        def circles(self, pos, *args, **kwargs):
+            if self.frames == 0:
+                record["x1"] = np.array(pos)  # after the first SUBSTEPS_PER_FRAME substeps
+
+        def show(self, *args, **kwargs):
+            ti.sync()
+            record["frame_times"].append(time.perf_counter())
+            self.frames += 1
+
+    ti.GUI = HeadlessGUI
+    code = compile(_source(n_particles), str(mpm88_path()), "exec")
+    exec(code, namespace)
+    cfg = ti.lang.impl.current_cfg()
+    np.savez(out, x0=record["x0"], x1=record["x1"],
+             frame_times=np.array([record["t_start"]] + record["frame_times"]),
+             threads=cfg.cpu_max_num_threads, arch=str(cfg.arch),
+             dtype=str(namespace["x"].dtype))
+
+
+def run_mpm88(n_particles=8192, frames=4, threads=None, timeout=900) -> dict:
+    """Run the installed mpm88 headless in a subprocess (CPU backend, ``threads`` threads).
+
+    Returns the particle-substeps per second of the frames after the first (which
+    compiles), the initial positions and the positions after the first frame.
+    """
+    env = dict(os.environ, TI_ARCH="x64")
+    if threads:
+        env["TI_CPU_MAX_NUM_THREADS"] = str(int(threads))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "mpm88.npz")
+        cmd = [sys.executable, "-c", f"from timpm.mpm88 import _worker; "
+               f"_worker({int(n_particles)}, {int(frames)}, {out!r})"]
+        proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout)
+        if proc.returncode != 0:
+            raise RuntimeError(f"mpm88 failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
+        data = dict(np.load(out))
+    times = data["frame_times"]
+    timed = np.diff(times[1:])  # frame 1 onwards: compiled
+    steps = SUBSTEPS_PER_FRAME * len(timed)
+    seconds = float(times[-1] - times[1])
+    return {"particles": int(n_particles), "threads": int(data["threads"]),
+            "arch": str(data["arch"]), "dtype": str(data["dtype"]), "substeps": steps,
+            "seconds": seconds, "mpss": n_particles * steps / seconds / 1e6,
+            "first_frame_seconds": float(times[1] - times[0]),
+            "x0": data["x0"], "x1": data["x1"]}
+
+
+def mpm88_world(x0, velocity=(0.0, -1.0)):
+    """The World that runs mpm88's physics from positions ``x0`` (mpm88's unit square).
+
+    mpm88 clamps the velocity of nodes i < 3 and i > n_grid - 3; timpm's walls hold the
+    nodes at and beyond the domain's sides, so the domain is [2 dx, 126 dx]^2 and the
+    positions shift by -2 dx (``shift``, returned with the world).
+    """
+    from .materials import JFluid
+    from .world import Body, Points, World
+
+    n_grid, bound = MPM88["n_grid"], MPM88["bound"]
+    dx = 1.0 / n_grid
+    lo, hi = bound - 1, n_grid - bound + 1  # first and last clamped node inward
+    shift = lo * dx
+    fluid = JFluid(bulk_modulus=MPM88["E"], density=MPM88["p_rho"])
+    body = Body(Points(np.asarray(x0, dtype=np.float64) - shift, (0.5 * dx) ** 2), fluid,
+                velocity=velocity)
+    world = World(domain=((hi - lo) * dx,) * 2, cells=hi - lo, bodies=[body],
+                  basis="uniform-bspline2", transfer="mls-mpm", gravity=(0.0, -MPM88["gravity"]),
+                  walls="slip", dt=MPM88["dt"], name="mpm88")
+    return world, shift
