@@ -46,8 +46,9 @@ def main(argv=None):
     args = ap.parse_args(argv)
     timpm.init(threads=args.threads)
     runs = [measure(name, args.t_end) for name in DEMOS]
-    runs += [measure("column-collapse", args.t_end, mode="parallel", scatter="atomic"),
-             measure("column-collapse", args.t_end, mode="serial")]
+    runs += [measure("column-collapse", args.t_end, mode="parallel", scatter=s)
+             for s in ("atomic", "serial", "private")]
+    runs += [measure("column-collapse", args.t_end, mode="serial")]
     print(f"threads: {args.threads}")
     print(f"{'demo':16} {'mode':8} {'scatter':7} {'particles':>9} {'sim s/wall s':>12} "
           f"{'wall s/sim s':>12} {'Mpss':>6} {'B/particle':>10} {'B/node':>6} {'compile [s]':>11}")
