@@ -23,6 +23,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -74,22 +75,18 @@ def _probes(threads):
                 x = x * m + 1e-3
             out[i] = x.sum()
 
-    triad(3.0)
-    best = np.inf
-    for _ in range(5):
-        t0 = time.perf_counter()
-        triad(3.0)
-        ti.sync()
-        best = min(best, time.perf_counter() - t0)
-    gbs = 3 * 8 * n / best / 1e9
-    fma(0.999)
-    best_f = np.inf
-    for _ in range(3):
-        t0 = time.perf_counter()
-        fma(0.999)
-        ti.sync()
-        best_f = min(best_f, time.perf_counter() - t0)
-    gflops = 2.0 * items * reps * chains / best_f / 1e9
+    def fastest(kernel, arg, repeats):
+        kernel(arg)  # compile
+        best = np.inf
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            kernel(arg)
+            ti.sync()
+            best = min(best, time.perf_counter() - t0)
+        return best
+
+    gbs = 3 * 8 * n / fastest(triad, 3.0, 5) / 1e9
+    gflops = 2.0 * items * reps * chains / fastest(fma, 0.999, 3) / 1e9
     return {"threads": threads, "triad_gb_s": gbs, "compute_gflop_s": gflops}
 
 
@@ -305,7 +302,10 @@ SIZES = {
 
 def bench(out="docs/throughput", size="full", threads=(1, 2), progress=print):
     """Run every measurement; write OUT.json, OUT.md and OUT.png; return the results."""
+    import taichi
+
     from .mpm88 import run_mpm88
+    from .numpy_mpm import mpm88_run
 
     if size not in SIZES:
         raise ValueError(f"unknown bench size {size!r}: choose one of {', '.join(SIZES)}")
@@ -314,8 +314,6 @@ def bench(out="docs/throughput", size="full", threads=(1, 2), progress=print):
     counts = SIZES[size]
     strategies = ["atomic", "serial", "private"]
     res = {"quick": quick, "size": size, "threads": list(threads), "cpu_count": os.cpu_count()}
-    import taichi
-
     res["taichi"] = ".".join(map(str, taichi.__version__))
     res["probes"] = []
     for t in threads:
@@ -332,7 +330,6 @@ def bench(out="docs/throughput", size="full", threads=(1, 2), progress=print):
             if n in (8192, 131072, *SIZES["tiny"]) and t == threads[0]:
                 x0[f"x0_{n}"], x0[f"x1_{n}"] = r["x0"], r["x1"]
             res["mpm88"].append({k: v for k, v in r.items() if k not in ("x0", "x1")})
-    import tempfile
     with tempfile.TemporaryDirectory() as tmp:
         x0_file = os.path.join(tmp, "x0.npz")
         np.savez(x0_file, **x0)
@@ -348,7 +345,6 @@ def bench(out="docs/throughput", size="full", threads=(1, 2), progress=print):
     progress("numpy mpm88 step")
     res["numpy"] = _numpy_mpm88(counts)
     # agreement of numpy with mpm88 from mpm88's initial state
-    from .numpy_mpm import mpm88_run
     res["agreement"]["numpy"] = {}
     for key in [k for k in x0 if k.startswith("x0_")]:
         n = int(key[3:])

@@ -24,6 +24,16 @@ def mpm88_initial(n_particles, seed=0):
     return x, v, np.zeros((n_particles, 2, 2)), np.ones(n_particles)
 
 
+def _stencil(w, fx, base, dx, n_grid):
+    """The 3 x 3 quadratic stencil of every particle, node by node: weight, x_i - x_p and
+    the flattened node index.  Recomputed for P2G and G2P: holding all nine is ~20% slower
+    (memory traffic)."""
+    for i in range(3):
+        for j in range(3):
+            yield (w[i][:, 0] * w[j][:, 1], (i - fx[:, 0]) * dx, (j - fx[:, 1]) * dx,
+                   (base[:, 0] + i) * n_grid + base[:, 1] + j)
+
+
 def mpm88_step(x, v, C, J, n_grid=128, dt=2e-4, p_rho=1.0, gravity=9.8, bound=3, E=400.0):
     """One mpm88 substep on float64 arrays, in place (x, v, C, J)."""
     dx = 1.0 / n_grid
@@ -44,17 +54,12 @@ def mpm88_step(x, v, C, J, n_grid=128, dt=2e-4, p_rho=1.0, gravity=9.8, bound=3,
     gm = np.zeros(n_nodes)
     gvx = np.zeros(n_nodes)
     gvy = np.zeros(n_nodes)
-    for i in range(3):
-        for j in range(3):
-            weight = w[i][:, 0] * w[j][:, 1]
-            dpx = (i - fx[:, 0]) * dx
-            dpy = (j - fx[:, 1]) * dx
-            node = (base[:, 0] + i) * n_grid + base[:, 1] + j
-            mom_x = weight * (mv[:, 0] + affine[:, 0, 0] * dpx + affine[:, 0, 1] * dpy)
-            mom_y = weight * (mv[:, 1] + affine[:, 1, 0] * dpx + affine[:, 1, 1] * dpy)
-            gm += np.bincount(node, weight * p_mass, n_nodes)
-            gvx += np.bincount(node, mom_x, n_nodes)
-            gvy += np.bincount(node, mom_y, n_nodes)
+    for weight, dpx, dpy, node in _stencil(w, fx, base, dx, n_grid):
+        mom_x = weight * (mv[:, 0] + affine[:, 0, 0] * dpx + affine[:, 0, 1] * dpy)
+        mom_y = weight * (mv[:, 1] + affine[:, 1, 0] * dpx + affine[:, 1, 1] * dpy)
+        gm += np.bincount(node, weight * p_mass, n_nodes)
+        gvx += np.bincount(node, mom_x, n_nodes)
+        gvy += np.bincount(node, mom_y, n_nodes)
     # grid: momentum to velocity, gravity, separating walls
     has = gm > 0
     gvx[has] /= gm[has]
@@ -73,20 +78,15 @@ def mpm88_step(x, v, C, J, n_grid=128, dt=2e-4, p_rho=1.0, gravity=9.8, bound=3,
     # G2P: gather velocity and the affine matrix C = 4 / dx^2 sum w v_i dpos^T
     new_v = np.zeros_like(v)
     new_C = np.zeros_like(C)
-    for i in range(3):
-        for j in range(3):
-            weight = w[i][:, 0] * w[j][:, 1]
-            dpx = (i - fx[:, 0]) * dx
-            dpy = (j - fx[:, 1]) * dx
-            node = (base[:, 0] + i) * n_grid + base[:, 1] + j
-            vx, vy = gvx[node], gvy[node]
-            new_v[:, 0] += weight * vx
-            new_v[:, 1] += weight * vy
-            k = 4.0 * inv_dx ** 2 * weight
-            new_C[:, 0, 0] += k * vx * dpx
-            new_C[:, 0, 1] += k * vx * dpy
-            new_C[:, 1, 0] += k * vy * dpx
-            new_C[:, 1, 1] += k * vy * dpy
+    for weight, dpx, dpy, node in _stencil(w, fx, base, dx, n_grid):
+        vx, vy = gvx[node], gvy[node]
+        new_v[:, 0] += weight * vx
+        new_v[:, 1] += weight * vy
+        k = 4.0 * inv_dx ** 2 * weight
+        new_C[:, 0, 0] += k * vx * dpx
+        new_C[:, 0, 1] += k * vx * dpy
+        new_C[:, 1, 0] += k * vy * dpx
+        new_C[:, 1, 1] += k * vy * dpy
     v[:] = new_v
     x += dt * v
     J *= 1.0 + dt * (new_C[:, 0, 0] + new_C[:, 1, 1])
