@@ -586,17 +586,26 @@ class Solver:
             grid[node] += value
 
     @ti.func
+    def _merged(self, name: ti.template(), I):
+        """Grid field ``name`` at node I plus the threads' private copies, which are
+        cleared for the next scatter (the sum alone without the private scatter)."""
+        total = ti.static(getattr(self, name))[I]
+        if ti.static(self.private_scatter):
+            for fld in ti.static(self.copies[name]):
+                total += fld[I]
+                if ti.static(name == "gm"):
+                    fld[I] = 0.0
+                else:
+                    fld[I] = ti.Vector.zero(float, self.dim)
+        return total
+
+    @ti.func
     def _merge_copies(self, names: ti.template()):
         # private scatter: sum the threads' grid copies into the grid, and clear them
         for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
             for name in ti.static(names):
                 grid = ti.static(getattr(self, name))
-                for fld in ti.static(self.copies[name]):
-                    grid[I] = grid[I] + fld[I]  # a plain add: no other thread writes node I
-                    if ti.static(name == "gm"):
-                        fld[I] = 0.0
-                    else:
-                        fld[I] = ti.Vector.zero(float, self.dim)
+                grid[I] = self._merged(name, I)  # a plain store: no other thread writes I
 
     @ti.func
     def _scatter_particles(self, phase: ti.template()):
@@ -713,15 +722,8 @@ class Solver:
         # grid (APIC): v_i = P_i / m_i, wall conditions applied; in the same pass the
         # private copies are summed in and m_i, P_i cleared for the next P2G
         for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
-            m = self.gm[I]
-            P = self.gp[I]
-            if ti.static(self.private_scatter):
-                for k in ti.static(range(self.n_copies - 1)):
-                    cm, cp = ti.static(self.copies["gm"][k], self.copies["gp"][k])
-                    m += cm[I]
-                    P += cp[I]
-                    cm[I] = 0.0
-                    cp[I] = ti.Vector.zero(float, self.dim)
+            m = self._merged("gm", I)
+            P = self._merged("gp", I)
             v = ti.Vector.zero(float, self.dim)
             if m > self.mass_tol and not self._is_fixed(I):
                 v = P / m
