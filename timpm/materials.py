@@ -39,6 +39,10 @@ class Material:
     #: wave speed (m/s) that bounds the time step, set by each material
     wave_speed = 0.0
 
+    #: True where the stress acts on the initial volume (sigma V = sigma V0): the solver
+    #: then leaves V_p alone
+    initial_volume = False
+
     def __init__(self, density):
         self.density = _positive(f"{self.name}: density", density)
 
@@ -286,6 +290,7 @@ class JFluid(Material):
 
     name = "j-fluid"
     needs = frozenset({"J"})
+    initial_volume = True
 
     def __init__(self, bulk_modulus, density):
         super().__init__(density)
@@ -299,8 +304,10 @@ class JFluid(Material):
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         J = s.J[p] * (1.0 + grad_du.trace())
         s.J[p] = J
-        vol0 = s.m[p] / self.density
-        return (self.bulk_modulus * (J - 1.0) * vol0 / s.vol[p]) * ti.Matrix.identity(float, s.dim)
+        scale = 1.0  # V = V0 alone: no division by a volume that a crushed particle drives to 0
+        if ti.static(s.update_volume):  # mixed with materials whose volume changes
+            scale = s.m[p] / (self.density * s.vol[p])
+        return (self.bulk_modulus * (J - 1.0) * scale) * ti.Matrix.identity(float, s.dim)
 
 
 @ti.data_oriented
@@ -308,6 +315,7 @@ class Hypoelastic1D:
     """The study's 1D law (2.2.4): sigma += (E - sigma) d_eps, or sigma += E d_eps."""
 
     needs = frozenset({"eps"})
+    initial_volume = False
 
     def __init__(self, E, study: bool):
         self.E, self.study = float(E), bool(study)

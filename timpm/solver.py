@@ -218,6 +218,8 @@ class Solver:
         if self.mls_mpm:
             self.D_inv = 1.0 / (self.basis.inertia * self.h ** 2)
         self.multi_material = len(self.materials) > 1
+        # V_p = det(F) V0, unless every material's stress acts on the initial volume
+        self.update_volume = not all(m.initial_volume for m in self.materials)
         self.has_walls = self.walls is not None
         self.track_crossings = (self.dim == 1) if track_crossings is None else bool(track_crossings)
         self.grid_displacement = bool(grid_displacement)
@@ -338,15 +340,15 @@ class Solver:
             grid_fields.append(self.fixed)
         fb.dense(ti.axes(*range(d)), self.grid_nodes).place(*grid_fields)
         self._grid_fields = grid_fields
-        # private scatter: thread k > 0 fills copy k - 1 of each scattered grid field
+        # private scatter: thread k fills copy k of each scattered grid field (a leading
+        # copy axis: no branch on the thread per add), summed into the grid afterwards
         self.copies = {}
         if self.private_scatter:
             scattered = ["gm", "gp"] + ([] if self.apic else ["gf"])
             for name in scattered:
-                self.copies[name] = [ti.field(real) if name == "gm" else ti.Vector.field(d, real)
-                                     for _ in range(self.n_copies - 1)]
-                for fld in self.copies[name]:
-                    fb.dense(ti.axes(*range(d)), self.grid_nodes).place(fld)
+                self.copies[name] = ti.field(real) if name == "gm" else ti.Vector.field(d, real)
+            fb.dense(ti.axes(*range(d + 1)), (self.n_copies, *self.grid_nodes)).place(
+                *self.copies.values())
         if self.grid_displacement:
             self.gu = ti.Vector.field(d, real)
             fb.dense(ti.axes(*range(d)), self.grid_nodes).place(self.gu)
@@ -490,9 +492,24 @@ class Solver:
         return phi, grad
 
     @ti.func
-    def _node_offset(self, node, xi):
-        """x_i - x_p of grid node ``node`` seen from a particle at ``xi`` (element units)."""
-        return (ti.cast(node, float) - self.node_offset - xi) * self.h
+    def _times_offset(self, A, offset: ti.template()):
+        """A o for a stencil offset o known at compile time: column adds, no products."""
+        out = ti.Vector.zero(float, self.dim)
+        for k in ti.static(range(self.dim)):
+            if ti.static(offset[k] > 0):
+                for j in ti.static(range(self.dim)):
+                    out[j] += A[j, k] if ti.static(offset[k] == 1) else offset[k] * A[j, k]
+        return out
+
+    @ti.func
+    def _outer_offset(self, u, offset: ti.template()):
+        """u o^T for a stencil offset o known at compile time."""
+        out = ti.Matrix.zero(float, self.dim, self.dim)
+        for k in ti.static(range(self.dim)):
+            if ti.static(offset[k] > 0):
+                for j in ti.static(range(self.dim)):
+                    out[j, k] = u[j] if ti.static(offset[k] == 1) else offset[k] * u[j]
+        return out
 
     @ti.func
     def _fail(self, code, where):
@@ -574,16 +591,21 @@ class Solver:
         """grid field ``name`` at ``node`` += value, by the scatter strategy: into the
         calling thread's private copy (plain adds) or the grid itself (atomic in a
         parallel loop, plain in a serial one)."""
-        grid = ti.static(getattr(self, name))
         if ti.static(self.private_scatter):
-            if copy == 0:
-                grid[node] = grid[node] + value
-            for k in ti.static(range(1, self.n_copies)):
-                if copy == k:
-                    fld = ti.static(self.copies[name][k - 1])
-                    fld[node] = fld[node] + value
+            fld = ti.static(self.copies[name])
+            at = self._copy_index(copy, node)
+            fld[at] = fld[at] + value
         else:
-            grid[node] += value
+            ti.static(getattr(self, name))[node] += value
+
+    @ti.func
+    def _copy_index(self, copy, node):
+        """Index of ``node`` in private copy ``copy``."""
+        at = ti.Vector.zero(ti.i32, self.dim + 1)
+        at[0] = copy
+        for k in ti.static(range(self.dim)):
+            at[k + 1] = node[k]
+        return at
 
     @ti.func
     def _merged(self, name: ti.template(), I):
@@ -591,12 +613,16 @@ class Solver:
         cleared for the next scatter (the sum alone without the private scatter)."""
         total = ti.static(getattr(self, name))[I]
         if ti.static(self.private_scatter):
-            for fld in ti.static(self.copies[name]):
-                total += fld[I]
+            fld = ti.static(self.copies[name])
+            total = fld[self._copy_index(0, I)]
+            for c in ti.static(range(self.n_copies)):
+                at = self._copy_index(c, I)
+                if ti.static(c > 0):
+                    total += fld[at]
                 if ti.static(name == "gm"):
-                    fld[I] = 0.0
+                    fld[at] = 0.0
                 else:
-                    fld[I] = ti.Vector.zero(float, self.dim)
+                    fld[at] = ti.Vector.zero(float, self.dim)
         return total
 
     @ti.func
@@ -670,25 +696,30 @@ class Solver:
             if ti.static(self.mls):
                 fp[0] -= mp * self.gravity[0]  # gravity and mass come from the Gauss points
                 self._scatter_gauss_moments(p)
+            # the affine momentum A (x_i - x_p) with x_i - x_p = h o - d (o: the node's
+            # offset in the stencil) is h A o - A d: one vector per particle, then adds
+            d = (xi - ti.cast(base, float) + self.node_offset) * self.h
+            if ti.static(self.apic and not self.mls_mpm and self.basis.support > 2):
+                affine = mp * self.C[p]  # APIC: the stress enters through grad phi
+            mom = mp * self.v[p] + self.dt * fp - affine @ d
+            h_affine = self.h * affine
             for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                 phi, grad = self._weight(w, dw, offset)
                 node = base + offset
                 if ti.static(self.mls_mpm):
-                    dx = self._node_offset(node, xi)
                     self._add("gm", copy, node, mp * phi)
-                    self._add("gp", copy, node, phi * (mp * self.v[p] + self.dt * fp + affine @ dx))
+                    self._add("gp", copy, node, phi * (mom + self._times_offset(h_affine, offset)))
                 elif ti.static(self.apic):
                     # m_p C_p (x_i - x_p) phi_i; the linear basis keeps B_p in C and applies
                     # D_p^-1 at the new position: B_p D_p^-1 (x_i - x_p) phi_i = B_p grad phi_i
                     # (Jiang et al. 2015), bounded where a particle barely touches a node
-                    affine_momentum = ti.Vector.zero(float, self.dim)
+                    momentum = ti.Vector.zero(float, self.dim)
                     if ti.static(self.basis.support > 2):
-                        affine_momentum = phi * (self.C[p] @ self._node_offset(node, xi))
+                        momentum = phi * (mom + self._times_offset(h_affine, offset))
                     else:
-                        affine_momentum = self.C[p] @ grad
+                        momentum = phi * (mp * self.v[p] + self.dt * fp) + mp * (self.C[p] @ grad)
                     self._add("gm", copy, node, mp * phi)
-                    self._add("gp", copy, node, phi * (mp * self.v[p] + self.dt * fp)
-                              + mp * affine_momentum - self.dt * (stress_volume @ grad))
+                    self._add("gp", copy, node, momentum - self.dt * (stress_volume @ grad))
                 elif ti.static(not self.mls):
                     self._add("gm", copy, node, mp * phi)
                     self._add("gf", copy, node, phi * fp - stress_volume @ grad)
@@ -765,9 +796,9 @@ class Solver:
         for p in range(self.n_particles):
             base, w, dw, xi, inside = self._stencil(p)
             if inside and not self._halted():
-                du = ti.Vector.zero(float, self.dim)
+                vp = ti.Vector.zero(float, self.dim)
                 grad_du = ti.Matrix.zero(float, self.dim, self.dim)
-                B = ti.Matrix.zero(float, self.dim, self.dim)
+                B = ti.Matrix.zero(float, self.dim, self.dim)  # sum_i phi_i v_i o_i^T
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
                     vi = ti.Vector.zero(float, self.dim)
@@ -775,14 +806,17 @@ class Solver:
                         vi = self.gv[base + offset]
                     else:
                         vi = self.gp[base + offset]
-                    dui = vi * self.dt
-                    du += phi * dui
+                    vp += phi * vi
                     if ti.static(not self.mls_mpm):
-                        grad_du += dui.outer_product(grad)
+                        grad_du += (vi * self.dt).outer_product(grad)
                     if ti.static(self.apic):
-                        B += phi * vi.outer_product(self._node_offset(base + offset, xi))
+                        B += self._outer_offset(phi * vi, offset)
+                du = vp * self.dt
                 if ti.static(self.apic):
-                    self.v[p] = du / self.dt
+                    # sum_i phi_i v_i (x_i - x_p)^T = h sum_i phi_i v_i o_i^T - v_p d^T
+                    d = (xi - ti.cast(base, float) + self.node_offset) * self.h
+                    B = self.h * B - vp.outer_product(d)
+                    self.v[p] = vp
                     if ti.static(self.mls_mpm):
                         self.C[p] = B * self.D_inv
                         grad_du = self.C[p] * self.dt
@@ -802,15 +836,19 @@ class Solver:
                 deps = 0.5 * (grad_du + grad_du.transpose())
                 vol_old = self.vol[p]
                 sig_old = self.sigma[p]
-                jac = 1.0 + grad_du[0, 0]
-                if ti.static(self.dim > 1):
-                    jac = (ti.Matrix.identity(float, self.dim) + grad_du).determinant()
-                self.vol[p] = vol_old * jac  # the materials read the new volume
+                jac = 1.0
+                vol_new = vol_old
+                if ti.static(self.update_volume):
+                    jac = 1.0 + grad_du[0, 0]
+                    if ti.static(self.dim > 1):
+                        jac = (ti.Matrix.identity(float, self.dim) + grad_du).determinant()
+                    vol_new = vol_old * jac
+                    self.vol[p] = vol_new  # the materials read the new volume
                 sig_new = self._material_update(p, grad_du, sig_old)
                 self.sigma[p] = sig_new
                 if ti.static(self.record_energies):
                     # strain energy: trapezoidal path integral of sigma : d_eps V
-                    self.work[p] += 0.5 * ((sig_old * vol_old + sig_new * vol_old * jac) * deps).sum()
+                    self.work[p] += 0.5 * ((sig_old * vol_old + sig_new * vol_new) * deps).sum()
                     if ti.static(self.has_traction):
                         if p == self.traction_particle:
                             self.ext_work[None] += self.traction_amplitude * self.traction_fn.value(
@@ -819,11 +857,12 @@ class Solver:
                     self.u[p] += du
                 self.x[p] += du
                 # checks, the first failure of the run is the one reported
-                state = self.x[p].sum() + self.v[p].sum() + sig_new.sum() + self.vol[p]
+                state = self.x[p].sum() + self.v[p].sum() + sig_new.sum() + vol_new
                 if not (ti.abs(state) < 1e300):  # NaN fails this comparison
                     self._fail(2, p)
-                if not (jac > 0.0):
-                    self._fail(3, p)
+                if ti.static(self.update_volume):
+                    if not (jac > 0.0):
+                        self._fail(3, p)
                 xn = ti.Vector.zero(float, self.dim)
                 for k in ti.static(range(self.dim)):
                     xn[k] = (self.x[p][k] - self.origin[k]) * self.inv_h
