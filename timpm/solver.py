@@ -752,17 +752,31 @@ class Solver:
     def _grid_velocity(self):
         # grid (APIC): v_i = P_i / m_i, wall conditions applied; in the same pass the
         # private copies are summed in and m_i, P_i cleared for the next P2G
+        # (a node no particle reached has m = P = 0 and is left alone: G2P weighs it by 0)
         for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
-            m = self._merged("gm", I)
-            P = self._merged("gp", I)
-            v = ti.Vector.zero(float, self.dim)
-            if m > self.mass_tol and not self._is_fixed(I):
-                v = P / m
-                if ti.static(self.has_walls):
-                    v = self._wall(I, v)
-            self.gv[I] = v
-            self.gm[I] = 0.0
-            self.gp[I] = ti.Vector.zero(float, self.dim)
+            if self._reached(I):
+                m = self._merged("gm", I)
+                P = self._merged("gp", I)
+                v = ti.Vector.zero(float, self.dim)
+                if m > self.mass_tol and not self._is_fixed(I):
+                    v = P / m
+                    if ti.static(self.has_walls):
+                        v = self._wall(I, v)
+                self.gv[I] = v
+                if ti.static(not self.private_scatter):
+                    self.gm[I] = 0.0
+                    self.gp[I] = ti.Vector.zero(float, self.dim)
+
+    @ti.func
+    def _reached(self, I):
+        """Whether a particle scattered mass to node I (in any private copy)."""
+        reached = False
+        if ti.static(self.private_scatter):
+            for c in ti.static(range(self.n_copies)):
+                reached = reached or self.copies["gm"][self._copy_index(c, I)] != 0.0
+        else:
+            reached = self.gm[I] != 0.0
+        return reached
 
     @ti.func
     def _g2p_velocity(self):
