@@ -663,8 +663,12 @@ class Solver:
     @ti.func
     def _halted(self):
         """A step before this one failed: the particles stay as they were at the failure
-        (Python reads the error back every ``check_every`` steps)."""
-        return self.err_count[None] != 0 and self.err_step[None] < self.step_count[None]
+        (Python reads the error back every ``check_every`` steps).  The fused serial mode
+        stops before the step after a failure instead (see ``_advance``)."""
+        halted = False
+        if ti.static(self.mode != "serial"):
+            halted = self.err_count[None] != 0 and self.err_step[None] < self.step_count[None]
+        return halted
 
     @ti.func
     def _p2g(self):
@@ -1134,13 +1138,13 @@ class Solver:
         done = 0
         ti.loop_config(serialize=True)
         for _ in range(n_steps):
+            if self.err_count[None] != 0:  # no step after a failed one
+                break
             self._one_step()
             done += 1
             if ti.static(self.recording):
                 if self.step_count[None] % every == 0:
                     self._record()
-            if self.err_count[None] != 0:
-                break
         return done
 
     # ---- Python driver -----------------------------------------------------------------
@@ -1196,8 +1200,9 @@ class Solver:
         start = time.perf_counter()
         while done < total:
             if self.mode == "serial":
-                chunk = min(total - done, self.history_chunk * self.record_every,
-                            bar.suggested_chunk(done))
+                chunk = min(total - done, bar.suggested_chunk(done))
+                if self.recording:  # the history buffer holds history_chunk records
+                    chunk = min(chunk, self.history_chunk * self.record_every)
                 done += int(self._advance(chunk, self.record_every))
                 self._drain()
                 self._check()
