@@ -286,7 +286,8 @@ class JFluid(Material):
     """The fluid of Taichi's ``mpm88`` (Hu et al. 2018): J advances by its linearised rate,
     J <- J (1 + tr grad du), and the pressure K (1 - J) acts on the initial volume
     (sigma V = K (J - 1) V0 I).  Cheaper than :class:`WeaklyCompressibleFluid` and
-    first-order in the step; here to run mpm88's physics side by side with it."""
+    first-order in the step; here to run mpm88's physics side by side with it.  As in
+    mpm88, a particle's volume stays V0 (J holds the volume ratio)."""
 
     name = "j-fluid"
     needs = frozenset({"J"})

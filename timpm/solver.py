@@ -609,15 +609,16 @@ class Solver:
 
     @ti.func
     def _merged(self, name: ti.template(), I):
-        """Grid field ``name`` at node I plus the threads' private copies, which are
-        cleared for the next scatter (the sum alone without the private scatter)."""
+        """Grid quantity ``name`` at node I: with the private scatter the sum of the
+        threads' copies (cleared for the next scatter), else the grid field itself."""
         total = ti.static(getattr(self, name))[I]
         if ti.static(self.private_scatter):
             fld = ti.static(self.copies[name])
-            total = fld[self._copy_index(0, I)]
             for c in ti.static(range(self.n_copies)):
                 at = self._copy_index(c, I)
-                if ti.static(c > 0):
+                if ti.static(c == 0):
+                    total = fld[at]
+                else:
                     total += fld[at]
                 if ti.static(name == "gm"):
                     fld[at] = 0.0
@@ -748,8 +749,11 @@ class Solver:
                     vn = self.gp[I] / self.gm[I]
                     a = (self._wall(I, vn + self.dt * self.gf[I] / self.gm[I]) - vn) / self.dt
                 self.gf[I] = a
-            self.gp[I] = ti.Vector.zero(float, self.dim)
-        if ti.static(not self.has_walls):
+            elif ti.static(not self.consistent):
+                self.gf[I] = self._lumped_solve(I, self.gf[I])  # a = F / m in the same pass
+            if ti.static(self.damping > 0.0 or self.has_walls):
+                self.gp[I] = ti.Vector.zero(float, self.dim)  # P2G scattered P_i
+        if ti.static(self.consistent and not self.has_walls):
             self._solve_mass(self.gf, False)
 
     @ti.func
@@ -900,14 +904,19 @@ class Solver:
         ``walls``: apply the wall conditions to the result (a velocity)."""
         if ti.static(not self.consistent):
             for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
-                if self._is_fixed(I) or self.gm[I] <= self.mass_tol:
-                    rhs[I] = ti.Vector.zero(float, self.dim)
-                else:
-                    rhs[I] = rhs[I] / self.gm[I]
-                    if ti.static(walls and self.has_walls):
-                        rhs[I] = self._wall(I, rhs[I])
+                rhs[I] = self._lumped_solve(I, rhs[I])
+                if ti.static(walls and self.has_walls):
+                    rhs[I] = self._wall(I, rhs[I])
         else:
             self._banded_substitute(rhs)
+
+    @ti.func
+    def _lumped_solve(self, I, value):
+        """value / m_i at node I; zero at Dirichlet and empty nodes."""
+        out = ti.Vector.zero(float, self.dim)
+        if not (self._is_fixed(I) or self.gm[I] <= self.mass_tol):
+            out = value / self.gm[I]
+        return out
 
     @ti.func
     def _banded_factorise(self):
