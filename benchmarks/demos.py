@@ -34,7 +34,8 @@ def measure(name, t_end, mode="auto", scatter="auto"):
             "compile_seconds": compile_s, "simulated_per_wall_second": steps * world.dt / wall,
             "wall_seconds_per_simulated_second": wall / (steps * world.dt),
             "mpss": world.n_particles * steps / wall / 1e6, "particle_bytes": mem["particle_bytes"],
-            "node_bytes": mem["node_bytes"], "particle_fields": mem["particle_fields"],
+            "node_bytes": mem["node_bytes"], "scatter_node_bytes": mem["scatter_node_bytes"],
+            "particle_fields": mem["particle_fields"],
             "transfer": world.transfer, "basis": world.basis}
 
 
@@ -51,11 +52,12 @@ def main(argv=None):
     runs += [measure("column-collapse", args.t_end, mode="serial")]
     print(f"threads: {args.threads}")
     print(f"{'demo':16} {'mode':8} {'scatter':7} {'particles':>9} {'sim s/wall s':>12} "
-          f"{'wall s/sim s':>12} {'Mpss':>6} {'B/particle':>10} {'B/node':>6} {'compile [s]':>11}")
+          f"{'wall s/sim s':>12} {'Mpss':>6} {'B/particle':>10} {'B/node':>6} {'+copies':>7} {'compile [s]':>11}")
     for r in runs:
         print(f"{r['demo']:16} {r['mode']:8} {r['scatter']:7} {r['particles']:9d} "
               f"{r['simulated_per_wall_second']:12.3f} {r['wall_seconds_per_simulated_second']:12.2f} "
               f"{r['mpss']:6.2f} {r['particle_bytes']:10d} {r['node_bytes']:6d} "
+              f"{r['scatter_node_bytes']:7d} "
               f"{r['compile_seconds']:11.2f}")
     if args.json:
         with open(args.json, "w") as fh:

@@ -63,3 +63,20 @@ def test_unknown_scatter():
     scene = get_problem("vibrating-string").scene(elements=16)
     with pytest.raises(ValueError, match="unknown scatter 'gather'"):
         Solver(scene, scatter="gather")
+
+
+
+@pytest.mark.parametrize("transfer, scattered", [("mls-mpm", 1 + 2), ("musl", 1 + 2 + 2)])
+def test_memory_counts_the_private_copies(transfer, scattered):
+    """The private scatter's grid copies (mass, momentum and, for MUSL, force: one per
+    thread, at least two) are reported per node apart from the state; none otherwise."""
+    scene = sand_column(transfer)
+    for scatter in STRATEGIES:
+        s = Solver(scene, mode="parallel", scatter=scatter, energies=False)
+        try:
+            mem = s.memory()
+            expected = s.n_copies * 8 * scattered if scatter == "private" else 0
+            assert mem["scatter_node_bytes"] == expected
+            assert mem["node_bytes"] == 8 * (1 + 2 + 2)  # m, P and v (affine) or F (MUSL)
+        finally:
+            s.release()

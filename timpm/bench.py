@@ -118,7 +118,8 @@ def _mpm88_timpm(counts, strategies, threads, precision, x0_file=None):
             mem = s.memory()
             rec.update(particles=n, scatter=s.scatter, threads=threads, precision=precision,
                        first_step_seconds=compile_s, particle_bytes=mem["particle_bytes"],
-                       node_bytes=mem["node_bytes"], nodes=mem["nodes"])
+                       node_bytes=mem["node_bytes"], nodes=mem["nodes"],
+                       scatter_node_bytes=mem["scatter_node_bytes"])
             out.append(rec)
             s.release()
     return {"runs": out, "agreement": agree}

@@ -437,10 +437,13 @@ class Solver:
 
     def memory(self) -> dict:
         """Bytes per particle and per grid node of the state fields this scene allocated,
-        and the names of those fields."""
+        the names of those fields, and the bytes per node of the private scatter's grid
+        copies (``scatter_node_bytes``, 0 for the other strategies)."""
         names = [k for k, v in vars(self).items() if any(v is f for f in self._particle_fields)]
+        copies = self.n_copies * sum(_field_bytes(f) for f in self.copies.values())
         return {"particle_bytes": sum(_field_bytes(f) for f in self._particle_fields),
                 "node_bytes": sum(_field_bytes(f) for f in self._grid_fields),
+                "scatter_node_bytes": copies,
                 "particle_fields": sorted(names),
                 "particles": self.n_particles, "nodes": int(np.prod(self.grid_nodes))}
 
