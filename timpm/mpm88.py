@@ -95,9 +95,12 @@ def _worker(n_particles, frames, out):
 def run_mpm88(n_particles=8192, frames=4, threads=None, timeout=900) -> dict:
     """Run the installed mpm88 headless in a subprocess (CPU backend, ``threads`` threads).
 
-    Returns the particle-substeps per second of the frames after the first (which
-    compiles), the initial positions and the positions after the first frame.
+    Returns the particle-substeps per second of the fastest frame after the first (which
+    compiles; ``mpss_mean``: over all of them), the initial positions and the positions
+    after the first frame.
     """
+    if int(frames) < 2:
+        raise ValueError(f"frames must be at least 2 (the first compiles), got {frames!r}")
     env = dict(os.environ, TI_ARCH="x64")
     if threads:
         env["TI_CPU_MAX_NUM_THREADS"] = str(int(threads))
@@ -115,7 +118,9 @@ def run_mpm88(n_particles=8192, frames=4, threads=None, timeout=900) -> dict:
     seconds = float(times[-1] - times[1])
     return {"particles": int(n_particles), "threads": int(data["threads"]),
             "arch": str(data["arch"]), "dtype": str(data["dtype"]), "substeps": steps,
-            "seconds": seconds, "mpss": n_particles * steps / seconds / 1e6,
+            "seconds": seconds, "mpss_mean": n_particles * steps / seconds / 1e6,
+            # the fastest frame: a shared machine only ever slows a frame down
+            "mpss": n_particles * SUBSTEPS_PER_FRAME / float(timed.min()) / 1e6,
             "first_frame_seconds": float(times[1] - times[0]),
             "x0": data["x0"], "x1": data["x1"]}
 
