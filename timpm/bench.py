@@ -490,12 +490,12 @@ def markdown(res) -> str:
               f"from Taichi's offline cache {res['compile']['cached']:.2f} s."]
     lines += ["", "## Fraction of the machine's bounds (best timpm row)", "",
               "Flops are those of mpm88's formulation (`mpm88_flops_per_particle_substep`); "
-              "timpm's factored stencil (column adds for the affine terms) executes, by a hand count, about a "
-              "fifth fewer, so a fraction near 100% means as fast as a scalar code of mpm88's "
-              "formulation can be.  `benchmarks/mpm88_ceiling.py` measures that ceiling "
-              "directly.", "",
-              "| threads | particles | precision | Mpss | mpm88 flops/particle-substep | compute bound "
-              "Mpss | memory bound Mpss | of compute | of memory |",
+              "timpm's factored stencil (column adds for the affine terms) executes, by a hand "
+              "count, about a fifth fewer, so a fraction near 100% means as fast as a scalar "
+              "code of mpm88's formulation can be.  `benchmarks/mpm88_ceiling.py` measures "
+              "that ceiling directly.", "",
+              "| threads | particles | precision | Mpss | mpm88 flops/particle-substep | "
+              "compute bound Mpss | memory bound Mpss | of compute | of memory |",
               "|---|---|---|---|---|---|---|---|---|"]
     for b in res["bounds"]:
         lines.append(f"| {b['threads']} | {b['particles']} | {b['precision']} | {b['mpss']:.2f} | "
