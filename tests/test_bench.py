@@ -35,6 +35,20 @@ def test_numpy_mpm88_is_timpms_mpm88_physics():
     np.testing.assert_allclose(s.J.to_numpy(), J, rtol=0, atol=1e-11)
 
 
+def test_j_fluid_volume_is_j_times_the_initial_volume():
+    """The j-fluid keeps V0 as mpm88 does (no determinant, no division by a volume); the
+    volume reported is J V0 and the density m / (J V0), also after the splash."""
+    x0 = mpm88_initial(1500, seed=3)[0]
+    world, _ = mpm88_world(x0)
+    s = Solver(world, energies=False)
+    s.run(n_steps=1500)  # 0.3 s: the block has hit the floor
+    assert not s.update_volume
+    V0, J = s.vol.to_numpy(), s.J.to_numpy()
+    assert np.all(V0 == V0[0]) and np.abs(J - 1.0).max() > 1e-2
+    np.testing.assert_allclose(s.volumes(), J * V0, rtol=1e-12)
+    np.testing.assert_allclose(s.densities() * s.volumes(), s.m.to_numpy(), rtol=1e-12)
+
+
 def test_taichi_mpm88_headless_agrees_with_timpm():
     """Taichi's installed mpm88 (float32) run headless, and timpm from its initial state:
     positions agree to float32 round-off after one frame (50 substeps)."""

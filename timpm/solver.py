@@ -1402,10 +1402,14 @@ class Solver:
         return self._tensor(self.eps.to_numpy())
 
     def volumes(self) -> np.ndarray:
-        return self.vol.to_numpy()
+        """Particle volumes: V_p, or J V0 where the materials keep V0 and a J (JFluid)."""
+        vol = self.vol.to_numpy()
+        if not self.update_volume and "J" in self.needs:
+            vol = vol * self.J.to_numpy()
+        return vol
 
     def densities(self) -> np.ndarray:
-        return self.m.to_numpy() / self.vol.to_numpy()
+        return self.m.to_numpy() / self.volumes()
 
     def grid_crossings(self) -> int:
         if not self.track_crossings:
