@@ -21,7 +21,10 @@ import pytest
 from timpm import SimulationError, Solver
 from timpm.materials import (DruckerPrager, LinearElastic, NeoHookean,
                              WeaklyCompressibleFluid, get_material)
-from timpm.world import PRESETS, Ball, Body, Box, Wall, World
+from timpm.world import PRESETS, Ball, Body, Box, LinearApicWarning, Wall, World
+
+# linear + apic is exercised on purpose here; its warning has a test of its own
+pytestmark = pytest.mark.filterwarnings("ignore::timpm.world.LinearApicWarning")
 
 # ---- shared free-flight worlds ------------------------------------------------------------
 #: a soft Neo-Hookean block in the middle of a unit domain, no gravity: its stencil stays
@@ -270,6 +273,12 @@ def free_flight(s, seed=4, omega=0.0, affine=0.05, noise=0.0):
     C = np.broadcast_to(A, (len(x), d, d)).copy() if s.apic else None
     reset(s, x=x, v=v, C=C)
     return x, v, C
+
+
+def test_linear_apic_warns_at_construction():
+    body = Body(Box((0.25, 0.25), (0.5, 0.5)), NeoHookean(**SOFT))
+    with pytest.warns(LinearApicWarning, match="B-spline basis"):
+        World(domain=(1.0, 1.0), cells=8, bodies=[body], basis="linear", transfer="apic")
 
 
 def _linear_apic_blows_up(dim, basis, transfer):

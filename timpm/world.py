@@ -11,6 +11,7 @@ Axes: x to the right, y up, z towards the viewer; gravity points down y by defau
 """
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,7 +21,11 @@ from .materials import MATERIALS, Material, get_material
 from .scene import _positive
 
 __all__ = ["Box", "Ball", "Points", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WALL_KINDS",
-           "SIDES", "PRESETS"]
+           "SIDES", "PRESETS", "LinearApicWarning"]
+
+
+class LinearApicWarning(RuntimeWarning):
+    """A World pairs the apic transfer with the linear basis (see README: Transfers)."""
 
 #: bases on uniform multi-dimensional grids
 ND_BASES = ("linear", "uniform-bspline2", "uniform-bspline3")
@@ -272,6 +277,11 @@ class World:
         if self.transfer == "mls-mpm" and basis.name == "linear":
             raise ValueError("the mls-mpm transfer needs a B-spline basis (its D_p is constant);"
                              " use transfer='apic' with the linear basis")
+        if self.transfer == "apic" and basis.name == "linear":
+            warnings.warn("apic with the linear basis can blow up where a particle enters an "
+                          "empty cell (a node of tiny mass meets a force that does not vanish "
+                          "with it); prefer a B-spline basis, or transfer='musl'",
+                          LinearApicWarning, stacklevel=3)
         g = np.zeros(dim) if self.gravity is None else _vector("gravity", self.gravity, dim)
         if self.gravity is None:
             g[1] = -9.81
