@@ -140,11 +140,13 @@ class Solver:
     With energies recorded, ``energy_guard`` stops an unstable run: kinetic + strain energy
     may not exceed ``energy_guard`` times the energy put in so far (initial kinetic and
     strain energy plus the magnitudes of the gravity and external work); ``None`` turns the
-    check off.
+    check off.  The kernels hold up to ``history_chunk`` records between two reads from
+    Python (default: about 4 MiB of them, 512 to 16384).
     """
 
     def __init__(self, scene, track=(), record_every: int = 1, energies: bool = True,
-                 mode: str = "auto", serial_threshold: int = 4096, history_chunk: int = 512,
+                 mode: str = "auto", serial_threshold: int = 4096,
+                 history_chunk: int | None = None,
                  track_crossings: bool | None = None, energy_guard: float | None = 2.0,
                  grid_displacement: bool = False, small_mass: float = 1e-3,
                  scatter: str = "auto", check_every: int = 16):
@@ -194,7 +196,9 @@ class Solver:
         if int(check_every) < 1:
             raise ValueError(f"check_every must be a positive integer, got {check_every!r}")
         self.check_every = int(check_every)
-        self.history_chunk = int(history_chunk)
+        if history_chunk is not None and int(history_chunk) < 1:
+            raise ValueError(f"history_chunk must be a positive integer, got {history_chunk!r}")
+        self.history_chunk = None if history_chunk is None else int(history_chunk)
         self.n_particles = n
         self.h = scene.grid.h if isinstance(scene, Scene) else scene.h
         self.inv_h = 1.0 / self.h
@@ -383,6 +387,11 @@ class Solver:
         fb.place(self.step_count, self.time, self.crossings, self.err, self.err_count, self.err_step,
                  self.err_where, self.neg_pivots)
         if self.recording:
+            if self.history_chunk is None:
+                # records the kernels hold between two reads from Python: about 4 MiB
+                per_tracked = 8 * (2 * d + d * d + (d if self.has_u else 0))
+                record = 16 + 32 * self.record_energies + self.n_tracked * per_tracked
+                self.history_chunk = min(16384, max(512, (4 << 20) // record))
             cap = self.history_chunk
             self.rec_count = ti.field(ti.i32)
             self.h_t = ti.field(real)
@@ -1248,7 +1257,7 @@ class Solver:
         bar.close()
         if self.recording:
             self._drain()
-            if self.history["step"][-1] != self.step:
+            if self.history["step"][-1][-1] != self.step:
                 self._record_now()
         self.run_seconds += time.perf_counter() - start
         return self
@@ -1281,9 +1290,10 @@ class Solver:
         n = int(self.rec_count[None])
         if n == 0:
             return
+        # kept as one array per drain (rows one by one would cost more than the steps)
         chunk = {key: fld.to_numpy()[:n] for key, fld in self._history_fields()}
         for key, values in chunk.items():
-            self.history.setdefault(key, []).extend(values)
+            self.history.setdefault(key, []).append(values)
         self.rec_count[None] = 0
         if self.record_energies:
             self._guard_energy(chunk["energy"], chunk["step"])
@@ -1291,7 +1301,7 @@ class Solver:
     def _guard_energy(self, energy, steps):
         if self.energy_guard is None or not len(self.history["energy"]):
             return
-        first = self.history["energy"][0]
+        first = self.history["energy"][0][0]
         base = first[0] + max(first[1], 0.0)
         # energy put in: initial kinetic + strain, and the work of gravity and tractions
         supplied = base + np.abs(energy[:, 2] - first[2]) + np.abs(energy[:, 3] - first[3])
@@ -1425,22 +1435,28 @@ class Solver:
         and total = kinetic + strain + gravity - external work."""
         if not self.record_energies:
             raise RuntimeError("this solver was built with energies=False")
-        e = np.asarray(self.history["energy"])
+        e = self._series("energy")
         gravity = e[:, 2] if self.has_u else e[:, 2] - e[0, 2]  # 2D/3D: -m g . (x - x0)
-        out = {"t": np.asarray(self.history["t"]), "kinetic": e[:, 0], "strain": e[:, 1],
+        out = {"t": self._series("t"), "kinetic": e[:, 0], "strain": e[:, 1],
                "gravity": gravity, "external_work": e[:, 3]}
         out["total"] = out["kinetic"] + out["strain"] + out["gravity"] - out["external_work"]
         return out
 
     def tracked(self) -> dict:
         """Recorded time series of the tracked particles: arrays of shape (records, tracked)."""
-        h = self.history
-        out = {"t": np.asarray(h["t"])}
+        out = {"t": self._series("t")}
         for key in ("x", "u", "v"):
-            a = np.asarray(h.get(key, np.zeros((0, 0, self.dim))))
+            a = self._series(key, np.zeros((0, 0, self.dim)))
             out[key] = a[..., 0] if self.dim == 1 else a
-        out["stress"] = self._tensor(np.asarray(h.get("stress", np.zeros((0, 0, 1)))))
+        out["stress"] = self._tensor(self._series("stress", np.zeros((0, 0, 1))))
         return out
+
+    def _series(self, key, empty=None):
+        """The records of ``key`` as one array (``self.history`` holds one per drain)."""
+        chunks = self.history.get(key)
+        if not chunks:
+            return np.zeros(0) if empty is None else empty
+        return np.concatenate(chunks)
 
     def _tensor(self, a):
         # Taichi returns a 1x1 matrix field as (..., 1): one value per entry in 1D
