@@ -7,9 +7,9 @@ A material is a ``@ti.data_oriented`` object of compile-time constants with one
 
 called in G2P with the displacement-increment gradient ``grad_du = sum_i u_i^inc
 grad(phi_i)^T`` of particle ``p`` (so ``I + grad_du`` is the incremental deformation
-gradient), after the solver has stored the particle's new volume in ``solver.vol[p]``.  It advances the particle state the material owns (``needs``: the
-deformation gradient ``F``, the plastic strain ``plastic``) and returns the new Cauchy
-stress.  The solver allocates a state field only when a material of the scene needs it
+gradient), after the solver has stored the particle's new volume in ``solver.vol[p]``.
+It advances the particle state the material owns (``needs``: the deformation gradient
+``F``, the plastic strain ``plastic``) and returns the new Cauchy stress.  The solver allocates a state field only when a material of the scene needs it
 and compiles only the update functions of the scene's materials.
 
 Materials for multi-dimensional scenes: :class:`LinearElastic`, :class:`NeoHookean`,
@@ -52,6 +52,11 @@ class Material:
 
     def parameters(self) -> dict:
         return {"density": self.density}
+
+    @ti.func
+    def _initial_over_current_volume(self, s: ti.template(), p):
+        """V0 / V_p: Cauchy stress = Kirchhoff stress times this."""
+        return s.m[p] / self.density / s.vol[p]
 
 
 class SolidMaterial(Material):
@@ -195,8 +200,7 @@ class DruckerPrager(SolidMaterial):
         tau1 = 2.0 * self.mu * e1 + self.lam * tr_e
         tau2 = 2.0 * self.mu * e2 + self.lam * tr_e
         T = 0.5 * (tau1 + tau2) * eye + 0.5 * (tau1 - tau2) * A
-        vol0 = s.m[p] / self.density
-        return T * (vol0 / s.vol[p])
+        return T * self._initial_over_current_volume(s, p)
 
     @ti.func
     def _update_svd(self, s: ti.template(), p, F):
@@ -235,8 +239,7 @@ class DruckerPrager(SolidMaterial):
         T = ti.Matrix.zero(float, d, d)
         for k in ti.static(range(d)):
             T[k, k] = tau[k]
-        vol0 = s.m[p] / self.density
-        return U @ T @ U.transpose() * (vol0 / s.vol[p])
+        return U @ T @ U.transpose() * self._initial_over_current_volume(s, p)
 
 
 class WeaklyCompressibleFluid(Material):
@@ -307,7 +310,7 @@ class JFluid(Material):
         s.J[p] = J
         scale = 1.0  # V = V0 alone: no division by a volume that a crushed particle drives to 0
         if ti.static(s.update_volume):  # mixed with materials whose volume changes
-            scale = s.m[p] / (self.density * s.vol[p])
+            scale = self._initial_over_current_volume(s, p)
         return (self.bulk_modulus * (J - 1.0) * scale) * ti.Matrix.identity(float, s.dim)
 
 

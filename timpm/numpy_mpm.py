@@ -34,7 +34,8 @@ def _stencil(w, fx, base, dx, n_grid):
                    (base[:, 0] + i) * n_grid + base[:, 1] + j)
 
 
-def mpm88_step(x, v, C, J, n_grid=128, dt=2e-4, p_rho=1.0, gravity=9.8, bound=3, E=400.0):
+def mpm88_step(x, v, C, J, n_grid=MPM88["n_grid"], dt=MPM88["dt"], p_rho=MPM88["p_rho"],
+               gravity=MPM88["gravity"], bound=MPM88["bound"], E=MPM88["E"]):
     """One mpm88 substep on float64 arrays, in place (x, v, C, J)."""
     dx = 1.0 / n_grid
     inv_dx = float(n_grid)

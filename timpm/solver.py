@@ -504,6 +504,12 @@ class Solver:
         return phi, grad
 
     @ti.func
+    def _from_first_node(self, xi, base):
+        """x_p - x of the stencil's first node, so that x_i - x_p = h o - this for the node
+        at stencil offset o (the factored affine terms of P2G and G2P)."""
+        return (xi - ti.cast(base, float) + self.node_offset) * self.h
+
+    @ti.func
     def _times_offset(self, A, offset: ti.template()):
         """A o for a stencil offset o known at compile time: column adds, no products."""
         out = ti.Vector.zero(float, self.dim)
@@ -715,7 +721,7 @@ class Solver:
                 self._scatter_gauss_moments(p)
             # the affine momentum A (x_i - x_p) with x_i - x_p = h o - d (o: the node's
             # offset in the stencil) is h A o - A d: one vector per particle, then adds
-            d = (xi - ti.cast(base, float) + self.node_offset) * self.h
+            d = self._from_first_node(xi, base)
             if ti.static(self.apic and not self.mls_mpm and self.basis.support > 2):
                 affine = mp * self.C[p]  # APIC: the stress enters through grad phi
             mom = mp * self.v[p] + self.dt * fp - affine @ d
@@ -848,7 +854,7 @@ class Solver:
                 du = vp * self.dt
                 if ti.static(self.apic):
                     # sum_i phi_i v_i (x_i - x_p)^T = h sum_i phi_i v_i o_i^T - v_p d^T
-                    d = (xi - ti.cast(base, float) + self.node_offset) * self.h
+                    d = self._from_first_node(xi, base)
                     B = self.h * B - vp.outer_product(d)
                     self.v[p] = vp
                     if ti.static(self.mls_mpm):

@@ -27,6 +27,7 @@ __all__ = ["Box", "Ball", "Points", "Body", "Wall", "World", "ND_BASES", "TRANSF
 class LinearApicWarning(RuntimeWarning):
     """A World pairs the apic transfer with the linear basis (see README: Transfers)."""
 
+
 #: bases on uniform multi-dimensional grids
 ND_BASES = ("linear", "uniform-bspline2", "uniform-bspline3")
 #: "musl": the study's scheme (2.2.4) in any dimension; "apic": the affine transfer (Jiang
