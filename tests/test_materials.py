@@ -22,6 +22,10 @@ class _Particles:
         self.m.fill(density)  # unit initial volume
         self.vol.from_numpy(np.abs(np.linalg.det(F)))
 
+    @ti.func
+    def _sum_into(self, ref: ti.template(), value):
+        ref += value
+
 
 def _apply(sand, F, spectral):
     ensure_init()

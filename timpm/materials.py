@@ -192,7 +192,7 @@ class DruckerPrager(SolidMaterial):
                 g2 = 1.0 / g1
             else:
                 dgamma = 0.0
-        s.plastic[p] += dgamma
+        s._sum_into(s.plastic[p], dgamma)
         if dgamma > 0.0:  # plastic: the elastic part moves back onto the cone
             F = (0.5 * (g1 + g2) * eye + 0.5 * (g1 - g2) * A) @ F
         s.F[p] = F
@@ -223,7 +223,7 @@ class DruckerPrager(SolidMaterial):
                 eps -= dgamma / dev_norm * dev
             else:
                 dgamma = 0.0
-        s.plastic[p] += dgamma
+        s._sum_into(s.plastic[p], dgamma)
         tau = ti.Vector.zero(float, d)
         tr_e = eps.sum()
         for k in ti.static(range(d)):
@@ -330,7 +330,7 @@ class Hypoelastic1D:
         sig_new = sigma_old + self.E * deps
         if ti.static(self.study):
             sig_new = sigma_old + (self.E - sigma_old) * deps
-        s.eps[p] += deps
+        s._sum_into(s.eps[p], deps)
         return sig_new
 
 

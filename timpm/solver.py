@@ -93,6 +93,8 @@ def _mls_value(mom, b):
 #: by its share of the particles and summed into the grid afterwards.  "auto" picks
 #: private on a multi-threaded CPU, serial on one thread and atomic on a GPU.
 SCATTERS = ("auto", "atomic", "serial", "private")
+#: rows of the 1D run sums (see ``Solver.run_sums``)
+SUM_ROWS = {"gm": 0, "gf": 1, "gp": 2}
 
 
 def _on_cpu() -> bool:
@@ -222,6 +224,14 @@ class Solver:
         if self.mls_mpm:
             self.D_inv = 1.0 / (self.basis.inertia * self.h ** 2)
         self.multi_material = len(self.materials) > 1
+        # 1D on one thread (MUSL, lumped, standard projection): neighbouring particles share
+        # their element, so a run of them sums its node values in registers and adds them to
+        # the grid once (a store-to-load chain through the grid per particle otherwise)
+        self.run_sums = (self.dim == 1 and not self.apic and not self.consistent and not self.mls
+                         and (self.mode == "serial" or self.serial_scatter))
+        # rows of the run sums: the grid fields each scattering phase adds to
+        self.scatter_rows = {"p2g": ("gm", "gf") + (("gp",) if self.damping > 0.0 else ()),
+                             "g2p-velocity": ("gp",)}
         # V_p = det(F) V0, unless every material's stress acts on the initial volume
         self.update_volume = not all(m.initial_volume for m in self.materials)
         self.has_walls = self.walls is not None
@@ -440,6 +450,82 @@ class Solver:
         if self.n_tracked:
             self.track_ids.from_numpy(np.asarray(track, dtype=np.int32))
 
+    # ---- reset ---------------------------------------------------------------------------
+    def reset(self):
+        """Back to the scene's initial state, keeping the compiled kernels: a second run
+        of the same scene (a study repeated, a parameter sweep over loads read at run time)
+        costs no compilation.  The first call allocates a copy of the initial positions,
+        velocities and volumes."""
+        self._prepare_reset()
+        self._reset_kernel()
+        self._reset_host()
+        return self
+
+    def _prepare_reset(self):
+        """Allocate and fill the copy of the initial state (once)."""
+        if getattr(self, "_tree", None) is None:
+            raise RuntimeError("this solver was released")
+        if getattr(self, "_initial_tree", None) is None:
+            fb = ti.FieldsBuilder()
+            d, real = self.dim, self.x.dtype
+            self.x_init, self.v_init = ti.Vector.field(d, real), ti.Vector.field(d, real)
+            self.vol_init = ti.field(real)
+            fb.dense(ti.i, self.n_particles).place(self.x_init, self.v_init, self.vol_init)
+            self._initial_tree = fb.finalize()
+            real_np = np.float64 if real == ti.f64 else np.float32
+            n = self.n_particles
+            self.x_init.from_numpy(self.scene.positions.reshape(n, d).astype(real_np))
+            self.v_init.from_numpy(self.scene.velocity.reshape(n, d).astype(real_np))
+            self.vol_init.from_numpy(self.scene.volume.astype(real_np))
+
+    def _reset_host(self):
+        self.history = {"t": [], "step": []}
+        self.run_seconds = 0.0
+        self.compile_seconds = 0.0
+        self._energy_input = 0.0
+
+    def _state_fields(self):
+        """Fields a run changes that start at zero (all but x, v, V and the fields the
+        reset sets otherwise)."""
+        keep = {id(f) for f in (self.x, self.v, self.m, self.vol)}
+        for name in ("F", "J", "mat", "elem", "fixed", "track_ids"):
+            if hasattr(self, name):
+                keep.add(id(getattr(self, name)))
+        fields = [f for f in self._particle_fields + self._grid_fields if id(f) not in keep]
+        fields += list(self.copies.values())
+        for name in ("gu", "band", "inactive", "g_mom", "g_rho", "g_sig", "body", "n_mom",
+                     "n_vel", "step_count", "time", "crossings", "err", "err_count",
+                     "err_step", "err_where", "neg_pivots", "rec_count", "ext_work"):
+            if hasattr(self, name):
+                fields.append(getattr(self, name))
+        return fields
+
+    @ti.func
+    def _reset_state(self):
+        for fld in ti.static(self._state_fields()):
+            if ti.static(len(fld.shape) == 0):
+                fld[None] = ti.zero(fld[None])
+            else:
+                for I in ti.grouped(ti.ndrange(*fld.shape)):
+                    fld[I] = ti.zero(fld[I])
+        for p in range(self.n_particles):
+            self.x[p] = self.x_init[p]
+            self.v[p] = self.v_init[p]
+            self.vol[p] = self.vol_init[p]
+            if ti.static("F" in self.needs):
+                self.F[p] = ti.Matrix.identity(float, self.dim)
+            if ti.static("J" in self.needs):
+                self.J[p] = 1.0
+            if ti.static(self.track_crossings):
+                for k in ti.static(range(self.dim)):
+                    xi = (self.x[p][k] - self.origin[k]) * self.inv_h
+                    self.elem[p][k] = ti.min(ti.max(ti.floor(xi, ti.i32), 0),
+                                             self.grid_elements[k] - 1)
+
+    @ti.kernel
+    def _reset_kernel(self):
+        self._one_task(self._reset_state)
+
     def _element_of(self, x):
         xi = (x - np.asarray(self.origin)) * self.inv_h
         return np.clip(np.floor(xi), 0, np.asarray(self.grid_elements) - 1).astype(np.int32)
@@ -458,9 +544,10 @@ class Solver:
 
     def release(self):
         """Free the fields of this solver (it cannot be used afterwards)."""
-        if getattr(self, "_tree", None) is not None:
-            self._tree.destroy()
-            self._tree = None
+        for name in ("_tree", "_initial_tree"):
+            if getattr(self, name, None) is not None:
+                getattr(self, name).destroy()
+                setattr(self, name, None)
 
     # ---- stencil -----------------------------------------------------------------------
     @ti.func
@@ -532,10 +619,38 @@ class Solver:
     @ti.func
     def _fail(self, code, where):
         """Record the first error of the run: its code, step and particle or node."""
-        if ti.atomic_add(self.err_count[None], 1) == 0:
+        first = False
+        if ti.static(self.mode == "serial"):
+            first = self.err_count[None] == 0
+            self.err_count[None] = self.err_count[None] + 1
+        else:
+            first = ti.atomic_add(self.err_count[None], 1) == 0
+        if first:
             self.err[None] = code
             self.err_step[None] = self.step_count[None]
             self.err_where[None] = where
+
+    @ti.func
+    def _sum_into(self, ref: ti.template(), value):
+        """ref += value.  In the fused serial mode every kernel of the solver is one task on
+        one thread, so the add is plain, also where the task is a member of a parallel
+        :class:`Batch` (whose tasks are parallel: Taichi would keep the atomic); else an
+        atomic add (Taichi demotes it where the loop is serial or ref belongs to one
+        iteration)."""
+        if ti.static(self.mode == "serial"):
+            ref = ref + value
+        else:
+            ref += value
+
+    @ti.func
+    def _one_task(self, body: ti.template()):
+        """Run ``body`` as one serial task in the fused serial mode, else as it is."""
+        if ti.static(self.mode == "serial"):
+            ti.loop_config(serialize=True)
+            for _ in range(1):
+                body()
+        else:
+            body()
 
     @ti.func
     def _is_fixed(self, I):
@@ -614,7 +729,7 @@ class Solver:
             at = self._copy_index(copy, node)
             fld[at] = fld[at] + value
         else:
-            ti.static(getattr(self, name))[node] += value
+            self._sum_into(ti.static(getattr(self, name))[node], value)
 
     @ti.func
     def _copy_index(self, copy, node):
@@ -663,6 +778,21 @@ class Solver:
             for p in range(self.n_copies * B):
                 if p < self.n_particles:
                     self._scatter_particle(phase, p, p // B)
+        elif ti.static(self.run_sums):
+            ti.loop_config(serialize=True)
+            for _ in range(1):  # one task: the sums stay in registers
+                rows = ti.static(self.scatter_rows[phase])
+                first = -1  # first node of the run's stencil
+                sums = ti.Matrix.zero(float, 3, self.basis.support)
+                for p in range(self.n_particles):
+                    base, inside, node_values = self._scatter_particle(phase, p, 0)
+                    if inside:
+                        if base[0] != first:
+                            self._add_sums(rows, first, sums)
+                            first = base[0]
+                            sums = ti.Matrix.zero(float, 3, self.basis.support)
+                        sums += node_values
+                self._add_sums(rows, first, sums)
         elif ti.static(self.serial_scatter):
             ti.loop_config(serialize=True)  # plain adds instead of contended atomics
             for p in range(self.n_particles):
@@ -673,11 +803,43 @@ class Solver:
 
     @ti.func
     def _scatter_particle(self, phase: ti.template(), p, copy):
+        """The particle's stencil base, whether it scattered, and (run sums) its node
+        values: rows gm, gf, gp, one column per stencil node."""
+        base = ti.Vector.zero(ti.i32, self.dim)
+        inside = 0
+        node_values = ti.Matrix.zero(float, 3, self.basis.support)
         if not self._halted():
             if ti.static(phase == "p2g"):
-                self._p2g_particle(p, copy)
+                base, inside, node_values = self._p2g_particle(p, copy)
             else:
-                self._g2p_velocity_particle(p, copy)
+                base, inside, node_values = self._g2p_velocity_particle(p, copy)
+        return base, inside, node_values
+
+    @ti.func
+    def _add_sums(self, rows: ti.template(), first, sums):
+        """Add a run's node sums to the grid nodes first, first + 1, ... (none if first < 0)."""
+        if first >= 0:
+            for name in ti.static(rows):
+                row = ti.static(SUM_ROWS[name])
+                for a in ti.static(range(self.basis.support)):
+                    if ti.static(name == "gm"):
+                        self._sum_into(self.gm[first + a], sums[row, a])
+                    else:
+                        self._sum_into(ti.static(getattr(self, name))[first + a][0], sums[row, a])
+
+    @ti.func
+    def _deposit(self, name: ti.template(), copy, node, offset: ti.template(), value,
+                 node_values):
+        """Scatter ``value`` to grid field ``name`` at ``node``: into the run sums' column
+        ``offset`` (returned), or by the scatter strategy (``_add``)."""
+        if ti.static(self.run_sums):
+            if ti.static(name == "gm"):
+                node_values[SUM_ROWS[name], offset[0]] = value
+            else:
+                node_values[SUM_ROWS[name], offset[0]] = value[0]
+        else:
+            self._add(name, copy, node, value)
+        return node_values
 
     @ti.func
     def _halted(self):
@@ -701,6 +863,7 @@ class Solver:
     @ti.func
     def _p2g_particle(self, p, copy):
         base, w, dw, xi, inside = self._stencil(p)
+        node_values = ti.Matrix.zero(float, 3, self.basis.support)
         if not inside:
             self._fail(1, p)
         else:
@@ -744,15 +907,19 @@ class Solver:
                     self._add("gm", copy, node, mp * phi)
                     self._add("gp", copy, node, momentum - self.dt * (stress_volume @ grad))
                 elif ti.static(not self.mls):
-                    self._add("gm", copy, node, mp * phi)
-                    self._add("gf", copy, node, phi * fp - stress_volume @ grad)
+                    node_values = self._deposit("gm", copy, node, offset, mp * phi, node_values)
+                    node_values = self._deposit("gf", copy, node, offset,
+                                                phi * fp - stress_volume @ grad, node_values)
                 else:
-                    self.gf[node] += phi * fp
+                    self._sum_into(self.gf[node], phi * fp)
                 if ti.static(not self.apic and (self.damping > 0.0 or self.has_walls)):
-                    self._add("gp", copy, node, mp * phi * self.v[p])
+                    node_values = self._deposit("gp", copy, node, offset, mp * phi * self.v[p],
+                                                node_values)
             if ti.static(self.consistent):
                 for a, c in ti.static(ti.ndrange(self.basis.support, self.basis.support)):
-                    self.band[base[0] + a, c - a + self.bandwidth] += mp * w[a, 0] * w[c, 0]
+                    self._sum_into(self.band[base[0] + a, c - a + self.bandwidth],
+                                   mp * w[a, 0] * w[c, 0])
+        return base, inside, node_values
 
     @ti.func
     def _grid_acceleration(self):
@@ -814,6 +981,7 @@ class Solver:
     @ti.func
     def _g2p_velocity_particle(self, p, copy):
         base, w, dw, xi, inside = self._stencil(p)
+        node_values = ti.Matrix.zero(float, 3, self.basis.support)
         if inside:
             acc = ti.Vector.zero(float, self.dim)
             for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
@@ -826,7 +994,9 @@ class Solver:
             else:
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
-                    self._add("gp", copy, base + offset, self.m[p] * phi * vp)
+                    node_values = self._deposit("gp", copy, base + offset, offset,
+                                                self.m[p] * phi * vp, node_values)
+        return base, inside, node_values
 
     @ti.func
     def _g2p_update(self):
@@ -888,16 +1058,19 @@ class Solver:
                 self.sigma[p] = sig_new
                 if ti.static(self.record_energies):
                     # strain energy: trapezoidal path integral of sigma : d_eps V
-                    self.work[p] += 0.5 * ((sig_old * vol_old + sig_new * vol_new) * deps).sum()
+                    self._sum_into(self.work[p],
+                                   0.5 * ((sig_old * vol_old + sig_new * vol_new) * deps).sum())
                     if ti.static(self.has_traction):
                         if p == self.traction_particle:
-                            self.ext_work[None] += self.traction_amplitude * self.traction_fn.value(
-                                self.time[None]) * du[0]
+                            self._sum_into(self.ext_work[None], self.traction_amplitude *
+                                           self.traction_fn.value(self.time[None]) * du[0])
                 if ti.static(self.has_u):
-                    self.u[p] += du
-                self.x[p] += du
-                # checks, the first failure of the run is the one reported
-                state = self.x[p].sum() + self.v[p].sum() + sig_new.sum() + vol_new
+                    self._sum_into(self.u[p], du)
+                x_new = self.x[p] + du
+                self.x[p] = x_new
+                # checks on the new state, from registers (a NaN in the MUSL particle velocity
+                # reaches vp through the grid); the first failure of the run is the one reported
+                state = x_new.sum() + vp.sum() + sig_new.sum() + vol_new
                 if not (ti.abs(state) < 1e300):  # NaN fails this comparison
                     self._fail(2, p)
                 if ti.static(self.update_volume):
@@ -905,7 +1078,7 @@ class Solver:
                         self._fail(3, p)
                 xn = ti.Vector.zero(float, self.dim)
                 for k in ti.static(range(self.dim)):
-                    xn[k] = (self.x[p][k] - self.origin[k]) * self.inv_h
+                    xn[k] = (x_new[k] - self.origin[k]) * self.inv_h
                     if not (xn[k] >= 0.0 and xn[k] <= self.grid_elements[k]):
                         self._fail(1, p)
                 if ti.static(self.track_crossings):
@@ -913,7 +1086,7 @@ class Solver:
                     for k in ti.static(range(self.dim)):
                         e[k] = ti.min(ti.max(ti.floor(xn[k], ti.i32), 0), self.grid_elements[k] - 1)
                     if (e != self.elem[p]).any():
-                        self.crossings[None] += 1
+                        self._sum_into(self.crossings[None], 1)
                         self.elem[p] = e
 
     @ti.func
@@ -961,7 +1134,7 @@ class Solver:
                     pivot = 1.0
                     self.band[k, b] = 1.0
                 if pivot < 0.0:
-                    self.neg_pivots[None] += 1
+                    self._sum_into(self.neg_pivots[None], 1)
                 for r in ti.static(range(1, b + 1)):
                     i = k + r
                     if i < nn:
@@ -1018,10 +1191,10 @@ class Solver:
                 self._solve_mass(self.gp, True)
             if ti.static(self.grid_displacement):
                 for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
-                    self.gu[I] += self.gp[I] * self.dt  # u_i += v_i dt (5.2)
+                    self._sum_into(self.gu[I], self.gp[I] * self.dt)  # u_i += v_i dt (5.2)
             self._g2p_update()
         if not self._halted():
-            self.step_count[None] += 1
+            self._sum_into(self.step_count[None], 1)
             self.time[None] = self.step_count[None] * self.dt
 
     # ---- moving-least-squares projection (study 4.4) -----------------------------------
@@ -1041,9 +1214,9 @@ class Solver:
                     d = xi - y
                     w = _quadratic_spline(ti.abs(d)) if jw > 0.0 else 0.0
                     if w > 0.0:
-                        self.g_mom[e, g] += w * ti.Vector([1.0, d, d * d])
-                        self.g_rho[e, g] += w * rho * ti.Vector([1.0, d])
-                        self.g_sig[e, g] += w * sig * ti.Vector([1.0, d])
+                        self._sum_into(self.g_mom[e, g], w * ti.Vector([1.0, d, d * d]))
+                        self._sum_into(self.g_rho[e, g], w * rho * ti.Vector([1.0, d]))
+                        self._sum_into(self.g_sig[e, g], w * sig * ti.Vector([1.0, d]))
 
     @ti.func
     def _body_extent(self):
@@ -1051,8 +1224,12 @@ class Solver:
         for p in range(self.n_particles):
             xi = (self.x[p][0] - self.origin[0]) * self.inv_h
             half = 0.5 * self.vol[p] * self.inv_h
-            ti.atomic_min(self.body[None][0], xi - half)
-            ti.atomic_max(self.body[None][1], xi + half)
+            if ti.static(self.mode == "serial"):  # one thread: no atomics (see _sum_into)
+                self.body[None][0] = ti.min(self.body[None][0], xi - half)
+                self.body[None][1] = ti.max(self.body[None][1], xi + half)
+            else:
+                ti.atomic_min(self.body[None][0], xi - half)
+                ti.atomic_max(self.body[None][1], xi + half)
 
     @ti.func
     def _gauss_point(self, e, g: ti.template()):
@@ -1073,9 +1250,9 @@ class Solver:
                     sig = _mls_value(self.g_mom[e, g], self.g_sig[e, g])
                     base, w, dw = self.basis.stencil(y, self.n_elements)
                     for a in ti.static(range(self.basis.support)):
-                        self.gm[base + a] += jw * rho * w[a]
-                        self.gf[base + a][0] += jw * (rho * self.gravity[0] * w[a]
-                                                      - sig * dw[a] * self.inv_h)
+                        self._sum_into(self.gm[base + a], jw * rho * w[a])
+                        self._sum_into(self.gf[base + a][0], jw * (rho * self.gravity[0] * w[a]
+                                                                   - sig * dw[a] * self.inv_h))
 
     @ti.func
     def _scatter_node_moments(self, p, vp):
@@ -1088,8 +1265,8 @@ class Solver:
                 d = xi - i
                 w = _cubic_spline(0.5 * ti.abs(d))
                 if w > 0.0:
-                    self.n_mom[i] += w * ti.Vector([1.0, d, d * d])
-                    self.n_vel[i] += w * vp * ti.Vector([1.0, d])
+                    self._sum_into(self.n_mom[i], w * ti.Vector([1.0, d, d * d]))
+                    self._sum_into(self.n_vel[i], w * vp * ti.Vector([1.0, d]))
 
     @ti.func
     def _mls_nodal_velocity(self):
@@ -1126,10 +1303,15 @@ class Solver:
                         else:
                             pot -= self.m[p] * self.gravity[k] * self.x[p][k]
                 e = ti.Vector([0.5 * self.m[p] * self.v[p].norm_sqr(), self.work[p], pot, 0.0])
-                self.h_energy[slot] += e
+                self._sum_into(self.h_energy[slot], e)
             if ti.static(self.has_traction):
                 self.h_energy[slot][3] = self.ext_work[None]
         self.rec_count[None] = slot + 1
+
+    @ti.func
+    def _clear_and_project(self):
+        self._clear_grid()
+        self._project()
 
     @ti.func
     def _project(self):
@@ -1139,14 +1321,13 @@ class Solver:
             if inside:
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
-                    self.gm[base + offset] += self.m[p] * phi
-                    self.gp[base + offset] += self.m[p] * phi * self.v[p]
+                    self._sum_into(self.gm[base + offset], self.m[p] * phi)
+                    self._sum_into(self.gp[base + offset], self.m[p] * phi * self.v[p])
 
     # ---- kernels -----------------------------------------------------------------------
     @ti.kernel
     def _project_kernel(self):
-        self._clear_grid()
-        self._project()
+        self._one_task(self._clear_and_project)
 
     @ti.kernel
     def _clear_kernel(self):
@@ -1158,12 +1339,21 @@ class Solver:
 
     @ti.kernel
     def _record_kernel(self):
-        self._record()
+        self._one_task(self._record)
 
     @ti.kernel
     def _advance(self, n_steps: ti.i32, every: ti.i32) -> ti.i32:
         done = 0
         ti.loop_config(serialize=True)
+        for _ in range(1):  # one task on one thread: the fused serial mode
+            done = self._advance_steps(n_steps, every)
+        return done
+
+    @ti.func
+    def _advance_steps(self, n_steps, every):
+        """Up to n_steps steps, recording every ``every``-th; stops before the step after
+        a failure.  Returns the steps done (the body of ``_advance`` and of a Batch)."""
+        done = 0
         for _ in range(n_steps):
             if self.err_count[None] != 0:  # no step after a failed one
                 break
@@ -1196,14 +1386,18 @@ class Solver:
         t0 = time.perf_counter()
         if self.mode == "serial":
             self._advance(0, self.record_every)  # zero steps: compiles, changes nothing
+        self._compile_io()
+        self.compile_seconds += time.perf_counter() - t0
+        self._compiled = True
+
+    def _compile_io(self):
+        """Compile the recording kernel and the accessors the drivers read with."""
         if self.recording:
             self._record_kernel()
             self.rec_count[None] = 0
-            for _, fld in self._history_fields():  # compile the accessors run() reads with
+            for _, fld in self._history_fields():
                 fld.to_numpy()
         int(self.err[None]) + int(self.err_count[None])
-        self.compile_seconds += time.perf_counter() - t0
-        self._compiled = True
 
     def run(self, t_end: float | None = None, n_steps: int | None = None, progress=None):
         """Advance to ``t_end`` (or by ``n_steps``); returns self.
