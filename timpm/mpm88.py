@@ -47,9 +47,12 @@ def _source(n_particles):
     return src
 
 
-def _worker(n_particles, frames, out):
-    """Run mpm88 for ``frames`` frames with a headless GUI; save timings and particles."""
+def _worker(n_particles, frames, out, pin=False):
+    """Run mpm88 for ``frames`` frames with a headless GUI; save timings and particles
+    (``pin``: bind Taichi's workers one per core once the script has started Taichi)."""
     import taichi as ti
+
+    from .runtime import pin_workers
 
     record = {"frame_times": []}
     namespace = {"__name__": "__mpm88__"}
@@ -59,6 +62,7 @@ def _worker(n_particles, frames, out):
 
         def __init__(self, *args, **kwargs):
             self.frames = 0
+            record["pinned"] = len(pin_workers()) if pin else 0
 
         @property
         def running(self):
@@ -89,11 +93,12 @@ def _worker(n_particles, frames, out):
     np.savez(out, x0=record["x0"], x1=record["x1"],
              frame_times=np.array([record["t_start"]] + record["frame_times"]),
              threads=cfg.cpu_max_num_threads, arch=str(cfg.arch),
-             dtype=str(namespace["x"].dtype))
+             dtype=str(namespace["x"].dtype), pinned=record["pinned"])
 
 
-def run_mpm88(n_particles=8192, frames=4, threads=None, timeout=900) -> dict:
-    """Run the installed mpm88 headless in a subprocess (CPU backend, ``threads`` threads).
+def run_mpm88(n_particles=8192, frames=4, threads=None, pin=False, timeout=900) -> dict:
+    """Run the installed mpm88 headless in a subprocess (CPU backend, ``threads`` threads;
+    ``pin``: Taichi's workers bound one per core, as :func:`timpm.runtime.init` does).
 
     Returns the particle-substeps per second of the fastest frame after the first (which
     compiles; ``mpss_mean``: over all of them), the initial positions and the positions
@@ -107,7 +112,7 @@ def run_mpm88(n_particles=8192, frames=4, threads=None, timeout=900) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "mpm88.npz")
         cmd = [sys.executable, "-c", f"from timpm.mpm88 import _worker; "
-               f"_worker({int(n_particles)}, {int(frames)}, {out!r})"]
+               f"_worker({int(n_particles)}, {int(frames)}, {out!r}, {bool(pin)})"]
         proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout)
         if proc.returncode != 0:
             raise RuntimeError(f"mpm88 failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
@@ -118,6 +123,7 @@ def run_mpm88(n_particles=8192, frames=4, threads=None, timeout=900) -> dict:
     seconds = float(times[-1] - times[1])
     return {"particles": int(n_particles), "threads": int(data["threads"]),
             "arch": str(data["arch"]), "dtype": str(data["dtype"]), "substeps": steps,
+            "pinned_workers": int(data["pinned"]),
             "seconds": seconds, "mpss_mean": n_particles * steps / seconds / 1e6,
             # the fastest frame: a shared machine only ever slows a frame down
             "mpss": n_particles * SUBSTEPS_PER_FRAME / float(timed.min()) / 1e6,

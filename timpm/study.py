@@ -1,4 +1,5 @@
 """Drivers: run a benchmark problem, compare with its exact solution, study convergence."""
+from collections import OrderedDict
 from dataclasses import dataclass, field
 import time
 
@@ -6,9 +7,10 @@ import numpy as np
 
 from .analysis import energy_drift, observed_rates, rms_error
 from .problems import get_problem
+from .batch import Batch
 from .solver import Solver
 
-__all__ = ["RunResult", "run_problem", "convergence"]
+__all__ = ["RunResult", "run_problem", "convergence", "clear_solvers"]
 
 
 @dataclass
@@ -30,52 +32,97 @@ def _default_record_every(steps: int) -> int:
 def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="linear",
                 mass="lumped", dt=None, t_end=None, placement="study", stress_update="study",
                 damping=None, allow_unstable_dt=False, mode="auto", record_every=None,
-                progress=None, params=None, energies=True, projection="standard") -> RunResult:
+                progress=None, params=None, energies=True, projection="standard",
+                series=True, reuse=True) -> RunResult:
     """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
 
     Unset numerical values take the problem's defaults; ``params`` overrides physical
     parameters (e.g. ``{"p0": 5e4}``).  The record holds at least problem, elements, ppc,
     basis, mass, dt, t_end, steps, rms_error, wall_seconds (stepping only; compilation is
-    ``compile_seconds``) and grid_crossings.
+    ``compile_seconds``) and grid_crossings.  ``series=False`` records no time series of
+    the monitored particle (the study's figures need it, its tables do not);
+    ``reuse=True`` keeps the solver for a later run of the same scene (see
+    :func:`clear_solvers`), whose kernels are then compiled already.
     """
-    prob = get_problem(problem, **(params or {}))
-    elements = prob.elements if elements is None else elements
-    ppc = prob.ppc if ppc is None else ppc
-    t_end = prob.t_end if t_end is None else float(t_end)
-    scene = prob.scene(elements=elements, ppc=ppc, basis=basis, mass=mass, dt=dt,
-                       placement=placement, stress_update=stress_update,
-                       allow_unstable_dt=allow_unstable_dt, damping=damping,
-                       projection=projection)
-    x0 = scene.positions.copy()
-    monitor = prob.monitored_particle(x0)
-    steps = int(round(t_end / scene.dt))
-    every = _default_record_every(steps) if record_every is None else int(record_every)
+    run = _Run(problem, elements, ppc, basis, mass, dt, t_end, placement, stress_update,
+               damping, allow_unstable_dt, record_every, params, energies, projection, series)
+    key = run.key(mode=mode)
     t_build = time.perf_counter()
-    solver = Solver(scene, track=[monitor], record_every=every, energies=energies, mode=mode)
+    solver = _SOLVERS.pop(key, None) if reuse else None
+    if solver is not None:
+        solver.reset()  # compiled at the first reuse, then a single launch
+    else:
+        solver = Solver(run.scene, track=run.track, record_every=run.every, energies=energies,
+                        mode=mode)
     build_seconds = time.perf_counter() - t_build
     try:
-        solver.run(t_end, progress=progress)
+        solver.run(run.t_end, progress=progress)
+        return run.result(solver, build_seconds)
+    finally:
+        if reuse:
+            _keep(_SOLVERS, key, solver)
+        else:
+            solver.release()
+
+
+class _Run:
+    """One run of a problem: its scene and what is recorded, then its result."""
+
+    def __init__(self, problem, elements, ppc, basis, mass, dt, t_end, placement,
+                 stress_update, damping, allow_unstable_dt, record_every, params, energies,
+                 projection, series):
+        self.prob = prob = get_problem(problem, **(params or {}))
+        self.elements = prob.elements if elements is None else elements
+        self.ppc = prob.ppc if ppc is None else ppc
+        self.t_end = prob.t_end if t_end is None else float(t_end)
+        self.placement, self.stress_update, self.projection = placement, stress_update, projection
+        self.energies, self.series = bool(energies), bool(series)
+        self.scene = prob.scene(elements=self.elements, ppc=self.ppc, basis=basis, mass=mass,
+                                dt=dt, placement=placement, stress_update=stress_update,
+                                allow_unstable_dt=allow_unstable_dt, damping=damping,
+                                projection=projection)
+        self.x0 = self.scene.positions.copy()
+        self.monitor = prob.monitored_particle(self.x0)
+        self.track = [self.monitor] if series else []
+        steps = int(round(self.t_end / self.scene.dt))
+        self.every = _default_record_every(steps) if record_every is None else int(record_every)
+
+    def key(self, **solver_options):
+        """What makes two runs' solvers interchangeable: the scene, by value, and the
+        solver's options."""
+        sc = self.scene
+        return (repr((sc.grid, sc.material, sc.dt, sc.basis, sc.mass, sc.gravity, sc.traction,
+                      sc.fixed_nodes, sc.damping, sc.projection, sc.name)),
+                sc.positions.tobytes(), sc.volume.tobytes(), sc.velocity.tobytes(),
+                tuple(self.track), self.every, self.energies,
+                tuple(sorted(solver_options.items())))
+
+    def result(self, solver, build_seconds) -> RunResult:
+        prob, x0, monitor, stress_update = self.prob, self.x0, self.monitor, self.stress_update
+        scene = self.scene
         t = solver.t
         u = solver.displacements()
         exact = prob.displacement(x0, t, stress_update=stress_update) if prob.has_exact else None
-        series = solver.tracked()
-        series = {"t": series["t"], "particle": monitor, "x0": float(x0[monitor]),
-                  "u": series["u"][:, 0], "v": series["v"][:, 0], "stress": series["stress"][:, 0]}
-        if prob.has_exact:
-            series["u_exact"] = np.array([prob.displacement(x0[monitor:monitor + 1], s,
-                                                            stress_update=stress_update)[0]
-                                          for s in series["t"]])
-            series["v_exact"] = np.array([prob.velocity(x0[monitor:monitor + 1], s)[0]
-                                          for s in series["t"]])
-        en = solver.energies() if energies else None
+        series = {}
+        if self.series:
+            rec = solver.tracked()
+            series = {"t": rec["t"], "particle": monitor, "x0": float(x0[monitor]),
+                      "u": rec["u"][:, 0], "v": rec["v"][:, 0], "stress": rec["stress"][:, 0]}
+            if prob.has_exact:
+                series["u_exact"] = np.array([prob.displacement(x0[monitor:monitor + 1], s,
+                                                                stress_update=stress_update)[0]
+                                              for s in series["t"]])
+                series["v_exact"] = np.array([prob.velocity(x0[monitor:monitor + 1], s)[0]
+                                              for s in series["t"]])
+        en = solver.energies() if self.energies else None
         record = {
-            "problem": prob.name, "elements": int(elements), "ppc": int(ppc),
+            "problem": prob.name, "elements": int(self.elements), "ppc": int(self.ppc),
             "basis": scene.basis, "mass": scene.mass, "dt": scene.dt, "t_end": t,
             "steps": solver.step, "rms_error": rms_error(u, exact) if exact is not None else None,
             "wall_seconds": solver.run_seconds, "compile_seconds": solver.compile_seconds,
             "build_seconds": build_seconds, "grid_crossings": solver.grid_crossings(),
-            "particles": scene.n_particles, "placement": placement,
-            "stress_update": stress_update, "projection": projection, "mode": solver.mode,
+            "particles": scene.n_particles, "placement": self.placement,
+            "stress_update": stress_update, "projection": self.projection, "mode": solver.mode,
             "critical_dt": scene.critical_dt, "monitored_particle": monitor,
             # damping dissipates energy by design: no conservation measure then
             "energy_drift": energy_drift(en) if en is not None and scene.damping == 0 else None,
@@ -84,21 +131,88 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
             record["negative_pivots"] = solver.negative_pivots()
         record.update(prob.summary(x0, solver, stress_update))
         return RunResult(record, x0, u, exact, series, en)
-    finally:
-        solver.release()
 
 
-def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), **kwargs) -> dict:
-    """Run the problem on each mesh; returns the records and the observed rates."""
+#: solvers kept for another run of the same scene, and batches of them (oldest first)
+_SOLVERS: "OrderedDict[tuple, Solver]" = OrderedDict()
+_BATCHES: "OrderedDict[tuple, Batch]" = OrderedDict()
+KEEP_SOLVERS = 16
+KEEP_BATCHES = 4
+
+
+def _keep(cache, key, item, limit=None):
+    """Keep ``item`` under ``key``, releasing the oldest beyond the limit."""
+    cache[key] = item
+    limit = (KEEP_SOLVERS if cache is _SOLVERS else KEEP_BATCHES) if limit is None else limit
+    while len(cache) > limit:
+        _, old = cache.popitem(last=False)
+        _release(old)
+
+
+def _release(item):
+    if isinstance(item, Batch):
+        for s in item.solvers:
+            s.release()
+    item.release()
+
+
+def clear_solvers():
+    """Release the solvers (and batches) kept for later runs of the same scenes."""
+    for cache in (_SOLVERS, _BATCHES):
+        while cache:
+            _release(cache.popitem()[1])
+
+
+def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=False,
+                **kwargs) -> dict:
+    """Run the problem on each mesh; returns the records and the observed rates.
+
+    ``batch=True`` runs the meshes side by side, one thread each (:class:`timpm.Batch`,
+    fused serial solvers kept for a later study of the same meshes): the records' wall
+    seconds are then the batch's, shared by all runs.
+    """
     if len(elements) == 0:
         raise ValueError("give at least one number of elements")
-    results = [run_problem(problem, elements=n, **kwargs) for n in elements]
-    records = [r.record for r in results]
+    if batch:
+        records = [r.record for r in _batch_runs(problem, elements, **kwargs)]
+    else:
+        records = [run_problem(problem, elements=n, **kwargs).record for n in elements]
     doc = {"problem": records[0]["problem"], "runs": records}
     errors = [r["rms_error"] for r in records]
     if all(e is not None for e in errors):
         doc["rates"] = observed_rates([r["elements"] for r in records], errors)
     return doc
+
+
+def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", dt=None,
+                t_end=None, placement="study", stress_update="study", damping=None,
+                allow_unstable_dt=False, record_every=None, progress=None, params=None,
+                energies=True, projection="standard", series=True, mode="serial",
+                reuse=True):
+    if mode != "serial":
+        raise ValueError("a batch runs fused serial solvers: mode must be 'serial'")
+    runs = [_Run(problem, n, ppc, basis, mass, dt, t_end, placement, stress_update, damping,
+                 allow_unstable_dt, record_every, params, energies, projection, series)
+            for n in elements]
+    if len({r.t_end for r in runs}) != 1:
+        raise ValueError("the runs of a batch share t_end")
+    key = tuple(r.key(mode="serial") for r in runs)
+    t_build = time.perf_counter()
+    batch = _BATCHES.pop(key, None) if reuse else None
+    if batch is not None:
+        batch.reset()
+    else:
+        batch = Batch([Solver(r.scene, track=r.track, record_every=r.every, energies=energies,
+                              mode="serial") for r in runs])
+    build_seconds = time.perf_counter() - t_build
+    try:
+        batch.run(runs[0].t_end, progress=progress)
+        return [r.result(s, build_seconds) for r, s in zip(runs, batch.solvers)]
+    finally:
+        if reuse:
+            _keep(_BATCHES, key, batch)
+        else:
+            _release(batch)
 
 
 def compare_large_column(elements=30, ppc=50, dt=1e-3, t_end=3.0, basis="linear",

@@ -1,0 +1,175 @@
+"""Solver.reset, Batch (runs side by side, one thread each) and the solvers a study keeps."""
+import os
+
+import numpy as np
+import pytest
+
+from timpm import Body, Box, World, runtime
+from timpm.batch import Batch
+from timpm.materials import NeoHookean
+from timpm.problems import get_problem
+from timpm.solver import SimulationError, Solver
+from timpm.study import clear_solvers, convergence, run_problem
+
+
+def _string(elements, **kw):
+    return get_problem("vibrating-string").scene(elements=elements, ppc=4, **kw)
+
+
+def _state(s):
+    out = {"x": s.positions(), "v": s.velocities(), "sigma": s.stresses(), "step": s.step,
+           "t": s.t}
+    if s.dim == 1:
+        out.update(u=s.displacements(), crossings=s.grid_crossings())
+    if s.record_energies:
+        out.update({f"energy_{k}": v for k, v in s.energies().items()})
+    if s.n_tracked:
+        out.update({f"tracked_{k}": v for k, v in s.tracked().items()})
+    return out
+
+
+def _assert_same(a, b):
+    assert a.keys() == b.keys()
+    for key in a:
+        np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def test_reset_repeats_a_1d_run_bit_for_bit():
+    """The large-deformation column (A.5) under gravity: particles cross elements."""
+    s = Solver(get_problem("large-column").scene(elements=10, ppc=4), track=[3], mode="serial")
+    try:
+        s.run(n_steps=300)
+        first = _state(s)
+        assert first["crossings"] > 0
+        s.reset()
+        assert s.step == 0 and s.t == 0.0 and s.grid_crossings() == 0
+        np.testing.assert_array_equal(s.displacements(), 0.0)
+        s.run(n_steps=300)
+        _assert_same(first, _state(s))
+        assert s.compile_seconds == 0.0  # nothing compiled for the second run
+    finally:
+        s.release()
+
+
+def test_reset_repeats_a_2d_affine_run_bit_for_bit():
+    """F, C, J and the grid start over too (Neo-Hookean block, APIC, sticky floor)."""
+    body = Body(Box((0.2, 0.1), (0.5, 0.4)), NeoHookean(E=1e4, nu=0.3, density=1e3),
+                velocity=(0.5, -1.0))
+    world = World(domain=(1.0, 1.0), cells=16, bodies=[body], transfer="apic",
+                  walls="sticky", courant=0.4)
+    s = Solver(world, mode="serial", energies=True)
+    try:
+        s.run(n_steps=80)
+        first = _state(s)
+        s.reset()
+        np.testing.assert_array_equal(s.positions(), world.positions)
+        s.run(n_steps=80)
+        _assert_same(first, _state(s))
+    finally:
+        s.release()
+
+
+def test_batch_members_match_their_runs_alone():
+    """Side by side on the threads, each member's run is its run alone, bit for bit: the
+    same positions, energies, tracked series and grid crossings."""
+    scenes = [_string(e) for e in (4, 8, 16)]
+    alone = []
+    for sc in scenes:
+        s = Solver(sc, track=[1], mode="serial")
+        s.run(t_end=0.03)
+        alone.append(_state(s))
+        s.release()
+    members = [Solver(sc, track=[1], mode="serial") for sc in scenes]
+    batch = Batch(members)
+    try:
+        batch.run(t_end=0.03)
+        for state, s in zip(alone, members):
+            _assert_same(state, _state(s))
+        assert batch.run_seconds > 0 and batch.compile_seconds > 0
+        # and again after a reset, now warm: no compile time
+        batch.reset()
+        assert all(s.step == 0 for s in members)
+        compiled = batch.compile_seconds
+        batch.run(t_end=0.03)
+        assert batch.compile_seconds == compiled
+        for state, s in zip(alone, members):
+            _assert_same(state, _state(s))
+    finally:
+        batch.release()
+        for s in members:
+            s.release()
+
+
+def test_batch_names_the_failing_member():
+    """A member above its critical time step blows up; the error names the member, and the
+    other member ran to the end."""
+    good = Solver(_string(4), mode="serial", energies=False)
+    sc = _string(8)
+    bad = Solver(_string(8, dt=3 * sc.critical_dt, allow_unstable_dt=True), mode="serial",
+                 energies=False)
+    batch = Batch([good, bad])
+    try:
+        with pytest.raises(SimulationError, match="batch member 1: step"):
+            batch.run(n_steps=4000, progress=False)
+        assert good.step == 4000
+    finally:
+        batch.release()
+        good.release()
+        bad.release()
+
+
+def test_batch_refuses_what_it_cannot_run():
+    sc = _string(4)
+    with pytest.raises(ValueError, match="at least one solver"):
+        Batch([])
+    par = Solver(sc, mode="parallel", energies=False)
+    with pytest.raises(ValueError, match="member 0 runs in parallel mode"):
+        Batch([par])
+    ser = Solver(sc, mode="serial", energies=False)
+    with pytest.raises(ValueError, match="appears twice"):
+        Batch([ser, ser])
+    with pytest.raises(TypeError, match="member 1 is a str"):
+        Batch([ser, "solver"])
+    ser.release()
+    with pytest.raises(ValueError, match="member 0 was released"):
+        Batch([ser])
+    par.release()
+
+
+def test_a_study_reuses_its_solvers_and_a_batch_gives_the_same_table():
+    clear_solvers()
+    try:
+        first = run_problem("vibrating-string", elements=8, t_end=0.02)
+        again = run_problem("vibrating-string", elements=8, t_end=0.02)
+        assert again.record["compile_seconds"] == 0.0
+        assert again.record["rms_error"] == first.record["rms_error"]
+        np.testing.assert_array_equal(again.series["u"], first.series["u"])
+        seq = convergence("vibrating-string", elements=(4, 8), t_end=0.02, energies=False,
+                          series=False)
+        bat = convergence("vibrating-string", elements=(4, 8), t_end=0.02, energies=False,
+                          series=False, batch=True)
+        assert [r["rms_error"] for r in bat["runs"]] == [r["rms_error"] for r in seq["runs"]]
+        assert [r["grid_crossings"] for r in bat["runs"]] == \
+            [r["grid_crossings"] for r in seq["runs"]]
+        with pytest.raises(ValueError, match="mode must be 'serial'"):
+            convergence("vibrating-string", elements=(4, 8), batch=True, mode="parallel")
+    finally:
+        clear_solvers()
+
+
+def test_workers_are_pinned_one_per_core():
+    """With two threads or more on two cores or more, timpm binds Taichi's workers to
+    distinct cores (runtime.init's default)."""
+    runtime.ensure_init()
+    pinned = runtime.pin_workers()
+    cores = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else {0}
+    from taichi.lang import impl
+
+    threads = impl.current_cfg().cpu_max_num_threads
+    if len(cores) < 2 or threads < 2:
+        assert pinned == []
+    else:
+        assert len(pinned) >= 2
+        assert len({core for _, core in pinned}) == min(len(pinned), len(cores))
+        for tid, core in pinned:
+            assert os.sched_getaffinity(tid) == {core}

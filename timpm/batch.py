@@ -1,0 +1,173 @@
+"""Several small simulations advanced side by side: one kernel launch, each on one thread.
+
+A study's meshes or a parameter sweep over small 1D problems are independent runs of a few
+microseconds per step each: too small for a parallel particle loop (waking a thread costs
+as much as the loop), but a 2-core machine can run two of them at once.  A :class:`Batch`
+launches one kernel whose parallel loop hands each CPU thread a group of members, and each
+member takes its fused serial steps (``Solver(mode="serial")``) exactly as it would alone.
+"""
+import time
+
+import numpy as np
+import taichi as ti
+
+from .solver import _MIN_CPU_BLOCK, SimulationError, Solver, _cpu_threads, _Progress, \
+    _static_cpu_blocks
+
+__all__ = ["Batch"]
+
+
+@ti.data_oriented
+class Batch:
+    """Fused serial solvers advanced together, shared out over the CPU threads.
+
+    ``Batch(solvers).run(t_end)`` advances every member to ``t_end`` (each with its own
+    time step); a member's results are bit for bit those of ``member.run(t_end)``.  The
+    members are assigned to threads longest first, by particle-steps, before each launch.
+    Each member's ``run_seconds`` grows by the batch's wall time (they ran side by side);
+    the batch keeps its own ``run_seconds`` and ``compile_seconds``.
+    """
+
+    def __init__(self, solvers, threads: int | None = None):
+        solvers = list(solvers)
+        if not solvers:
+            raise ValueError("a Batch needs at least one solver")
+        for k, s in enumerate(solvers):
+            if not isinstance(s, Solver):
+                raise TypeError(f"batch member {k} is a {type(s).__name__}, not a timpm.Solver")
+            if s.mode != "serial":
+                raise ValueError(f"batch member {k} runs in {s.mode} mode: a Batch takes fused "
+                                 "serial solvers, Solver(..., mode='serial')")
+            if getattr(s, "_tree", None) is None:
+                raise ValueError(f"batch member {k} was released")
+        if len({id(s) for s in solvers}) != len(solvers):
+            raise ValueError("a solver appears twice in the batch")
+        self.solvers = solvers
+        threads = _cpu_threads() if threads is None else int(threads)
+        if threads < 1:
+            raise ValueError(f"threads must be a positive integer, got {threads!r}")
+        # the thread of a member follows from Taichi's static split of CPU range-for loops
+        self.n_threads = threads if _static_cpu_blocks() else 1
+        fb = ti.FieldsBuilder()
+        self.order = ti.Vector.field(2, ti.i32)  # per member: steps to take, thread
+        self.status = ti.Vector.field(2, ti.i32)  # per member: steps taken, errors
+        fb.dense(ti.i, len(solvers)).place(self.order, self.status)
+        self._tree = fb.finalize()
+        self.run_seconds = 0.0
+        self.compile_seconds = 0.0
+        self._compiled = False
+
+    def release(self):
+        """Free the batch's fields (the members stay usable; release them apart)."""
+        if self._tree is not None:
+            self._tree.destroy()
+            self._tree = None
+
+    @ti.kernel
+    def _advance_all(self):
+        # thread q of the static CPU split runs iterations [q B, (q + 1) B): iteration q B
+        # takes the members assigned to thread q, one after another
+        for r in range(self.n_threads * 4096):
+            if r % 4096 == 0:
+                q = r // 4096
+                for k in ti.static(range(len(self.solvers))):
+                    if self.order[k][1] == q:
+                        member = self.solvers[k]  # k is static: a Python-level lookup
+                        done = member._advance_steps(self.order[k][0], member.record_every)
+                        self.status[k] = ti.Vector([done, member.err_count[None]])
+
+    def reset(self):
+        """Every member back to its initial state (:meth:`Solver.reset`), one launch."""
+        for s in self.solvers:
+            s._prepare_reset()
+        self._reset_all()
+        for s in self.solvers:
+            s._reset_host()
+        return self
+
+    @ti.kernel
+    def _reset_all(self):
+        ti.loop_config(serialize=True)
+        for _ in range(1):
+            for k in ti.static(range(len(self.solvers))):
+                self.solvers[k]._reset_state()
+
+    def compile(self):
+        """Compile the batch kernel and the members' accessors (``compile_seconds``)."""
+        if self._compiled:
+            return
+        t0 = time.perf_counter()
+        self._launch([0] * len(self.solvers))  # zero steps: compiles, changes nothing
+        for s in self.solvers:
+            s._compile_io()
+        self.compile_seconds += time.perf_counter() - t0
+        self._compiled = True
+
+    def _launch(self, steps):
+        """One launch: member k takes steps[k] steps; threads balanced by particle-steps."""
+        load = [0] * self.n_threads
+        thread_of = [0] * len(steps)
+        work = [n * s.n_particles for n, s in zip(steps, self.solvers)]
+        for k in sorted(range(len(steps)), key=lambda k: -work[k]):
+            q = load.index(min(load))
+            thread_of[k] = q
+            load[q] += work[k]
+        self.order.from_numpy(np.asarray([steps, thread_of], dtype=np.int32).T.copy())
+        self._advance_all()
+        return self.status.to_numpy()
+
+    def run(self, t_end: float | None = None, n_steps: int | None = None, progress=None):
+        """Advance every member to ``t_end`` (or by ``n_steps``); returns self.
+
+        Raises :class:`SimulationError` naming the member at the first invalid state.
+        """
+        if (t_end is None) == (n_steps is None):
+            raise ValueError("give exactly one of t_end and n_steps")
+        if self._tree is None:
+            raise RuntimeError("this batch was released")
+        remaining = []
+        for k, s in enumerate(self.solvers):
+            total = s.steps_for(t_end) - s.step if n_steps is None else int(n_steps)
+            if total < 0:
+                raise ValueError(f"batch member {k}: t_end = {t_end} lies before its current "
+                                 f"time {s.t}")
+            remaining.append(total)
+        self.compile()
+        for s in self.solvers:
+            if s.recording and s.step == 0 and not s.history["t"]:
+                s._record_now()
+        totals = list(remaining)
+        bar = _Progress(max(totals), progress)
+        start = time.perf_counter()
+        done = 0
+        while any(remaining):
+            chunk = bar.suggested_chunk(done)
+            steps = []
+            for s, left in zip(self.solvers, remaining):
+                n = min(left, chunk)
+                if s.recording:  # the history buffer holds history_chunk records
+                    n = min(n, s.history_chunk * s.record_every)
+                steps.append(n)
+            status = self._launch(steps)
+            for k, s in enumerate(self.solvers):
+                remaining[k] -= int(status[k, 0])
+                try:
+                    s._drain()  # the energy guard may stop a member here
+                    if status[k, 1]:
+                        s._check()
+                except SimulationError as err:
+                    raise SimulationError(f"batch member {k}: {err}", err.code, err.step,
+                                          err.particle, err.node) from None
+            done = max(t - r for t, r in zip(totals, remaining))
+            bar.update(done)
+        bar.close()
+        for s in self.solvers:
+            if s.recording:
+                s._drain()
+                if s.history["step"][-1][-1] != s.step:
+                    s._record_now()
+        wall = time.perf_counter() - start
+        self.run_seconds += wall
+        for s in self.solvers:
+            s.run_seconds += wall
+        return self
