@@ -13,6 +13,7 @@ from .scene import (Constant, Grid1D, Material, Ramp, Scene, Sine, Traction,
 from .materials import (DruckerPrager, LinearElastic, NeoHookean, WeaklyCompressibleFluid,
                         get_material)
 from .solver import SimulationError, Solver
+from .batch import Batch
 from .world import Ball, Body, Box, Wall, World
 
 __version__ = "0.1.0"
@@ -20,6 +21,6 @@ __version__ = "0.1.0"
 __all__ = [
     "BASES", "Basis", "Linear", "get_basis", "init", "Constant", "Grid1D", "Material",
     "Ramp", "Scene", "Sine", "Traction", "critical_time_step", "equidistant_particles",
-    "SimulationError", "Solver", "__version__", "World", "Body", "Box", "Ball", "Wall",
+    "SimulationError", "Solver", "Batch", "__version__", "World", "Body", "Box", "Ball", "Wall",
     "LinearElastic", "NeoHookean", "DruckerPrager", "WeaklyCompressibleFluid", "get_material",
 ]

@@ -67,9 +67,9 @@ class Batch:
     def _advance_all(self):
         # thread q of the static CPU split runs iterations [q B, (q + 1) B): iteration q B
         # takes the members assigned to thread q, one after another
-        for r in range(self.n_threads * 4096):
-            if r % 4096 == 0:
-                q = r // 4096
+        for r in range(self.n_threads * _MIN_CPU_BLOCK):
+            if r % _MIN_CPU_BLOCK == 0:
+                q = r // _MIN_CPU_BLOCK
                 for k in ti.static(range(len(self.solvers))):
                     if self.order[k][1] == q:
                         member = self.solvers[k]  # k is static: a Python-level lookup
