@@ -6,8 +6,8 @@ import time
 import numpy as np
 
 from .analysis import energy_drift, observed_rates, rms_error
-from .problems import get_problem
 from .batch import Batch
+from .problems import get_problem
 from .solver import Solver
 
 __all__ = ["RunResult", "run_problem", "convergence", "clear_solvers"]
@@ -140,10 +140,10 @@ KEEP_SOLVERS = 16
 KEEP_BATCHES = 4
 
 
-def _keep(cache, key, item, limit=None):
-    """Keep ``item`` under ``key``, releasing the oldest beyond the limit."""
+def _keep(cache, key, item):
+    """Keep ``item`` under ``key``, releasing the oldest beyond the cache's limit."""
     cache[key] = item
-    limit = (KEEP_SOLVERS if cache is _SOLVERS else KEEP_BATCHES) if limit is None else limit
+    limit = KEEP_SOLVERS if cache is _SOLVERS else KEEP_BATCHES
     while len(cache) > limit:
         _, old = cache.popitem(last=False)
         _release(old)
