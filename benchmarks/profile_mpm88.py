@@ -22,6 +22,8 @@ def main(argv=None):
     ap.add_argument("--scatter", default="private", choices=["atomic", "serial", "private"])
     ap.add_argument("--precision", default="f32", choices=["f32", "f64"])
     ap.add_argument("--steps", type=int, default=100)
+    ap.add_argument("--no-pin", action="store_true",
+                    help="leave Taichi's workers unpinned (timpm.init pins them)")
     args = ap.parse_args(argv)
 
     import taichi as ti
@@ -32,7 +34,8 @@ def main(argv=None):
     ti.init(arch=ti.cpu, default_fp=ti.f32 if args.precision == "f32" else ti.f64,
             cpu_max_num_threads=args.threads, log_level=ti.WARN, kernel_profiler=True)
     runtime._state["settings"] = dict(threads=args.threads, debug=False,
-                                      precision=args.precision)
+                                      precision=args.precision, pin=not args.no_pin)
+    pinned = [] if args.no_pin else runtime.pin_workers()
     from timpm.mpm88 import mpm88_world
     from timpm.numpy_mpm import mpm88_initial
     from timpm.solver import Solver
@@ -43,7 +46,7 @@ def main(argv=None):
     ti.profiler.clear_kernel_profiler_info()
     s.run(n_steps=args.steps)
     print(f"{args.particles} particles, {args.threads} thread(s), {s.scatter} scatter, "
-          f"{args.precision}; per step:")
+          f"{args.precision}, {len(pinned)} workers pinned; per step:")
     ti.profiler.print_kernel_profiler_info("count")
 
 
