@@ -25,7 +25,10 @@ class Batch:
     time step); a member's results are bit for bit those of ``member.run(t_end)``.  The
     members are assigned to threads longest first, by particle-steps, before each launch.
     Each member's ``run_seconds`` grows by the batch's wall time (they ran side by side);
-    the batch keeps its own ``run_seconds`` and ``compile_seconds``.
+    the batch keeps its own ``run_seconds`` and ``compile_seconds``.  The batch kernel holds
+    every member's step: it compiles more slowly than the members would apart (about 30 s
+    cold for the five meshes of Table 3.2, 3 s from Taichi's offline cache), so a batch pays
+    off when it runs many times (``reset()`` between runs).
     """
 
     def __init__(self, solvers, threads: int | None = None):
