@@ -1070,17 +1070,20 @@ class Solver:
                 self.x[p] = x_new
                 # checks on the new state, from registers (a NaN in the MUSL particle velocity
                 # reaches vp through the grid); the first failure of the run is the one reported
-                state = x_new.sum() + vp.sum() + sig_new.sum() + vol_new
-                if not (ti.abs(state) < 1e300):  # NaN fails this comparison
-                    self._fail(2, p)
-                if ti.static(self.update_volume):
-                    if not (jac > 0.0):
-                        self._fail(3, p)
                 xn = ti.Vector.zero(float, self.dim)
+                code = 0
                 for k in ti.static(range(self.dim)):
                     xn[k] = (x_new[k] - self.origin[k]) * self.inv_h
                     if not (xn[k] >= 0.0 and xn[k] <= self.grid_elements[k]):
-                        self._fail(1, p)
+                        code = 1
+                if ti.static(self.update_volume):
+                    if not (jac > 0.0):
+                        code = 3
+                state = x_new.sum() + vp.sum() + sig_new.sum() + vol_new
+                if not (ti.abs(state) < 1e300):  # NaN fails this comparison
+                    code = 2
+                if code != 0:
+                    self._fail(code, p)
                 if ti.static(self.track_crossings):
                     e = ti.Vector.zero(ti.i32, self.dim)
                     for k in ti.static(range(self.dim)):
