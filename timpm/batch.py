@@ -130,27 +130,21 @@ class Batch:
             raise RuntimeError("this batch was released")
         remaining = []
         for k, s in enumerate(self.solvers):
-            total = s.steps_for(t_end) - s.step if n_steps is None else int(n_steps)
-            if total < 0:
-                raise ValueError(f"batch member {k}: t_end = {t_end} lies before its current "
-                                 f"time {s.t}")
-            remaining.append(total)
+            try:
+                remaining.append(s._steps_to(t_end, n_steps))
+            except ValueError as err:
+                raise ValueError(f"batch member {k}: {err}") from None
         self.compile()
         for s in self.solvers:
-            if s.recording and s.step == 0 and not s.history["t"]:
-                s._record_now()
+            s._record_start()
         totals = list(remaining)
         bar = _Progress(max(totals), progress)
         start = time.perf_counter()
         done = 0
         while any(remaining):
             chunk = bar.suggested_chunk(done)
-            steps = []
-            for s, left in zip(self.solvers, remaining):
-                n = min(left, chunk)
-                if s.recording:  # the history buffer holds history_chunk records
-                    n = min(n, s.history_chunk * s.record_every)
-                steps.append(n)
+            steps = [s._fused_chunk(min(left, chunk))
+                     for s, left in zip(self.solvers, remaining)]
             status = self._launch(steps)
             for k, s in enumerate(self.solvers):
                 remaining[k] -= int(status[k, 0])
@@ -165,10 +159,7 @@ class Batch:
             bar.update(done)
         bar.close()
         for s in self.solvers:
-            if s.recording:
-                s._drain()
-                if s.history["step"][-1][-1] != s.step:
-                    s._record_now()
+            s._record_end()
         wall = time.perf_counter() - start
         self.run_seconds += wall
         for s in self.solvers:

@@ -517,14 +517,23 @@ class Solver:
             if ti.static("J" in self.needs):
                 self.J[p] = 1.0
             if ti.static(self.track_crossings):
+                xi = ti.Vector.zero(float, self.dim)
                 for k in ti.static(range(self.dim)):
-                    xi = (self.x[p][k] - self.origin[k]) * self.inv_h
-                    self.elem[p][k] = ti.min(ti.max(ti.floor(xi, ti.i32), 0),
-                                             self.grid_elements[k] - 1)
+                    xi[k] = (self.x[p][k] - self.origin[k]) * self.inv_h
+                self.elem[p] = self._element(xi)
 
     @ti.kernel
     def _reset_kernel(self):
         self._one_task(self._reset_state)
+
+    @ti.func
+    def _element(self, xi):
+        """Element of a point at ``xi`` (element units), clamped to the grid (as
+        :meth:`_element_of`)."""
+        e = ti.Vector.zero(ti.i32, self.dim)
+        for k in ti.static(range(self.dim)):
+            e[k] = ti.min(ti.max(ti.floor(xi[k], ti.i32), 0), self.grid_elements[k] - 1)
+        return e
 
     def _element_of(self, x):
         xi = (x - np.asarray(self.origin)) * self.inv_h
@@ -1085,9 +1094,7 @@ class Solver:
                 if code != 0:
                     self._fail(code, p)
                 if ti.static(self.track_crossings):
-                    e = ti.Vector.zero(ti.i32, self.dim)
-                    for k in ti.static(range(self.dim)):
-                        e[k] = ti.min(ti.max(ti.floor(xn[k], ti.i32), 0), self.grid_elements[k] - 1)
+                    e = self._element(xn)
                     if (e != self.elem[p]).any():
                         self._sum_into(self.crossings[None], 1)
                         self.elem[p] = e
@@ -1411,22 +1418,15 @@ class Solver:
         Wall time spent stepping accumulates in ``run_seconds``; kernel compilation is
         booked apart in ``compile_seconds``.
         """
-        if (t_end is None) == (n_steps is None):
-            raise ValueError("give exactly one of t_end and n_steps")
-        total = self.steps_for(t_end) - self.step if n_steps is None else int(n_steps)
-        if total < 0:
-            raise ValueError(f"t_end = {t_end} lies before the current time {self.t}")
+        total = self._steps_to(t_end, n_steps)
         self.compile()
-        if self.recording and self.step == 0 and not self.history["t"]:
-            self._record_now()
+        self._record_start()
         bar = _Progress(total, progress)
         done = 0
         start = time.perf_counter()
         while done < total:
             if self.mode == "serial":
-                chunk = min(total - done, bar.suggested_chunk(done))
-                if self.recording:  # the history buffer holds history_chunk records
-                    chunk = min(chunk, self.history_chunk * self.record_every)
+                chunk = self._fused_chunk(min(total - done, bar.suggested_chunk(done)))
                 done += int(self._advance(chunk, self.record_every))
                 self._drain()
                 self._check()
@@ -1458,12 +1458,35 @@ class Solver:
                 self._record_step()
             bar.update(done)
         bar.close()
+        self._record_end()
+        self.run_seconds += time.perf_counter() - start
+        return self
+
+    def _steps_to(self, t_end, n_steps) -> int:
+        """Steps a run to ``t_end`` (or of ``n_steps``) takes from here."""
+        if (t_end is None) == (n_steps is None):
+            raise ValueError("give exactly one of t_end and n_steps")
+        total = self.steps_for(t_end) - self.step if n_steps is None else int(n_steps)
+        if total < 0:
+            raise ValueError(f"t_end = {t_end} lies before the current time {self.t}")
+        return total
+
+    def _fused_chunk(self, n: int) -> int:
+        """At most n fused steps, fewer if the history buffer (history_chunk records)
+        would overflow."""
+        return min(n, self.history_chunk * self.record_every) if self.recording else n
+
+    def _record_start(self):
+        """Record the initial state before the first step."""
+        if self.recording and self.step == 0 and not self.history["t"]:
+            self._record_now()
+
+    def _record_end(self):
+        """Read back the records and record the final state if the last step was not."""
         if self.recording:
             self._drain()
             if self.history["step"][-1][-1] != self.step:
                 self._record_now()
-        self.run_seconds += time.perf_counter() - start
-        return self
 
     def _record_step(self):
         if self.recording and self.step % self.record_every == 0:
