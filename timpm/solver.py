@@ -221,6 +221,11 @@ class Solver:
         # force and the velocity gradient from the affine moments: grad phi_i ~ D^-1 phi_i dx
         self.apic = self.transfer in ("apic", "mls-mpm")
         self.mls_mpm = self.transfer == "mls-mpm"
+        # APIC with the linear basis takes the strain increment from the remapped velocity
+        # P'_i / m_i, P'_i = sum_p m_p phi_i v_p (the study's MUSL remap, 2.2.4): the grid
+        # velocity of a node a particle barely touches ~ 1 / phi and grad phi does not
+        # vanish with phi, so sum_i v_i grad phi_i^T is unbounded there (v_p and C_p are not)
+        self.strain_remap = self.transfer == "apic" and self.basis.support == 2
         if self.mls_mpm:
             self.D_inv = 1.0 / (self.basis.inertia * self.h ** 2)
         self.multi_material = len(self.materials) > 1
@@ -965,7 +970,10 @@ class Solver:
                     if ti.static(self.has_walls):
                         v = self._wall(I, v)
                 self.gv[I] = v
-                if ti.static(not self.private_scatter):
+                if ti.static(self.strain_remap):
+                    self.gm[I] = m  # P cleared for the remap
+                    self.gp[I] = ti.Vector.zero(float, self.dim)
+                elif ti.static(not self.private_scatter):
                     self.gm[I] = 0.0
                     self.gp[I] = ti.Vector.zero(float, self.dim)
 
@@ -982,7 +990,8 @@ class Solver:
 
     @ti.func
     def _g2p_velocity(self):
-        # G2P: v_p += dt sum_i phi_i(x_p) a_i; P2G: P_i = sum m_p phi_i(x_p) v_p (2.2.4)
+        # G2P: v_p += dt sum_i phi_i(x_p) a_i (APIC: v_p = sum_i phi_i v_i, C_p);
+        # P2G: P_i = sum m_p phi_i(x_p) v_p (2.2.4)
         self._scatter_particles("g2p-velocity")
         if ti.static(self.private_scatter):
             self._merge_copies(("gp",))
@@ -992,11 +1001,18 @@ class Solver:
         base, w, dw, xi, inside = self._stencil(p)
         node_values = ti.Matrix.zero(float, 3, self.basis.support)
         if inside:
-            acc = ti.Vector.zero(float, self.dim)
-            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
-                phi, grad = self._weight(w, dw, offset)
-                acc += phi * self.gf[base + offset]
-            vp = self.v[p] + self.dt * acc
+            vp = ti.Vector.zero(float, self.dim)
+            if ti.static(self.apic):
+                # APIC (the strain remap): v_p = sum_i phi_i v_i, C_p = B_p as in _g2p_update
+                B = ti.Matrix.zero(float, self.dim, self.dim)
+                vp, B, _ = self._affine_gather(base, w, dw, xi, False)
+                self.C[p] = B  # the linear basis keeps B_p (see _p2g)
+            else:
+                acc = ti.Vector.zero(float, self.dim)
+                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                    phi, grad = self._weight(w, dw, offset)
+                    acc += phi * self.gf[base + offset]
+                vp = self.v[p] + self.dt * acc
             self.v[p] = vp
             if ti.static(self.mls):
                 self._scatter_node_moments(p, vp[0])
@@ -1008,6 +1024,24 @@ class Solver:
         return base, inside, node_values
 
     @ti.func
+    def _affine_gather(self, base, w, dw, xi, gradient: ti.template()):
+        """G2P of the grid velocity (affine transfers): v_p = sum_i phi_i v_i, B_p = sum_i
+        phi_i v_i (x_i - x_p)^T and, with ``gradient``, grad du = sum_i v_i dt grad phi_i^T."""
+        vp = ti.Vector.zero(float, self.dim)
+        grad_du = ti.Matrix.zero(float, self.dim, self.dim)
+        B = ti.Matrix.zero(float, self.dim, self.dim)  # sum_i phi_i v_i o_i^T
+        for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+            phi, grad = self._weight(w, dw, offset)
+            vi = self.gv[base + offset]
+            vp += phi * vi
+            if ti.static(gradient):
+                grad_du += (vi * self.dt).outer_product(grad)
+            B += self._outer_offset(phi * vi, offset)
+        # sum_i phi_i v_i (x_i - x_p)^T = h sum_i phi_i v_i o_i^T - v_p d^T
+        d = self._from_first_node(xi, base)
+        return vp, self.h * B - vp.outer_product(d), grad_du
+
+    @ti.func
     def _g2p_update(self):
         # G2P: du_p = sum_i phi_i v_i dt (u_p, x_p); grad du = sum_i v_i dt dphi_i^T;
         # stress from the material (2.2.4 in 1D); V *= det(I + grad du); with the affine
@@ -1017,29 +1051,19 @@ class Solver:
             if inside and not self._halted():
                 vp = ti.Vector.zero(float, self.dim)
                 grad_du = ti.Matrix.zero(float, self.dim, self.dim)
-                B = ti.Matrix.zero(float, self.dim, self.dim)  # sum_i phi_i v_i o_i^T
-                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
-                    phi, grad = self._weight(w, dw, offset)
-                    vi = ti.Vector.zero(float, self.dim)
-                    if ti.static(self.apic):
-                        vi = self.gv[base + offset]
-                    else:
-                        vi = self.gp[base + offset]
-                    vp += phi * vi
-                    if ti.static(not self.mls_mpm):
-                        grad_du += (vi * self.dt).outer_product(grad)
-                    if ti.static(self.apic):
-                        B += self._outer_offset(phi * vi, offset)
-                du = vp * self.dt
-                if ti.static(self.apic):
-                    # sum_i phi_i v_i (x_i - x_p)^T = h sum_i phi_i v_i o_i^T - v_p d^T
-                    d = self._from_first_node(xi, base)
-                    B = self.h * B - vp.outer_product(d)
+                if ti.static(self.strain_remap):
+                    vp = self.v[p]  # v_p and C_p came with the remap (_g2p_velocity)
+                    for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                        phi, grad = self._weight(w, dw, offset)
+                        grad_du += (self.gp[base + offset] * self.dt).outer_product(grad)
+                elif ti.static(self.apic):
+                    B = ti.Matrix.zero(float, self.dim, self.dim)
+                    vp, B, grad_du = self._affine_gather(base, w, dw, xi, not self.mls_mpm)
                     self.v[p] = vp
                     if ti.static(self.mls_mpm):
                         self.C[p] = B * self.D_inv
                         grad_du = self.C[p] * self.dt
-                    elif ti.static(self.basis.support > 2):
+                    else:
                         # D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T: diagonal for tensor
                         # products of a basis reproducing linear fields
                         for k in ti.static(range(self.dim)):
@@ -1050,8 +1074,13 @@ class Solver:
                             for j in ti.static(range(self.dim)):
                                 B[j, k] /= dk
                         self.C[p] = B
-                    else:
-                        self.C[p] = B  # linear: B_p, D_p^-1 applied in P2G (see _p2g)
+                else:
+                    for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                        phi, grad = self._weight(w, dw, offset)
+                        vi = self.gp[base + offset]
+                        vp += phi * vi
+                        grad_du += (vi * self.dt).outer_product(grad)
+                du = vp * self.dt
                 deps = 0.5 * (grad_du + grad_du.transpose())
                 vol_old = self.vol[p]
                 sig_old = self.sigma[p]
@@ -1180,8 +1209,14 @@ class Solver:
         if ti.static(self.apic):
             # affine transfer: P2G of mass and momentum + dt force, v = P / m (the grid
             # pass leaves m and P cleared: no separate clearing pass), G2P
+            if ti.static(self.strain_remap):
+                self._clear_grid()  # m_i stays for the remap
             self._p2g()
             self._grid_velocity()
+            if ti.static(self.strain_remap):
+                # G2P of v_p and C_p, P'_i = sum m_p phi_i v_p, v'_i = P'_i / m_i
+                self._g2p_velocity()
+                self._solve_mass(self.gp, True)
             self._g2p_update()
         else:
             self._clear_grid()

@@ -11,7 +11,6 @@ Axes: x to the right, y up, z towards the viewer; gravity points down y by defau
 """
 
 import math
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,11 +20,7 @@ from .materials import MATERIALS, Material, get_material
 from .scene import _positive
 
 __all__ = ["Box", "Ball", "Points", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WALL_KINDS",
-           "SIDES", "PRESETS", "LinearApicWarning"]
-
-
-class LinearApicWarning(RuntimeWarning):
-    """A World pairs the apic transfer with the linear basis (see README: Transfers)."""
+           "SIDES", "PRESETS"]
 
 
 #: bases on uniform multi-dimensional grids
@@ -230,9 +225,8 @@ class World:
     """A 2D or 3D scene: ``domain`` lengths (from the origin), ``cells`` along x.
 
     ``walls`` is one wall for every side, or a dict of side name (``SIDES``) to wall with
-    an optional ``"default"``.  ``dt=None`` picks ``courant`` (default 0.4; 0.1 for the
-    linear basis with an affine transfer) times the CFL limit
-    h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
+    an optional ``"default"``.  ``dt=None`` picks ``courant`` (default 0.4) times the CFL
+    limit h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
     (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``
     above the limit is refused unless ``allow_unstable_dt``.
     """
@@ -278,11 +272,6 @@ class World:
         if self.transfer == "mls-mpm" and basis.name == "linear":
             raise ValueError("the mls-mpm transfer needs a B-spline basis (its D_p is constant);"
                              " use transfer='apic' with the linear basis")
-        if self.transfer == "apic" and basis.name == "linear":
-            warnings.warn("apic with the linear basis can blow up where a particle enters an "
-                          "empty cell (a node of tiny mass meets a force that does not vanish "
-                          "with it); prefer a B-spline basis, or transfer='musl'",
-                          LinearApicWarning, stacklevel=3)
         g = np.zeros(dim) if self.gravity is None else _vector("gravity", self.gravity, dim)
         if self.gravity is None:
             g[1] = -9.81
@@ -405,10 +394,7 @@ class World:
         limit = h / (c + v0 + v_fall)
         object.__setattr__(self, "_cfl", dict(c=c, v=v0 + v_fall, limit=limit))
         if self.courant is None:
-            # the affine transfer on the linear basis went unstable at 0.4 where the
-            # B-splines do not (two disks colliding, 40 cells): it gets a smaller default
-            linear_affine = self.basis == "linear" and self.transfer != "musl"
-            object.__setattr__(self, "courant", 0.1 if linear_affine else 0.4)
+            object.__setattr__(self, "courant", 0.4)
         courant = float(self.courant)
         if not (0.0 < courant <= 1.0):
             raise ValueError(f"courant number must lie in (0, 1], got {self.courant!r}")
