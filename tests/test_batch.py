@@ -85,6 +85,11 @@ def test_batch_members_match_their_runs_alone():
         batch.run(t_end=0.03)
         for state, s in zip(alone, members):
             _assert_same(state, _state(s))
+        # every member's displacements, step, time and crossings read in one launch
+        for state, read in zip(alone, batch.states()):
+            _assert_same({k: state[k] for k in ("u", "step", "t")},
+                         {k: read[k] for k in ("u", "step", "t")})
+            assert read["grid_crossings"] == state["crossings"]
         assert batch.run_seconds > 0 and batch.compile_seconds > 0
         # and again after a reset, now warm: no compile time
         batch.reset()
@@ -94,6 +99,35 @@ def test_batch_members_match_their_runs_alone():
         assert batch.compile_seconds == compiled
         for state, s in zip(alone, members):
             _assert_same(state, _state(s))
+    finally:
+        batch.release()
+        for s in members:
+            s.release()
+
+
+def test_batch_states_read_every_member_at_once():
+    """Batch.states() against each member's own reads, with members whose particles cross
+    element boundaries (the large-deformation column, 20 crossings in 300 steps at 8
+    elements)."""
+    prob = get_problem("large-column")
+    members = [Solver(prob.scene(elements=e, ppc=2), mode="serial", energies=False)
+               for e in (4, 8)]
+    batch = Batch(members)
+    try:
+        batch.run(n_steps=300, progress=False)
+        states = batch.states()
+        for s, read in zip(members, states):
+            np.testing.assert_array_equal(read["u"], s.displacements())
+            assert (read["step"], read["t"]) == (s.step, s.t) == (300, s.t)
+            assert read["grid_crossings"] == s.grid_crossings()
+        assert states[1]["grid_crossings"] > 0
+        # 2D members have no displacement field: no combined read
+        body = Body(Box((0.2, 0.2), (0.4, 0.4)), NeoHookean(E=1e4, nu=0.3, density=1e3))
+        members.append(Solver(World(domain=(1.0, 1.0), cells=8, bodies=[body]),
+                              mode="serial", energies=False))
+        other = Batch(members[-1:])
+        assert other.states() is None
+        other.release()
     finally:
         batch.release()
         for s in members:
@@ -149,8 +183,13 @@ def test_a_study_reuses_its_solvers_and_a_batch_gives_the_same_table():
         bat = convergence("vibrating-string", elements=(4, 8), t_end=0.02, energies=False,
                           series=False, batch=True)
         assert [r["rms_error"] for r in bat["runs"]] == [r["rms_error"] for r in seq["runs"]]
-        assert [r["grid_crossings"] for r in bat["runs"]] == \
-            [r["grid_crossings"] for r in seq["runs"]]
+        for key in ("grid_crossings", "steps", "t_end"):
+            assert [r[key] for r in bat["runs"]] == [r[key] for r in seq["runs"]], key
+        # the scenes are built once per set of arguments; a result's x0 is its own
+        first.x0[:] = -1.0
+        third = run_problem("vibrating-string", elements=8, t_end=0.02)
+        np.testing.assert_array_equal(third.x0, again.x0)
+        assert third.record["rms_error"] == first.record["rms_error"]
         with pytest.raises(ValueError, match="mode must be 'serial'"):
             convergence("vibrating-string", elements=(4, 8), batch=True, mode="parallel")
     finally:

@@ -44,8 +44,9 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     ``reuse=True`` keeps the solver for a later run of the same scene (see
     :func:`clear_solvers`), whose kernels are then compiled already.
     """
-    run = _Run(problem, elements, ppc, basis, mass, dt, t_end, placement, stress_update,
-               damping, allow_unstable_dt, record_every, params, energies, projection, series)
+    run = _plan(problem, elements, ppc, basis, mass, dt, t_end, placement, stress_update,
+                damping, allow_unstable_dt, record_every, params, energies, projection, series,
+                reuse=reuse)
     key = run.key(mode=mode)
     t_build = time.perf_counter()
     solver = _SOLVERS.pop(key, None) if reuse else None
@@ -65,8 +66,29 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
             solver.release()
 
 
+def _plan(problem, *options, reuse=True):
+    """The :class:`_Run` of these arguments; with ``reuse`` one built earlier from equal
+    arguments (a problem named by a string, hashable options), whose scene is then built
+    once: a warm study spends no time on its scenes."""
+    params = options[11]
+    key = None
+    if reuse and isinstance(problem, str):
+        key = (problem, options[:11], tuple(sorted((params or {}).items())), options[12:])
+        try:
+            hash(key)
+        except TypeError:
+            key = None
+    run = _PLANS.pop(key, None) if key is not None else None
+    if run is None:
+        run = _Run(problem, *options)
+    if key is not None:
+        _keep(_PLANS, key, run)
+    return run
+
+
 class _Run:
-    """One run of a problem: its scene and what is recorded, then its result."""
+    """One run of a problem: its scene and what is recorded, then its result (a run keeps
+    no state of its own: :func:`_plan` may hand the same one out again)."""
 
     def __init__(self, problem, elements, ppc, basis, mass, dt, t_end, placement,
                  stress_update, damping, allow_unstable_dt, record_every, params, energies,
@@ -97,11 +119,14 @@ class _Run:
                 tuple(self.track), self.every, self.energies,
                 tuple(sorted(solver_options.items())))
 
-    def result(self, solver, build_seconds) -> RunResult:
+    def result(self, solver, build_seconds, state=None) -> RunResult:
+        """The run's result from the solver, or from its ``state`` read by the batch."""
         prob, x0, monitor, stress_update = self.prob, self.x0, self.monitor, self.stress_update
         scene = self.scene
-        t = solver.t
-        u = solver.displacements()
+        if state is None:
+            state = {"t": solver.t, "u": solver.displacements(), "step": solver.step,
+                     "grid_crossings": solver.grid_crossings()}
+        t, u = state["t"], state["u"]
         exact = prob.displacement(x0, t, stress_update=stress_update) if prob.has_exact else None
         series = {}
         if self.series:
@@ -118,9 +143,9 @@ class _Run:
         record = {
             "problem": prob.name, "elements": int(self.elements), "ppc": int(self.ppc),
             "basis": scene.basis, "mass": scene.mass, "dt": scene.dt, "t_end": t,
-            "steps": solver.step, "rms_error": rms_error(u, exact) if exact is not None else None,
+            "steps": state["step"], "rms_error": rms_error(u, exact) if exact is not None else None,
             "wall_seconds": solver.run_seconds, "compile_seconds": solver.compile_seconds,
-            "build_seconds": build_seconds, "grid_crossings": solver.grid_crossings(),
+            "build_seconds": build_seconds, "grid_crossings": state["grid_crossings"],
             "particles": scene.n_particles, "placement": self.placement,
             "stress_update": stress_update, "projection": self.projection, "mode": solver.mode,
             "critical_dt": scene.critical_dt, "monitored_particle": monitor,
@@ -130,20 +155,21 @@ class _Run:
         if scene.mass == "consistent":
             record["negative_pivots"] = solver.negative_pivots()
         record.update(prob.summary(x0, solver, stress_update))
-        return RunResult(record, x0, u, exact, series, en)
+        return RunResult(record, x0.copy(), u, exact, series, en)
 
 
 #: solvers kept for another run of the same scene, and batches of them (oldest first)
 _SOLVERS: "OrderedDict[tuple, Solver]" = OrderedDict()
 _BATCHES: "OrderedDict[tuple, Batch]" = OrderedDict()
-KEEP_SOLVERS = 16
-KEEP_BATCHES = 4
+#: runs (their scenes) by the arguments that built them
+_PLANS: "OrderedDict[tuple, _Run]" = OrderedDict()
+KEEP = {"solvers": 16, "batches": 4, "plans": 64}
 
 
 def _keep(cache, key, item):
     """Keep ``item`` under ``key``, releasing the oldest beyond the cache's limit."""
     cache[key] = item
-    limit = KEEP_SOLVERS if cache is _SOLVERS else KEEP_BATCHES
+    limit = KEEP["solvers" if cache is _SOLVERS else "batches" if cache is _BATCHES else "plans"]
     while len(cache) > limit:
         _, old = cache.popitem(last=False)
         _release(old)
@@ -153,12 +179,14 @@ def _release(item):
     if isinstance(item, Batch):
         for s in item.solvers:
             s.release()
-    item.release()
+    if isinstance(item, (Batch, Solver)):
+        item.release()
 
 
 def clear_solvers():
-    """Release the solvers (and batches) kept for later runs of the same scenes."""
-    for cache in (_SOLVERS, _BATCHES):
+    """Release the solvers (and batches) kept for later runs of the same scenes, and forget
+    the scenes."""
+    for cache in (_SOLVERS, _BATCHES, _PLANS):
         while cache:
             _release(cache.popitem()[1])
 
@@ -191,8 +219,9 @@ def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", d
                 reuse=True):
     if mode != "serial":
         raise ValueError("a batch runs fused serial solvers: mode must be 'serial'")
-    runs = [_Run(problem, n, ppc, basis, mass, dt, t_end, placement, stress_update, damping,
-                 allow_unstable_dt, record_every, params, energies, projection, series)
+    runs = [_plan(problem, n, ppc, basis, mass, dt, t_end, placement, stress_update, damping,
+                  allow_unstable_dt, record_every, params, energies, projection, series,
+                  reuse=reuse)
             for n in elements]
     if len({r.t_end for r in runs}) != 1:
         raise ValueError("the runs of a batch share t_end")
@@ -207,7 +236,9 @@ def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", d
     build_seconds = time.perf_counter() - t_build
     try:
         batch.run(runs[0].t_end, progress=progress)
-        return [r.result(s, build_seconds) for r, s in zip(runs, batch.solvers)]
+        states = batch.states() or [None] * len(runs)
+        return [r.result(s, build_seconds, state)
+                for r, s, state in zip(runs, batch.solvers, states)]
     finally:
         if reuse:
             _keep(_BATCHES, key, batch)
