@@ -165,7 +165,7 @@ def test_batch_refuses_what_it_cannot_run():
     with pytest.raises(TypeError, match="member 1 is a str"):
         Batch([ser, "solver"])
     ser.release()
-    with pytest.raises(ValueError, match="member 0 was released"):
+    with pytest.raises(ValueError, match="batch member 0: this solver was released"):
         Batch([ser])
     par.release()
 

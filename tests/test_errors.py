@@ -148,3 +148,39 @@ def test_lagrange_like_basis_cannot_be_lumped():
 
     with pytest.raises(ValueError, match="cannot be lumped.*consistent"):
         _scene(basis=NegativeBasis)
+
+
+RESTART_SCRIPT = """
+import pytest, timpm
+from timpm.batch import Batch
+from timpm.problems import get_problem
+from timpm.solver import Solver
+from timpm.study import convergence, run_problem
+timpm.init(threads=2)
+scene = get_problem("vibrating-string").scene(elements=4, ppc=4)
+s = Solver(scene, mode="serial", energies=False)
+s.run(n_steps=10)
+kept = run_problem("vibrating-string", elements=4, t_end=0.01).record
+timpm.init(threads=1)  # other settings: Taichi restarts, the fields above are gone
+for use in (lambda: s.run(n_steps=1), s.reset, s.positions, lambda: s.step,
+            lambda: Batch([s])):
+    with pytest.raises((RuntimeError, ValueError), match="Taichi was restarted"):
+        use()
+s.release()  # nothing left to free: no crash
+again = run_problem("vibrating-string", elements=4, t_end=0.01).record  # a new solver
+assert again["rms_error"] == kept["rms_error"] and again["compile_seconds"] > 0
+print("OK")
+"""
+
+
+def test_a_taichi_restart_gives_clear_errors_not_a_crash():
+    """timpm.init with other settings restarts Taichi and frees every field: a solver built
+    before raises a clear error (it used to crash the process: a study's kept solver reset
+    after the CLI re-initialised Taichi), and the study drivers build new solvers."""
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", RESTART_SCRIPT], capture_output=True,
+                          text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert proc.stdout.strip().endswith("OK")

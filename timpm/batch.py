@@ -11,6 +11,7 @@ import time
 import numpy as np
 import taichi as ti
 
+from .runtime import generation
 from .solver import _MIN_CPU_BLOCK, SimulationError, Solver, _cpu_threads, _Progress, \
     _static_cpu_blocks
 
@@ -41,8 +42,10 @@ class Batch:
             if s.mode != "serial":
                 raise ValueError(f"batch member {k} runs in {s.mode} mode: a Batch takes fused "
                                  "serial solvers, Solver(..., mode='serial')")
-            if getattr(s, "_tree", None) is None:
-                raise ValueError(f"batch member {k} was released")
+            try:
+                s._require_fields()
+            except RuntimeError as err:
+                raise ValueError(f"batch member {k}: {err}") from None
         if len({id(s) for s in solvers}) != len(solvers):
             raise ValueError("a solver appears twice in the batch")
         self.solvers = solvers
@@ -56,6 +59,7 @@ class Batch:
         self.status = ti.Vector.field(2, ti.i32)  # per member: steps taken, errors
         fb.dense(ti.i, len(solvers)).place(self.order, self.status)
         self._tree = fb.finalize()
+        self._generation = generation()
         self._order = None  # the (steps, threads) in the order field
         self.run_seconds = 0.0
         self.compile_seconds = 0.0
@@ -64,8 +68,23 @@ class Batch:
     def release(self):
         """Free the batch's fields (the members stay usable; release them apart)."""
         if self._tree is not None:
-            self._tree.destroy()
+            if self._generation == generation():  # else Taichi freed it at its restart
+                self._tree.destroy()
             self._tree = None
+
+    def _require_fields(self):
+        """A clear error, not a launch on freed memory, for a batch or member without its
+        fields."""
+        if self._tree is None:
+            raise RuntimeError("this batch was released")
+        if self._generation != generation():
+            raise RuntimeError("Taichi was restarted (timpm.init with other settings) after "
+                               "this batch was built, which freed its fields")
+        for k, s in enumerate(self.solvers):
+            try:
+                s._require_fields()
+            except RuntimeError as err:
+                raise RuntimeError(f"batch member {k}: {err}") from None
 
     @ti.kernel
     def _advance_all(self) -> ti.i32:
@@ -88,6 +107,7 @@ class Batch:
 
     def reset(self):
         """Every member back to its initial state (:meth:`Solver.reset`), one launch."""
+        self._require_fields()
         for s in self.solvers:
             s._prepare_reset()
         self._reset_all()
@@ -120,6 +140,7 @@ class Batch:
         member is 1D and counts grid crossings."""
         if not all(s.dim == 1 and s.has_u and s.track_crossings for s in self.solvers):
             return None
+        self._require_fields()
         counts = [s.n_particles for s in self.solvers]
         u = np.empty(sum(counts))
         scalars = np.empty((len(counts), 3))
@@ -167,8 +188,7 @@ class Batch:
         """
         if (t_end is None) == (n_steps is None):
             raise ValueError("give exactly one of t_end and n_steps")
-        if self._tree is None:
-            raise RuntimeError("this batch was released")
+        self._require_fields()
         remaining = []
         for k, s in enumerate(self.solvers):
             try:

@@ -34,6 +34,7 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
         kwargs["cpu_max_num_threads"] = int(threads)
     ti.init(**kwargs)
     _state["settings"] = settings
+    _state["generation"] = generation() + 1
     _state["pinned"] = pin_workers() if pin else []
 
 
@@ -84,6 +85,11 @@ def pin_workers() -> list:
     except (OSError, ValueError, KeyError):
         return []
     return pinned
+
+
+def generation() -> int:
+    """How many times timpm started Taichi: fields (solvers) of an earlier start are gone."""
+    return _state.get("generation", 0)
 
 
 def ensure_init() -> None:

@@ -32,7 +32,7 @@ import time
 import numpy as np
 import taichi as ti
 
-from .runtime import ensure_init
+from .runtime import ensure_init, generation
 from .materials import Hypoelastic1D
 from .scene import Scene
 from .world import World
@@ -153,6 +153,7 @@ class Solver:
                  grid_displacement: bool = False, small_mass: float = 1e-3,
                  scatter: str = "auto", check_every: int = 16):
         ensure_init()
+        self._generation = generation()  # the Taichi start that holds the fields
         if not isinstance(scene, (Scene, World)):
             raise TypeError(f"Solver takes a timpm.Scene (1D) or a timpm.World (2D/3D), "
                             f"got {type(scene).__name__}")
@@ -468,8 +469,7 @@ class Solver:
 
     def _prepare_reset(self):
         """Allocate and fill the copy of the initial state (once)."""
-        if getattr(self, "_tree", None) is None:
-            raise RuntimeError("this solver was released")
+        self._require_fields()
         if getattr(self, "_initial_tree", None) is None:
             fb = ti.FieldsBuilder()
             d, real = self.dim, self.x.dtype
@@ -560,8 +560,18 @@ class Solver:
         """Free the fields of this solver (it cannot be used afterwards)."""
         for name in ("_tree", "_initial_tree"):
             if getattr(self, name, None) is not None:
-                getattr(self, name).destroy()
+                if self._generation == generation():  # else Taichi freed them at its restart
+                    getattr(self, name).destroy()
                 setattr(self, name, None)
+
+    def _require_fields(self):
+        """A clear error, not a launch on freed memory, for a solver without its fields."""
+        if getattr(self, "_tree", None) is None:
+            raise RuntimeError("this solver was released")
+        if self._generation != generation():
+            raise RuntimeError("Taichi was restarted (timpm.init with other settings) after "
+                               "this solver was built, which freed its fields: build a new "
+                               "Solver")
 
     # ---- stencil -----------------------------------------------------------------------
     @ti.func
@@ -1412,10 +1422,12 @@ class Solver:
     # ---- Python driver -----------------------------------------------------------------
     @property
     def step(self) -> int:
+        self._require_fields()
         return int(self.step_count[None])
 
     @property
     def t(self) -> float:
+        self._require_fields()
         return float(self.time[None])
 
     def steps_for(self, t_end: float) -> int:
@@ -1453,6 +1465,7 @@ class Solver:
         Wall time spent stepping accumulates in ``run_seconds``; kernel compilation is
         booked apart in ``compile_seconds``.
         """
+        self._require_fields()
         total = self._steps_to(t_end, n_steps)
         self.compile()
         self._record_start()
@@ -1724,6 +1737,7 @@ class Solver:
         return a[..., 0] if self.dim == 1 else a
 
     def _component(self, fld):
+        self._require_fields()
         a = fld.to_numpy()
         return a[:, 0] if self.dim == 1 else a
 

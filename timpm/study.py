@@ -49,7 +49,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                 reuse=reuse)
     key = run.key(mode=mode)
     t_build = time.perf_counter()
-    solver = _SOLVERS.pop(key, None) if reuse else None
+    solver = _usable(_SOLVERS.pop(key, None)) if reuse else None
     if solver is not None:
         solver.reset()  # compiled at the first reuse, then a single launch
     else:
@@ -70,10 +70,11 @@ def _plan(problem, *options, reuse=True):
     """The :class:`_Run` of these arguments; with ``reuse`` one built earlier from equal
     arguments (a problem named by a string, hashable options), whose scene is then built
     once: a warm study spends no time on its scenes."""
-    params = options[11]
     key = None
     if reuse and isinstance(problem, str):
-        key = (problem, options[:11], tuple(sorted((params or {}).items())), options[12:])
+        # options hold one dict, the physical params: its items stand for it
+        key = (problem, *(tuple(sorted(o.items())) if isinstance(o, dict) else o
+                          for o in options))
         try:
             hash(key)
         except TypeError:
@@ -183,6 +184,18 @@ def _release(item):
         item.release()
 
 
+def _usable(item):
+    """A kept solver or batch, or None where its fields are gone (Taichi restarted by
+    ``timpm.init`` with other settings): then a new one is built."""
+    try:
+        if item is not None:
+            item._require_fields()
+        return item
+    except RuntimeError:
+        _release(item)
+        return None
+
+
 def clear_solvers():
     """Release the solvers (and batches) kept for later runs of the same scenes, and forget
     the scenes."""
@@ -227,7 +240,7 @@ def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", d
         raise ValueError("the runs of a batch share t_end")
     key = tuple(r.key(mode="serial") for r in runs)
     t_build = time.perf_counter()
-    batch = _BATCHES.pop(key, None) if reuse else None
+    batch = _usable(_BATCHES.pop(key, None)) if reuse else None
     if batch is not None:
         batch.reset()
     else:
