@@ -19,7 +19,8 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     ``debug=True`` turns on Taichi's own bounds checks (slow); ``pin`` binds Taichi's
     worker threads one per core, round robin over the cores this process may use (Linux;
     like ``OMP_PROC_BIND=spread``; see :func:`pin_workers`).  Calling it again with other
-    settings restarts Taichi, which invalidates every existing solver.
+    settings restarts Taichi, which frees the fields of every existing solver (using one
+    then raises a RuntimeError; the study drivers build new ones).
     """
     if precision not in ("f64", "f32"):
         raise ValueError(f"precision must be 'f64' or 'f32', got {precision!r}")
