@@ -69,7 +69,7 @@ def test_bench_script_runs_tiny(tmp_path):
     res = bench(str(out), size="tiny", threads=(1,), progress=lambda m: None)
     doc = json.loads((tmp_path / "tp.json").read_text())
     assert doc["size"] == "tiny"
-    assert {r["scatter"] for r in res["timpm"]} == {"atomic", "serial", "private"}
+    assert {r["scatter"] for r in res["timpm"]} == {"atomic", "serial", "private", "fused"}
     # every strategy and precision agrees with mpm88 from its own initial state
     for prec in ("f32", "f64"):
         assert all(d < 2e-6 for d in res["agreement"][prec].values())

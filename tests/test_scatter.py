@@ -5,7 +5,7 @@ import pytest
 from timpm import Body, Box, World
 from timpm.materials import DruckerPrager
 from timpm.problems import get_problem
-from timpm.solver import SCATTERS, Solver
+from timpm.solver import SCATTERS, Solver, auto_mode
 
 STRATEGIES = [s for s in SCATTERS if s != "auto"]
 
@@ -19,7 +19,11 @@ def sand_column(transfer):
 
 
 def run(scene, scatter, steps):
-    s = Solver(scene, mode="parallel", scatter=scatter, energies=False)
+    """scatter: a strategy of the parallel mode, or "fused" (the serial mode)."""
+    if scatter == "fused":
+        s = Solver(scene, mode="serial", energies=False)
+    else:
+        s = Solver(scene, mode="parallel", scatter=scatter, energies=False)
     try:
         s.run(n_steps=steps)
         return s.n_copies, s.positions(), s.velocities()
@@ -30,13 +34,14 @@ def run(scene, scatter, steps):
 @pytest.mark.parametrize("transfer", ["mls-mpm", "musl"])
 def test_scatter_strategies_agree_in_2d(transfer):
     """Same positions and velocities after 60 steps of a collapsing column, whichever way
-    P2G scatters (MUSL scatters twice a step: forces, then momentum)."""
+    P2G scatters (MUSL scatters twice a step: forces, then momentum), and in the fused
+    serial mode (what ``mode="auto"`` runs on one thread)."""
     scene = sand_column(transfer)
     assert scene.n_particles > 2 * 512  # both private copies are filled
     ref = run(scene, "atomic", 60)
     vmax = np.abs(ref[2]).max()
     assert vmax > 0.1  # the column is moving
-    for scatter in STRATEGIES[1:]:
+    for scatter in STRATEGIES[1:] + ["fused"]:
         copies, x, v = run(scene, scatter, 60)
         assert copies == (2 if scatter == "private" else 1) or copies > 2
         assert np.abs(x - ref[1]).max() < 1e-13
@@ -86,3 +91,10 @@ def test_memory_counts_the_private_copies(transfer, scattered):
             assert mem["node_bytes"] == 8 * (1 + 2 + 2)  # m, P and v (affine) or F (MUSL)
         finally:
             s.release()
+
+
+def test_auto_mode_fuses_small_scenes_and_every_scene_on_one_thread():
+    assert auto_mode(4096, 4096, 2) == "serial"
+    assert auto_mode(4097, 4096, 2) == "parallel"
+    assert auto_mode(10**6, 4096, 1) == "serial"  # one thread: no pool to hand loops to
+    assert auto_mode(10**6, 4096, 0) == "parallel"  # off the CPU

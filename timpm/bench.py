@@ -7,7 +7,8 @@ process (Taichi fixes the thread count at start-up).  Reported:
   Taichi kernels on 1 and 2 threads;
 * mpm88's physics (2D, quadratic B-splines, MLS-MPM, J-fluid, 128^2 grid, dt 2e-4): the
   installed mpm88 example (headless), the NumPy step (:mod:`timpm.numpy_mpm`) and timpm in
-  float32 and float64, with every scatter strategy, for 1e3..1e6 particles; agreement of
+  float32 and float64, with every scatter strategy (and fused steps on one thread), for
+  1e3..1e6 particles; agreement of
   the positions after 50 substeps from mpm88's own initial state;
 * particle-substeps per second for 1D, 2D and 3D and each basis;
 * the Table 3.2 study warm against a NumPy implementation of the same algorithm, and the
@@ -124,20 +125,28 @@ def _mpm88_timpm(counts, strategies, threads, precision, x0_file=None):
     for n in counts:
         world, _ = mpm88_world(mpm88_initial(n)[0])
         for scatter in strategies:
-            s = Solver(world, energies=False, mode="parallel", scatter=scatter)
+            if scatter == "fused":  # many steps per launch, every loop on this thread
+                s = Solver(world, energies=False, mode="serial")
+            else:
+                s = Solver(world, energies=False, mode="parallel", scatter=scatter)
             t0 = time.perf_counter()
             s.compile()
             s.run(n_steps=1)
             compile_s = time.perf_counter() - t0
             rec = _timed_run(s, seconds=0.5 if n < 500_000 else 1.5)
             mem = s.memory()
-            rec.update(particles=n, scatter=s.scatter, threads=threads, precision=precision,
+            rec.update(particles=n, scatter=_strategy(s), threads=threads, precision=precision,
                        first_step_seconds=compile_s, particle_bytes=mem["particle_bytes"],
                        node_bytes=mem["node_bytes"], nodes=mem["nodes"],
                        scatter_node_bytes=mem["scatter_node_bytes"])
             out.append(rec)
             s.release()
     return {"runs": out, "agreement": agree}
+
+
+def _strategy(solver) -> str:
+    """How the solver runs: ``fused`` (mode serial) or its scatter strategy."""
+    return "fused" if solver.mode == "serial" else solver.scatter
 
 
 def _block_world(dim, basis, n_target):
@@ -170,14 +179,14 @@ def _per_basis(cases, threads):
                                dt=0.1 * h / prob.material.wave_speed)
         else:
             scene = _block_world(dim, basis, n)
-        s = Solver(scene, energies=False, track_crossings=False, mode="parallel")
+        s = Solver(scene, energies=False, track_crossings=False)  # fused on one thread
         t0 = time.perf_counter()
         s.compile()
         s.run(n_steps=1)
         first = time.perf_counter() - t0
         rec = _timed_run(s, seconds=0.6)
         rec.update(dim=dim, basis=basis, particles=scene.n_particles, threads=threads,
-                   scatter=s.scatter, first_step_seconds=first,
+                   scatter=_strategy(s), first_step_seconds=first,
                    particle_bytes=s.memory()["particle_bytes"])
         out.append(rec)
         s.release()
@@ -376,8 +385,10 @@ def bench(out="docs/throughput", size="full", threads=(1, 2), progress=print):
         for precision in ("f32", "f64"):
             for t in threads:
                 progress(f"timpm on mpm88's physics, {precision}, {t} thread(s)")
+                # fused: the mode timpm picks on one thread (one launch for many steps)
                 r = _spawn({"task": "mpm88", "threads": t, "precision": precision,
-                            "counts": counts, "strategies": strategies, "x0_file": x0_file})
+                            "counts": counts, "x0_file": x0_file,
+                            "strategies": strategies + (["fused"] if t == 1 else [])})
                 res["timpm"] += r["runs"]
                 res["agreement"][precision] = r["agreement"]
     progress("numpy mpm88 step")
@@ -459,7 +470,9 @@ def markdown(res) -> str:
     for p in res["probes"]:
         lines.append(f"| {p['threads']} | {p['triad_gb_s']:.1f} | {p['compute_gflop_s']:.1f} |")
     lines += ["", "## mpm88's physics: Taichi's mpm88, NumPy and timpm", "",
-              "timpm: best scatter strategy per row (all strategies in the JSON).", "",
+              "timpm: best strategy per row (all of them in the JSON; fused: many steps per "
+              "launch, every loop on the calling thread, the mode timpm picks on one thread).",
+              "",
               "| particles | threads | mpm88 (f32) | numpy (f64) | timpm f32 | timpm f64 | "
               "f32 / mpm88 | f32 / numpy | f64 / mpm88 |", "|---|---|---|---|---|---|---|---|---|"]
     for n in sorted({r["particles"] for r in res["timpm"]}):
@@ -480,16 +493,16 @@ def markdown(res) -> str:
     for key, vals in ag.items():
         lines.append(f"- {key}: " + ", ".join(f"{n} particles {d:.2e}" for n, d in vals.items()))
     lines += ["", "## Scatter strategies (timpm, mpm88's physics, Mpss)", "",
-              "| particles | threads | precision | atomic | serial | private |",
-              "|---|---|---|---|---|---|"]
+              "| particles | threads | precision | atomic | serial | private | fused |",
+              "|---|---|---|---|---|---|---|"]
     for n in sorted({r["particles"] for r in res["timpm"]}):
         for t in res["threads"]:
             for prec in ("f32", "f64"):
                 row = [next((f"{r['mpss']:.2f}" for r in res["timpm"] if r["particles"] == n
                              and r["threads"] == t and r["precision"] == prec
-                             and r["scatter"] == s), "-") for s in ("atomic", "serial", "private")]
+                             and r["scatter"] == s), "-") for s in ("atomic", "serial", "private", "fused")]
                 lines.append(f"| {n} | {t} | {prec} | " + " | ".join(row) + " |")
-    lines += ["", "## Per dimension and basis (f64, MUSL, auto scatter)", "",
+    lines += ["", "## Per dimension and basis (f64, MUSL, auto mode and scatter)", "",
               "| dim | basis | particles | threads | scatter | Mpss | first step s |",
               "|---|---|---|---|---|---|---|"]
     for r in res["bases"]:
