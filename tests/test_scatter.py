@@ -5,7 +5,7 @@ import pytest
 from timpm import Body, Box, World
 from timpm.materials import DruckerPrager
 from timpm.problems import get_problem
-from timpm.solver import SCATTERS, Solver, auto_mode
+from timpm.solver import SCATTERS, SimulationError, Solver, auto_mode
 
 STRATEGIES = [s for s in SCATTERS if s != "auto"]
 
@@ -98,3 +98,65 @@ def test_auto_mode_fuses_small_scenes_and_every_scene_on_one_thread():
     assert auto_mode(4097, 4096, 2) == "parallel"
     assert auto_mode(10**6, 4096, 1) == "serial"  # one thread: no pool to hand loops to
     assert auto_mode(10**6, 4096, 0) == "parallel"  # off the CPU
+
+
+def _two_threads():
+    from taichi.lang import impl
+
+    if impl.current_cfg().cpu_max_num_threads < 2:
+        pytest.skip("a team needs two CPU threads")
+
+
+@pytest.mark.parametrize("transfer", ["mls-mpm", "apic"])
+def test_team_mode_gives_the_parallel_run_bit_for_bit(transfer):
+    """The team's threads run the same per-particle and per-node code on the same blocks
+    and grid copies as the parallel mode's private scatter: the same run, bit for bit."""
+    _two_threads()
+    scene = sand_column(transfer)
+    _, x, v = run(scene, "private", 60)
+    team = Solver(scene, mode="team", energies=False)
+    try:
+        assert team.team and team.n_copies == 2
+        team.run(n_steps=25)
+        team.run(n_steps=35)  # the step count carries over between launches
+        assert team.step == 60 and team.t == pytest.approx(60 * scene.dt)
+        np.testing.assert_array_equal(team.positions(), x)
+        np.testing.assert_array_equal(team.velocities(), v)
+    finally:
+        team.release()
+
+
+def test_auto_mode_picks_a_team_for_the_affine_transfer_only():
+    _two_threads()
+    for transfer, team in (("mls-mpm", True), ("apic", True), ("musl", False)):
+        s = Solver(sand_column(transfer), serial_threshold=0, energies=False)
+        assert (s.mode, s.team) == ("parallel", team)
+        s.release()
+    with pytest.raises(ValueError, match="mode='team' needs the private scatter .* and the "
+                                         "affine transfer"):
+        Solver(sand_column("musl"), mode="team")
+    with pytest.raises(ValueError, match="mode='team' needs the private scatter"):
+        Solver(sand_column("mls-mpm"), mode="team", scatter="serial")
+
+
+def test_team_stops_at_a_nan_naming_step_and_particle():
+    """A NaN velocity: the team stops after the step it appeared in (the first barrier of
+    the next step), naming that step and a particle next to the one it was put in."""
+    _two_threads()
+    scene = sand_column("mls-mpm")
+    s = Solver(scene, mode="team", energies=False)
+    try:
+        s.run(n_steps=3)
+        k = 700  # in the second thread's block
+        x = s.positions()
+        v = s.velocities()
+        v[k, 0] = np.nan
+        s.v.from_numpy(v)
+        with pytest.raises(SimulationError, match=r"step 4 \(t = .*\): particle \d+ has a "
+                                                  r"non-finite") as err:
+            s.run(n_steps=10)
+        assert (err.value.code, err.value.step) == (2, 4)
+        assert np.abs(x[err.value.particle] - x[k]).max() < 3 * scene.h
+        assert s.step == 4  # stopped there, nothing beyond
+    finally:
+        s.release()

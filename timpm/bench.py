@@ -127,6 +127,8 @@ def _mpm88_timpm(counts, strategies, threads, precision, x0_file=None):
         for scatter in strategies:
             if scatter == "fused":  # many steps per launch, every loop on this thread
                 s = Solver(world, energies=False, mode="serial")
+            elif scatter == "team":  # many steps per launch, each thread a block
+                s = Solver(world, energies=False, mode="team")
             else:
                 s = Solver(world, energies=False, mode="parallel", scatter=scatter)
             t0 = time.perf_counter()
@@ -145,8 +147,8 @@ def _mpm88_timpm(counts, strategies, threads, precision, x0_file=None):
 
 
 def _strategy(solver) -> str:
-    """How the solver runs: ``fused`` (mode serial) or its scatter strategy."""
-    return "fused" if solver.mode == "serial" else solver.scatter
+    """How the solver runs: ``fused`` (mode serial), ``team`` or its scatter strategy."""
+    return "fused" if solver.mode == "serial" else "team" if solver.team else solver.scatter
 
 
 def _block_world(dim, basis, n_target):
@@ -385,10 +387,11 @@ def bench(out="docs/throughput", size="full", threads=(1, 2), progress=print):
         for precision in ("f32", "f64"):
             for t in threads:
                 progress(f"timpm on mpm88's physics, {precision}, {t} thread(s)")
-                # fused: the mode timpm picks on one thread (one launch for many steps)
+                # fused and team: what timpm picks on one thread and on more (one launch for
+        # many steps)
                 r = _spawn({"task": "mpm88", "threads": t, "precision": precision,
                             "counts": counts, "x0_file": x0_file,
-                            "strategies": strategies + (["fused"] if t == 1 else [])})
+                            "strategies": strategies + (["fused"] if t == 1 else ["team"])})
                 res["timpm"] += r["runs"]
                 res["agreement"][precision] = r["agreement"]
     progress("numpy mpm88 step")
@@ -471,7 +474,9 @@ def markdown(res) -> str:
         lines.append(f"| {p['threads']} | {p['triad_gb_s']:.1f} | {p['compute_gflop_s']:.1f} |")
     lines += ["", "## mpm88's physics: Taichi's mpm88, NumPy and timpm", "",
               "timpm: best strategy per row (all of them in the JSON; fused: many steps per "
-              "launch, every loop on the calling thread, the mode timpm picks on one thread).",
+              "launch, every loop on the calling thread, the mode timpm picks on one thread; team: "
+              "many steps per launch, each thread a block of particles and nodes, what it "
+              "picks on two).",
               "",
               "| particles | threads | mpm88 (f32) | numpy (f64) | timpm f32 | timpm f64 | "
               "f32 / mpm88 | f32 / numpy | f64 / mpm88 |", "|---|---|---|---|---|---|---|---|---|"]
@@ -493,14 +498,14 @@ def markdown(res) -> str:
     for key, vals in ag.items():
         lines.append(f"- {key}: " + ", ".join(f"{n} particles {d:.2e}" for n, d in vals.items()))
     lines += ["", "## Scatter strategies (timpm, mpm88's physics, Mpss)", "",
-              "| particles | threads | precision | atomic | serial | private | fused |",
-              "|---|---|---|---|---|---|---|"]
+              "| particles | threads | precision | atomic | serial | private | fused | team |",
+              "|---|---|---|---|---|---|---|---|"]
     for n in sorted({r["particles"] for r in res["timpm"]}):
         for t in res["threads"]:
             for prec in ("f32", "f64"):
                 row = [next((f"{r['mpss']:.2f}" for r in res["timpm"] if r["particles"] == n
                              and r["threads"] == t and r["precision"] == prec
-                             and r["scatter"] == s), "-") for s in ("atomic", "serial", "private", "fused")]
+                             and r["scatter"] == s), "-") for s in ("atomic", "serial", "private", "fused", "team")]
                 lines.append(f"| {n} | {t} | {prec} | " + " | ".join(row) + " |")
     lines += ["", "## Per dimension and basis (f64, MUSL, auto mode and scatter)", "",
               "| dim | basis | particles | threads | scatter | Mpss | first step s |",

@@ -45,7 +45,11 @@ ERRORS = {
     3: "has a non-positive volume (the material inverted)",
     4: "the consistent mass matrix is singular",
     5: "energy grew without a source",
+    6: "the threads of a team step did not meet at a barrier",
 }
+
+#: spins of a team barrier (an atomic read each, tens of ns) before the step gives up
+TEAM_SPIN_LIMIT = 1 << 29
 
 
 #: two-point Gauss-Legendre rule on [0, 1] (MLS projection: integration points)
@@ -142,8 +146,12 @@ class Solver:
 
     ``track`` lists particle indices whose state is recorded every ``record_every`` steps
     together with the energies; ``mode`` is ``"parallel"``, ``"serial"`` (fused steps, one
-    thread, bit-reproducible) or ``"auto"`` (serial up to ``serial_threshold`` particles,
-    and at any size where Taichi runs one CPU thread).
+    thread, bit-reproducible), ``"team"`` (the affine transfer with the private scatter on
+    two CPU threads or more: the passes of many steps in one parallel task, each thread a
+    fixed block of particles and nodes, spin barriers between the passes; the parallel
+    mode's results bit for bit) or ``"auto"`` (serial up to ``serial_threshold`` particles
+    and at any size where Taichi runs one CPU thread, else team where it applies, else
+    parallel).
 
     ``grid_displacement=True`` accumulates the nodal displacements u_i += v_i dt, so that
     the displacement field u_h(x) = sum_i phi_i(x) u_i can be drawn (study 5.2).
@@ -166,8 +174,8 @@ class Solver:
         if not isinstance(scene, (Scene, World)):
             raise TypeError(f"Solver takes a timpm.Scene (1D) or a timpm.World (2D/3D), "
                             f"got {type(scene).__name__}")
-        if mode not in ("auto", "parallel", "serial"):
-            raise ValueError(f"unknown mode {mode!r}: choose auto, parallel or serial")
+        if mode not in ("auto", "parallel", "serial", "team"):
+            raise ValueError(f"unknown mode {mode!r}: choose auto, parallel, serial or team")
         if record_every < 1:
             raise ValueError(f"record_every must be a positive integer, got {record_every!r}")
         self.scene = scene
@@ -177,8 +185,10 @@ class Solver:
         for p in track:
             if not 0 <= p < n:
                 raise ValueError(f"tracked particle {p} does not exist ({n} particles)")
-        self.mode = auto_mode(n, serial_threshold, _cpu_threads() if _on_cpu() else 0) \
-            if mode == "auto" else mode
+        requested = mode
+        if mode == "auto":
+            mode = auto_mode(n, serial_threshold, _cpu_threads() if _on_cpu() else 0)
+        self.mode = "parallel" if mode == "team" else mode  # a team runs the parallel kernels
         if scatter not in SCATTERS:
             raise ValueError(f"unknown scatter {scatter!r}: choose one of {', '.join(SCATTERS)}")
         private_ok = not (isinstance(scene, Scene) and
@@ -240,6 +250,16 @@ class Solver:
         if self.mls_mpm:
             self.D_inv = 1.0 / (self.basis.inertia * self.h ** 2)
         self.multi_material = len(self.materials) > 1
+        # team: the passes of many steps in one parallel task, each thread a fixed block of
+        # particles (its own grid copy) and of nodes, the passes separated by spin barriers:
+        # Taichi's pool is woken once per launch, not three times per step
+        team_ok = (self.private_scatter and self.apic and not self.strain_remap
+                   and _cpu_threads() >= self.n_copies)  # a thread for every block
+        if requested == "team" and not team_ok:
+            raise ValueError("mode='team' needs the private scatter with a thread per grid "
+                             "copy (two CPU threads or more) and the affine transfer (APIC "
+                             "with a B-spline basis, or MLS-MPM)")
+        self.team = team_ok and requested in ("team", "auto")
         # 1D on one thread (MUSL, lumped, standard projection): neighbouring particles share
         # their element, so a run of them sums its node values in registers and adds them to
         # the grid once (a store-to-load chain through the grid per particle otherwise)
@@ -413,6 +433,12 @@ class Solver:
         self.neg_pivots = ti.field(ti.i64)
         fb.place(self.step_count, self.time, self.crossings, self.err, self.err_count, self.err_step,
                  self.err_where, self.neg_pivots)
+        if self.team:
+            self.team_arrived = ti.field(ti.i32)  # arrivals at the barriers of a launch
+            self.team_abort = ti.field(ti.i32)
+            self.rank_step = ti.field(ti.i64)  # the step each thread of the team is in
+            fb.place(self.team_arrived, self.team_abort)
+            fb.dense(ti.i, self.n_copies).place(self.rank_step)
         if self.recording:
             if self.history_chunk is None:
                 # records the kernels hold between two reads from Python: about 4 MiB
@@ -662,7 +688,10 @@ class Solver:
             first = ti.atomic_add(self.err_count[None], 1) == 0
         if first:
             self.err[None] = code
-            self.err_step[None] = self.step_count[None]
+            if ti.static(self.team):  # where: a particle of the thread's block
+                self.err_step[None] = self.rank_step[where // self.scatter_block]
+            else:
+                self.err_step[None] = self.step_count[None]
             self.err_where[None] = where
 
     @ti.func
@@ -843,7 +872,7 @@ class Solver:
         base = ti.Vector.zero(ti.i32, self.dim)
         inside = 0
         node_values = ti.Matrix.zero(float, 3, self.basis.support)
-        if not self._halted():
+        if not self._halted(p):
             if ti.static(phase == "p2g"):
                 base, inside, node_values = self._p2g_particle(p, copy)
             else:
@@ -877,12 +906,16 @@ class Solver:
         return node_values
 
     @ti.func
-    def _halted(self):
+    def _halted(self, p):
         """A step before this one failed: the particles stay as they were at the failure
         (Python reads the error back every ``check_every`` steps).  The fused serial mode
-        stops before the step after a failure instead (see ``_advance``)."""
+        stops before the step after a failure instead (see ``_advance``), a team at the
+        first barrier after it (its step is that of particle p's thread)."""
         halted = False
-        if ti.static(self.mode != "serial"):
+        if ti.static(self.team):
+            halted = (self.err_count[None] != 0 and
+                      self.err_step[None] < self.rank_step[p // self.scatter_block])
+        elif ti.static(self.mode != "serial"):
             halted = self.err_count[None] != 0 and self.err_step[None] < self.step_count[None]
         return halted
 
@@ -982,21 +1015,25 @@ class Solver:
         # private copies are summed in and m_i, P_i cleared for the next P2G
         # (a node no particle reached has m = P = 0 and is left alone: G2P weighs it by 0)
         for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
-            if self._reached(I):
-                m = self._merged("gm", I)
-                P = self._merged("gp", I)
-                v = ti.Vector.zero(float, self.dim)
-                if m > self.mass_tol and not self._is_fixed(I):
-                    v = P / m
-                    if ti.static(self.has_walls):
-                        v = self._wall(I, v)
-                self.gv[I] = v
-                if ti.static(self.strain_remap):
-                    self.gm[I] = m  # P cleared for the remap
-                    self.gp[I] = ti.Vector.zero(float, self.dim)
-                elif ti.static(not self.private_scatter):
-                    self.gm[I] = 0.0
-                    self.gp[I] = ti.Vector.zero(float, self.dim)
+            self._grid_velocity_node(I)
+
+    @ti.func
+    def _grid_velocity_node(self, I):
+        if self._reached(I):
+            m = self._merged("gm", I)
+            P = self._merged("gp", I)
+            v = ti.Vector.zero(float, self.dim)
+            if m > self.mass_tol and not self._is_fixed(I):
+                v = P / m
+                if ti.static(self.has_walls):
+                    v = self._wall(I, v)
+            self.gv[I] = v
+            if ti.static(self.strain_remap):
+                self.gm[I] = m  # P cleared for the remap
+                self.gp[I] = ti.Vector.zero(float, self.dim)
+            elif ti.static(not self.private_scatter):
+                self.gm[I] = 0.0
+                self.gp[I] = ti.Vector.zero(float, self.dim)
 
     @ti.func
     def _reached(self, I):
@@ -1068,86 +1105,90 @@ class Solver:
         # stress from the material (2.2.4 in 1D); V *= det(I + grad du); with the affine
         # transfer v_p = sum_i phi_i v_i and C_p = sum_i phi_i v_i (x_i - x_p)^T D_p^-1
         for p in range(self.n_particles):
-            base, w, dw, xi, inside = self._stencil(p)
-            if inside and not self._halted():
-                vp = ti.Vector.zero(float, self.dim)
-                grad_du = ti.Matrix.zero(float, self.dim, self.dim)
-                if ti.static(self.strain_remap):
-                    vp = self.v[p]  # v_p and C_p came with the remap (_g2p_velocity)
-                    for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
-                        phi, grad = self._weight(w, dw, offset)
-                        grad_du += (self.gp[base + offset] * self.dt).outer_product(grad)
-                elif ti.static(self.apic):
-                    B = ti.Matrix.zero(float, self.dim, self.dim)
-                    vp, B, grad_du = self._affine_gather(base, w, dw, xi, not self.mls_mpm)
-                    self.v[p] = vp
-                    if ti.static(self.mls_mpm):
-                        self.C[p] = B * self.D_inv
-                        grad_du = self.C[p] * self.dt
-                    else:
-                        # D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T: diagonal for tensor
-                        # products of a basis reproducing linear fields
-                        for k in ti.static(range(self.dim)):
-                            dk = 0.0
-                            for a in ti.static(range(self.basis.support)):
-                                r = (base[k] + a - self.node_offset - xi[k]) * self.h
-                                dk += w[a, k] * r * r
-                            for j in ti.static(range(self.dim)):
-                                B[j, k] /= dk
-                        self.C[p] = B
+            self._g2p_update_particle(p)
+
+    @ti.func
+    def _g2p_update_particle(self, p):
+        base, w, dw, xi, inside = self._stencil(p)
+        if inside and not self._halted(p):
+            vp = ti.Vector.zero(float, self.dim)
+            grad_du = ti.Matrix.zero(float, self.dim, self.dim)
+            if ti.static(self.strain_remap):
+                vp = self.v[p]  # v_p and C_p came with the remap (_g2p_velocity)
+                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                    phi, grad = self._weight(w, dw, offset)
+                    grad_du += (self.gp[base + offset] * self.dt).outer_product(grad)
+            elif ti.static(self.apic):
+                B = ti.Matrix.zero(float, self.dim, self.dim)
+                vp, B, grad_du = self._affine_gather(base, w, dw, xi, not self.mls_mpm)
+                self.v[p] = vp
+                if ti.static(self.mls_mpm):
+                    self.C[p] = B * self.D_inv
+                    grad_du = self.C[p] * self.dt
                 else:
-                    for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
-                        phi, grad = self._weight(w, dw, offset)
-                        vi = self.gp[base + offset]
-                        vp += phi * vi
-                        grad_du += (vi * self.dt).outer_product(grad)
-                du = vp * self.dt
-                deps = 0.5 * (grad_du + grad_du.transpose())
-                vol_old = self.vol[p]
-                sig_old = self.sigma[p]
-                jac = 1.0
-                vol_new = vol_old
-                if ti.static(self.update_volume):
-                    jac = 1.0 + grad_du[0, 0]
-                    if ti.static(self.dim > 1):
-                        jac = (ti.Matrix.identity(float, self.dim) + grad_du).determinant()
-                    vol_new = vol_old * jac
-                    self.vol[p] = vol_new  # the materials read the new volume
-                sig_new = self._material_update(p, grad_du, sig_old)
-                self.sigma[p] = sig_new
-                if ti.static(self.record_energies):
-                    # strain energy: trapezoidal path integral of sigma : d_eps V
-                    self._sum_into(self.work[p],
-                                   0.5 * ((sig_old * vol_old + sig_new * vol_new) * deps).sum())
-                    if ti.static(self.has_traction):
-                        if p == self.traction_particle:
-                            self._sum_into(self.ext_work[None], self.traction_amplitude *
-                                           self.traction_fn.value(self.time[None]) * du[0])
-                if ti.static(self.has_u):
-                    self._sum_into(self.u[p], du)
-                x_new = self.x[p] + du
-                self.x[p] = x_new
-                # checks on the new state, from registers (a NaN in the MUSL particle velocity
-                # reaches vp through the grid); the first failure of the run is the one reported
-                xn = ti.Vector.zero(float, self.dim)
-                code = 0
-                for k in ti.static(range(self.dim)):
-                    xn[k] = (x_new[k] - self.origin[k]) * self.inv_h
-                    if not (xn[k] >= 0.0 and xn[k] <= self.grid_elements[k]):
-                        code = 1
-                if ti.static(self.update_volume):
-                    if not (jac > 0.0):
-                        code = 3
-                state = x_new.sum() + vp.sum() + sig_new.sum() + vol_new
-                if not (ti.abs(state) < 1e300):  # NaN fails this comparison
-                    code = 2
-                if code != 0:
-                    self._fail(code, p)
-                if ti.static(self.track_crossings):
-                    e = self._element(xn)
-                    if (e != self.elem[p]).any():
-                        self._sum_into(self.crossings[None], 1)
-                        self.elem[p] = e
+                    # D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T: diagonal for tensor
+                    # products of a basis reproducing linear fields
+                    for k in ti.static(range(self.dim)):
+                        dk = 0.0
+                        for a in ti.static(range(self.basis.support)):
+                            r = (base[k] + a - self.node_offset - xi[k]) * self.h
+                            dk += w[a, k] * r * r
+                        for j in ti.static(range(self.dim)):
+                            B[j, k] /= dk
+                    self.C[p] = B
+            else:
+                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                    phi, grad = self._weight(w, dw, offset)
+                    vi = self.gp[base + offset]
+                    vp += phi * vi
+                    grad_du += (vi * self.dt).outer_product(grad)
+            du = vp * self.dt
+            deps = 0.5 * (grad_du + grad_du.transpose())
+            vol_old = self.vol[p]
+            sig_old = self.sigma[p]
+            jac = 1.0
+            vol_new = vol_old
+            if ti.static(self.update_volume):
+                jac = 1.0 + grad_du[0, 0]
+                if ti.static(self.dim > 1):
+                    jac = (ti.Matrix.identity(float, self.dim) + grad_du).determinant()
+                vol_new = vol_old * jac
+                self.vol[p] = vol_new  # the materials read the new volume
+            sig_new = self._material_update(p, grad_du, sig_old)
+            self.sigma[p] = sig_new
+            if ti.static(self.record_energies):
+                # strain energy: trapezoidal path integral of sigma : d_eps V
+                self._sum_into(self.work[p],
+                               0.5 * ((sig_old * vol_old + sig_new * vol_new) * deps).sum())
+                if ti.static(self.has_traction):
+                    if p == self.traction_particle:
+                        self._sum_into(self.ext_work[None], self.traction_amplitude *
+                                       self.traction_fn.value(self.time[None]) * du[0])
+            if ti.static(self.has_u):
+                self._sum_into(self.u[p], du)
+            x_new = self.x[p] + du
+            self.x[p] = x_new
+            # checks on the new state, from registers (a NaN in the MUSL particle velocity
+            # reaches vp through the grid); the first failure of the run is the one reported
+            xn = ti.Vector.zero(float, self.dim)
+            code = 0
+            for k in ti.static(range(self.dim)):
+                xn[k] = (x_new[k] - self.origin[k]) * self.inv_h
+                if not (xn[k] >= 0.0 and xn[k] <= self.grid_elements[k]):
+                    code = 1
+            if ti.static(self.update_volume):
+                if not (jac > 0.0):
+                    code = 3
+            state = x_new.sum() + vp.sum() + sig_new.sum() + vol_new
+            if not (ti.abs(state) < 1e300):  # NaN fails this comparison
+                code = 2
+            if code != 0:
+                self._fail(code, p)
+            if ti.static(self.track_crossings):
+                e = self._element(xn)
+                if (e != self.elem[p]).any():
+                    self._sum_into(self.crossings[None], 1)
+                    self.elem[p] = e
 
     @ti.func
     def _solve_mass(self, rhs: ti.template(), walls: ti.template()):
@@ -1259,7 +1300,7 @@ class Solver:
                 for I in ti.grouped(ti.ndrange(*self.grid_nodes)):
                     self._sum_into(self.gu[I], self.gp[I] * self.dt)  # u_i += v_i dt (5.2)
             self._g2p_update()
-        if not self._halted():
+        if not self._halted(0):
             self._sum_into(self.step_count[None], 1)
             self.time[None] = self.step_count[None] * self.dt
 
@@ -1412,6 +1453,20 @@ class Solver:
             self._one_task(self._record)
 
         self._step, self._record_kernel = step, record
+        if self.team:
+            @ti.kernel
+            def team(n_steps: ti.i32):
+                self._team_steps(n_steps)
+
+            self._team = team
+
+    def _launch(self, n: int):
+        """n steps of the parallel mode: one launch for a team, else one launch per step."""
+        if self.team:
+            self._team(n)
+        else:
+            for _ in range(n):
+                self._step()
 
     @ti.kernel
     def _advance(self, n_steps: ti.i32, every: ti.i32) -> ti.i32:
@@ -1435,6 +1490,78 @@ class Solver:
                 if self.step_count[None] % every == 0:
                     self._record()
         return done
+
+    # ---- team mode: the passes of many steps in one parallel task ----------------------
+    @ti.func
+    def _team_steps(self, n_steps):
+        self.team_arrived[None] = 0
+        self.team_abort[None] = 0
+        B = ti.static(self.scatter_block)
+        for q in range(self.n_copies * B):
+            if q % B == 0:  # thread q // B of Taichi's static split runs its whole block
+                self._team_member(q // B, n_steps)
+
+    @ti.func
+    def _team_member(self, c, n_steps):
+        """Thread c of the team: n_steps affine steps on its particles [c B, (c + 1) B)
+        (scattered into its grid copy) and its share of the nodes."""
+        n_nodes = ti.static(int(np.prod(self.grid_nodes)))
+        nodes_per_thread = ti.static(-(-n_nodes // self.n_copies))
+        first, end = c * self.scatter_block, ti.min((c + 1) * self.scatter_block, self.n_particles)
+        start = self.step_count[None]  # thread 0 changes it after the first barrier only
+        arrivals = 0
+        for s in range(n_steps):
+            self.rank_step[c] = start + s
+            # P2G of the thread's particles into its own grid copy (as _p2g)
+            for p in range(first, end):
+                self._scatter_particle("p2g", p, c)
+            arrivals += self.n_copies
+            self._team_barrier(c, arrivals)
+            # all threads read the same errors here: the next is written in G2P, after the
+            # next barrier
+            if (ti.atomic_add(self.err_count[None], 0) != 0
+                    or ti.atomic_add(self.team_abort[None], 0) != 0):
+                break
+            # grid: the copies summed, v = P / m, walls, on the thread's nodes (as
+            # _grid_velocity)
+            for f in range(c * nodes_per_thread, ti.min((c + 1) * nodes_per_thread, n_nodes)):
+                self._grid_velocity_node(self._node_of(f))
+            arrivals += self.n_copies
+            self._team_barrier(c, arrivals)
+            if ti.atomic_add(self.team_abort[None], 0) != 0:
+                break
+            # G2P of the thread's particles (as _g2p_update): the next P2G reads only them
+            for p in range(first, end):
+                self._g2p_update_particle(p)
+            if c == 0:
+                self.step_count[None] = start + s + 1
+                self.time[None] = (start + s + 1) * self.dt
+
+    @ti.func
+    def _team_barrier(self, c, target):
+        """Arrive, then spin until ``target`` arrivals (every thread of the team is here);
+        after TEAM_SPIN_LIMIT spins (a thread that never came) fail with error 6."""
+        ti.atomic_add(self.team_arrived[None], 1)
+        spins = 0
+        while ti.atomic_add(self.team_arrived[None], 0) < target:
+            spins += 1
+            if spins % 1024 == 0:
+                if ti.atomic_add(self.team_abort[None], 0) != 0:
+                    break
+                if spins > TEAM_SPIN_LIMIT:
+                    ti.atomic_add(self.team_abort[None], 1)
+                    self._fail(6, c * self.scatter_block)
+                    break
+
+    @ti.func
+    def _node_of(self, f):
+        """Grid index of the node at flat index f (the order of ti.ndrange)."""
+        I = ti.Vector.zero(ti.i32, self.dim)
+        rest = f
+        for k in ti.static(range(self.dim - 1, -1, -1)):
+            I[k] = rest % self.grid_nodes[k]
+            rest = rest // self.grid_nodes[k]
+        return I
 
     # ---- Python driver -----------------------------------------------------------------
     @property
@@ -1497,7 +1624,7 @@ class Solver:
                 self._check()
             elif self._timed_steps < 2:
                 t0 = time.perf_counter()
-                self._step()
+                self._launch(1)
                 took = time.perf_counter() - t0
                 # the first launch compiles: book its excess over the second apart
                 if self._timed_steps == 0:
@@ -1511,13 +1638,13 @@ class Solver:
                 self._check()
                 self._record_step()
             else:
-                # one launch per step; the checks read back every check_every steps (a
-                # failed particle is skipped by later steps, the first failure is kept)
+                # one launch per step (a team: one per chunk); the checks read back every
+                # check_every steps (a failed particle is skipped by later steps, the first
+                # failure is kept)
                 chunk = min(total - done, self.check_every, bar.suggested_chunk(done))
                 if self.recording:
                     chunk = min(chunk, self.record_every - self.step % self.record_every)
-                for _ in range(chunk):
-                    self._step()
+                self._launch(chunk)
                 done += chunk
                 self._check()
                 self._record_step()
@@ -1614,6 +1741,11 @@ class Solver:
         if code == 0:
             return
         step, where = int(self.err_step[None]) + 1, int(self.err_where[None])
+        if code == 6:
+            msg = (f"step {step} (t = {step * self.dt:g} s): {ERRORS[code]} (thread "
+                   f"{where // self.scatter_block} waited {TEAM_SPIN_LIMIT} spins): Taichi's "
+                   f"pool ran the team on fewer threads than it has; use mode='parallel'")
+            raise SimulationError(msg, code, step)
         if code == 4:
             msg = f"step {step} (t = {step * self.dt:g} s): {ERRORS[code]} at node {where}"
             raise SimulationError(msg, code, step, node=where)
