@@ -7,9 +7,9 @@ process (Taichi fixes the thread count at start-up).  Reported:
   Taichi kernels on 1 and 2 threads;
 * mpm88's physics (2D, quadratic B-splines, MLS-MPM, J-fluid, 128^2 grid, dt 2e-4): the
   installed mpm88 example (headless), the NumPy step (:mod:`timpm.numpy_mpm`) and timpm in
-  float32 and float64, with every scatter strategy (and fused steps on one thread), for
-  1e3..1e6 particles; agreement of
-  the positions after 50 substeps from mpm88's own initial state;
+  float32 and float64, with every scatter strategy (and fused steps on one thread, a team
+  on two), for 1e3..1e6 particles; agreement of the positions after 50 substeps from
+  mpm88's own initial state;
 * particle-substeps per second for 1D, 2D and 3D and each basis;
 * the Table 3.2 study warm against a NumPy implementation of the same algorithm, and the
   steps per second of a 64-particle run;
@@ -181,7 +181,7 @@ def _per_basis(cases, threads):
                                dt=0.1 * h / prob.material.wave_speed)
         else:
             scene = _block_world(dim, basis, n)
-        s = Solver(scene, energies=False, track_crossings=False)  # fused on one thread
+        s = Solver(scene, energies=False, track_crossings=False)  # auto: fused on one thread
         t0 = time.perf_counter()
         s.compile()
         s.run(n_steps=1)
@@ -387,8 +387,8 @@ def bench(out="docs/throughput", size="full", threads=(1, 2), progress=print):
         for precision in ("f32", "f64"):
             for t in threads:
                 progress(f"timpm on mpm88's physics, {precision}, {t} thread(s)")
-                # fused and team: what timpm picks on one thread and on more (one launch for
-        # many steps)
+                # fused and team: what timpm picks on one thread and on more (one launch
+                # for many steps)
                 r = _spawn({"task": "mpm88", "threads": t, "precision": precision,
                             "counts": counts, "x0_file": x0_file,
                             "strategies": strategies + (["fused"] if t == 1 else ["team"])})
