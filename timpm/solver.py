@@ -1508,7 +1508,7 @@ class Solver:
         n_nodes = ti.static(int(np.prod(self.grid_nodes)))
         nodes_per_thread = ti.static(-(-n_nodes // self.n_copies))
         first, end = c * self.scatter_block, ti.min((c + 1) * self.scatter_block, self.n_particles)
-        start = self.step_count[None]  # thread 0 changes it after the first barrier only
+        start = self.step_count[None]  # thread 0 changes it only after the second barrier
         arrivals = 0
         for s in range(n_steps):
             self.rank_step[c] = start + s
