@@ -1,0 +1,257 @@
+"""Golden outputs: runs of many scenes x modes x scatters on ONE thread, recorded before the
+engine redesign and compared bit for bit after it.
+
+    python tests/golden/golden.py record [--precision f64|f32]   # writes golden_<prec>.npz
+    python tests/golden/golden.py check  [--precision f64|f32]   # exit 1 on any difference
+
+Each case builds its scene through the public API only (problems, World, Solver), runs a
+fixed number of steps and keeps positions, velocities, stresses, volumes, the recorded
+energies and tracked series, the grid crossings and (1D) the RMS error against the exact
+solution.  One thread makes the parallel modes' atomic adds run in a fixed order, so every
+array must match to the last bit.  ``tests/test_golden.py`` runs ``check`` in a fresh
+process with TIMPM_THREADS=1.
+"""
+import argparse
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+
+
+def _problem(name, steps, solver_kw=None, **scene_kw):
+    def build():
+        from timpm.problems import get_problem
+
+        problem = get_problem(name)
+        scene = problem.scene(**scene_kw)
+        return scene, problem, steps, dict(solver_kw or {})
+    return build
+
+
+def _sand(transfer, steps, basis="uniform-bspline2", **solver_kw):
+    def build():
+        from timpm import Body, Box, World
+        from timpm.materials import DruckerPrager
+
+        sand = DruckerPrager(E=2e5, nu=0.3, density=1500.0, friction_angle=30.0)
+        body = Body(Box((0.0, 0.0), (0.3, 0.6)), sand, ppc=4)
+        world = World(domain=(1.2, 0.8), cells=24, bodies=[body], transfer=transfer,
+                      basis=basis, walls={"bottom": "friction"}, courant=0.5)
+        return world, None, steps, solver_kw
+    return build
+
+
+def _disks(transfer, basis, steps, dim=2, cells=32, **solver_kw):
+    def build():
+        from timpm.demos import get_demo
+
+        world = get_demo("disks", transfer=transfer, basis=basis, cells=cells, dim=dim).world()
+        return world, None, steps, solver_kw
+    return build
+
+
+def _dam(transfer, steps, **solver_kw):
+    def build():
+        from timpm.demos import get_demo
+
+        world = get_demo("dam-break", transfer=transfer, cells_per_a=10).world()
+        return world, None, steps, solver_kw
+    return build
+
+
+def _two_materials(steps, **solver_kw):
+    def build():
+        from timpm import Body, Box, World
+        from timpm.materials import LinearElastic, WeaklyCompressibleFluid
+
+        solid = LinearElastic(E=1e4, nu=0.3, density=1000.0)
+        water = WeaklyCompressibleFluid(bulk_modulus=2e4, density=1000.0, viscosity=1e-3)
+        world = World(domain=(1.0, 0.5), cells=20, basis="uniform-bspline3", transfer="apic",
+                      bodies=[Body(Box((0.05, 0.0), (0.35, 0.2)), solid, ppc=2,
+                                   velocity=(0.5, 0.0)),
+                              Body(Box((0.5, 0.0), (0.9, 0.25)), water, ppc=2)],
+                      walls={"default": "slip", "bottom": "sticky"}, courant=0.5)
+        return world, None, steps, solver_kw
+    return build
+
+
+def _box3d(transfer, steps, **solver_kw):
+    def build():
+        from timpm import Body, Box, Wall, World
+        from timpm.materials import NeoHookean
+
+        rubber = NeoHookean(E=1e4, nu=0.3, density=1000.0)
+        world = World(domain=(0.5, 0.5, 0.5), cells=10, transfer=transfer,
+                      bodies=[Body(Box((0.1, 0.1, 0.1), (0.3, 0.25, 0.3)), rubber, ppc=2,
+                                   velocity=(0.3, 0.0, -0.2))],
+                      walls={"default": "slip", "bottom": Wall("friction", 0.3)}, courant=0.5)
+        return world, None, steps, solver_kw
+    return build
+
+
+def _mpm88(steps, **solver_kw):
+    def build():
+        from timpm.mpm88 import mpm88_world
+
+        # mpm88's initial state: a square [0.2, 0.6]^2 of random particles
+        x0 = np.random.default_rng(0).random((2048, 2)) * 0.4 + 0.2
+        world, _ = mpm88_world(x0)
+        return world, None, steps, solver_kw
+    return build
+
+
+S = {"mode": "serial"}
+P = {"mode": "parallel"}
+
+CASES = {
+    # 1D: the study's problems, every basis, mass, projection, mode and scatter
+    "string-linear-serial": _problem("vibrating-string", 1000, dict(S, track=[0, 7])),
+    "string-linear-atomic": _problem("vibrating-string", 300, dict(P, scatter="atomic")),
+    "string-linear-serialscatter": _problem("vibrating-string", 300, dict(P, scatter="serial")),
+    "string-linear-private": _problem("vibrating-string", 300, dict(P, scatter="private"),
+                                      elements=512),
+    "string-bspline2-serial": _problem("vibrating-string", 500, S, basis="bspline2",
+                                       elements=16),
+    "string-bspline3-consistent-gauss": _problem(
+        "vibrating-string", 500, dict(S, track=[3]), basis="bspline3", mass="consistent",
+        placement="gauss", elements=16),
+    "string-bspline3-consistent-atomic": _problem(
+        "vibrating-string", 300, dict(P, scatter="atomic"), basis="bspline3",
+        mass="consistent", elements=16),
+    "string-lagrange2-serial": _problem("vibrating-string", 500, S, basis="lagrange2",
+                                        mass="consistent", elements=16, ppc=3),
+    "string-uniform3-serial": _problem("vibrating-string", 500, S, basis="uniform-bspline3",
+                                       elements=16),
+    "string-bspline4-serial": _problem("vibrating-string", 300, S, basis="bspline4",
+                                       elements=16, ppc=5),
+    "string-mls-serial": _problem("vibrating-string", 500, S, projection="mls", elements=16),
+    "string-mls-atomic": _problem("vibrating-string", 300, dict(P, scatter="atomic"),
+                                  projection="mls", elements=16),
+    "string-griddisp": _problem("vibrating-string", 300, dict(S, grid_displacement=True),
+                                basis="bspline2", elements=8),
+    "soil-linear-80-serial": _problem("soil-column", 1000, dict(S, track=[50]), elements=80,
+                                      ppc=2, dt=1e-3),
+    "soil-bspline2-private": _problem("soil-column", 300, dict(P, scatter="private"),
+                                      basis="bspline2", elements=400, ppc=2, dt=1e-4),
+    "bar-bspline2-serial": _problem("vibrating-bar", 1000, dict(S, track=[0]),
+                                    basis="bspline2"),
+    "bar-linear-atomic": _problem("vibrating-bar", 300, dict(P, scatter="atomic")),
+    "oedometer-serial": _problem("oedometer", 1000, S),
+    "oedometer-consistent-atomic": _problem("oedometer", 300, dict(P, scatter="atomic"),
+                                            basis="bspline2", mass="consistent"),
+    "large-column-serial": _problem("large-column", 300, S),
+    # 2D / 3D worlds: materials, transfers, walls, scatters, modes
+    "sand-mlsmpm-private": _sand("mls-mpm", 60, **P, scatter="private"),
+    "sand-mlsmpm-serial": _sand("mls-mpm", 60, **S),
+    "sand-musl-atomic": _sand("musl", 60, **P, scatter="atomic"),
+    "sand-musl-private": _sand("musl", 60, **P, scatter="private"),
+    "sand-apic-cubic-serialscatter": _sand("apic", 40, basis="uniform-bspline3", **P,
+                                           scatter="serial"),
+    "disks-apic-linear-serial": _disks("apic", "linear", 60, **S),
+    "disks-apic-linear-atomic": _disks("apic", "linear", 60, **P, scatter="atomic"),
+    "disks-apic-quadratic-private": _disks("apic", "uniform-bspline2", 60, **P,
+                                           scatter="private"),
+    "dam-mlsmpm-serial": _dam("mls-mpm", 80, **S),
+    "dam-apic-private": _dam("apic", 80, **P, scatter="private"),
+    "two-materials-serial": _two_materials(60, **S, track=[0, 5]),
+    "two-materials-atomic": _two_materials(60, **P, scatter="atomic"),
+    "box3d-apic-serial": _box3d("apic", 30, **S),
+    "box3d-musl-atomic": _box3d("musl", 20, **P, scatter="atomic"),
+    "box3d-mlsmpm-private": _box3d("mls-mpm", 20, **P, scatter="private"),
+    "mpm88-serial": _mpm88(100, **S, energies=False),
+    "mpm88-private": _mpm88(100, **P, scatter="private", energies=False),
+}
+
+
+def run_case(name):
+    """Arrays of one case, keyed ``name/quantity``."""
+    from timpm import Solver
+
+    scene, problem, steps, kw = CASES[name]()
+    solver = Solver(scene, **kw)
+    try:
+        solver.run(n_steps=steps)
+        out = {"positions": solver.positions(), "velocities": solver.velocities(),
+               "stresses": solver.stresses(), "volumes": solver.volumes(),
+               "step": np.array(solver.step), "t": np.array(solver.t)}
+        if solver.record_energies:
+            for key, value in solver.energies().items():
+                out[f"energy_{key}"] = value
+        if solver.n_tracked:
+            for key, value in solver.tracked().items():
+                out[f"tracked_{key}"] = value
+        if solver.track_crossings:
+            out["crossings"] = np.array(solver.grid_crossings())
+        if problem is not None:
+            x0 = np.asarray(scene.positions)
+            exact = problem.displacement(x0, solver.t) if _has_exact(problem) else None
+            if exact is not None:
+                err = solver.displacements() - exact
+                out["rms_error"] = np.array(np.sqrt(np.mean(err ** 2)))
+        if getattr(solver, "grid_displacement", False):
+            x = np.linspace(0.0, 1.0, 17)
+            out["displacement_field"] = solver.displacement_field(x)
+    finally:
+        solver.release()
+    return {f"{name}/{k}": np.asarray(v) for k, v in out.items()}
+
+
+def _has_exact(problem):
+    try:
+        problem.displacement(np.zeros(1), 0.0)
+        return True
+    except NotImplementedError:
+        return False
+
+
+def compute(names, precision):
+    import timpm
+
+    timpm.init(threads=1, precision=precision)
+    out = {}
+    for name in names:
+        if precision == "f32" and not name.startswith(("mpm88", "sand", "disks", "dam")):
+            continue
+        out.update(run_case(name))
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("action", choices=("record", "check"))
+    ap.add_argument("--precision", default="f64", choices=("f64", "f32"))
+    ap.add_argument("--only", nargs="*", default=None, help="case names (default: all)")
+    args = ap.parse_args(argv)
+    os.environ["TIMPM_THREADS"] = "1"
+    path = HERE / f"golden_{args.precision}.npz"
+    names = args.only or list(CASES)
+    got = compute(names, args.precision)
+    if args.action == "record":
+        np.savez_compressed(path, **got)
+        print(f"recorded {len(got)} arrays of {len(names)} cases in {path}")
+        return 0
+    ref = np.load(path)
+    bad = []
+    cases = {k.split("/")[0] for k in got}
+    expected = {k for k in ref.files if k.split("/")[0] in cases}
+    for key in sorted(expected | set(got)):
+        if key not in got or key not in ref.files:
+            bad.append(f"{key}: {'missing now' if key not in got else 'not in the golden file'}")
+            continue
+        a, b = got[key], ref[key]
+        if a.shape != b.shape or a.dtype != b.dtype:
+            bad.append(f"{key}: shape/dtype {a.shape} {a.dtype} != golden {b.shape} {b.dtype}")
+        elif not np.array_equal(a, b, equal_nan=True):
+            diff = np.abs(a.astype(np.float64) - b.astype(np.float64))
+            bad.append(f"{key}: differs, max |diff| {np.nanmax(diff):.3e}")
+    for line in bad:
+        print("DIFF", line)
+    print(f"{len(cases)} cases, {len(expected)} arrays: {len(bad)} differ")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
