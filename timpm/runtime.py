@@ -1,42 +1,216 @@
-"""Taichi start-up: one CPU runtime per process, started on first use."""
+"""Taichi start-up: one runtime per process (the CPU unless asked), started on first use,
+owned by the thread that started it and unusable in a child forked after it started."""
 
+import ctypes
+import numbers
 import os
 import threading
 
 import taichi as ti
+from taichi.lang import impl
+from taichi.lang.misc import is_arch_supported
 
-__all__ = ["ensure_init", "init", "pin_workers"]
+__all__ = ["ARCHS", "BackendUnavailable", "ForkedProcess", "WrongThread", "arch",
+           "check_caller", "cpu_threads", "ensure_init", "generation", "init", "on_cpu",
+           "pin_workers", "precision", "static_cpu_blocks"]
+
+#: the backends ``init(arch=...)`` takes
+ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda, "vulkan": ti.vulkan, "metal": ti.metal}
+_CPUS = (ti.x64, ti.arm64)
+_SPAWN = ("concurrent.futures.ProcessPoolExecutor(mp_context=multiprocessing."
+          "get_context('spawn'))")
 
 _state: dict = {}
 
 
-def init(threads: int | None = None, debug: bool = False, precision: str = "f64",
-         pin: bool = True) -> None:
-    """Start Taichi on the CPU backend.
+class BackendUnavailable(RuntimeError):
+    """The backend asked for is not on this machine (Taichi would fall back to the CPU)."""
 
-    ``threads`` caps the worker threads (default: ``TIMPM_THREADS`` or all cores);
-    ``precision`` sets the default float type of literals and fields ("f64" or "f32");
-    ``debug=True`` turns on Taichi's own bounds checks (slow); ``pin`` binds Taichi's
-    worker threads one per core, round robin over the cores this process may use (Linux;
-    like ``OMP_PROC_BIND=spread``; see :func:`pin_workers`).  Calling it again with other
-    settings restarts Taichi, which frees the fields of every existing solver (using one
-    then raises a RuntimeError; the study drivers build new ones).
-    """
+
+class WrongThread(RuntimeError):
+    """timpm used from a thread other than the one that started Taichi."""
+
+
+class ForkedProcess(RuntimeError):
+    """timpm used in a child forked after the parent started Taichi."""
+
+
+def _threads(threads):
+    """``threads`` checked, or ``TIMPM_THREADS`` when None (None if that is unset too)."""
+    if threads is None:
+        text = os.environ.get("TIMPM_THREADS", "").strip()
+        if not text:
+            return None
+        try:
+            threads = int(text)
+        except ValueError:
+            threads = 0
+        if threads < 1:
+            raise ValueError(f"the environment variable TIMPM_THREADS must be a positive "
+                             f"integer (worker threads), got {text!r}")
+        return threads
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
+        raise ValueError(f"threads must be a positive integer, got {threads!r}")
+    return int(threads)
+
+
+def _settings(threads=None, debug=False, precision="f64", pin=True, arch="cpu") -> dict:
+    """The settings of a start, checked before Taichi is touched."""
+    if arch not in ARCHS:
+        raise ValueError(f"unknown arch {arch!r}: choose one of {', '.join(ARCHS)}")
     if precision not in ("f64", "f32"):
         raise ValueError(f"precision must be 'f64' or 'f32', got {precision!r}")
-    if threads is None and os.environ.get("TIMPM_THREADS"):
-        threads = int(os.environ["TIMPM_THREADS"])
-    settings = dict(threads=threads, debug=debug, precision=precision, pin=bool(pin))
-    if _state.get("settings") == settings:
+    return dict(threads=_threads(threads), debug=bool(debug), precision=precision,
+                pin=bool(pin), arch=arch)
+
+
+def _supported(a) -> bool:
+    """Whether Taichi finds backend ``a`` here (its test before falling back to the CPU)."""
+    return bool(is_arch_supported(a))
+
+
+def _unavailable(name: str, why: str = "it is not available on this machine") -> Exception:
+    available = ", ".join(n for n, a in ARCHS.items() if _supported(a))
+    return BackendUnavailable(f"timpm cannot run on the {name} backend: {why} (available: "
+                              f"{available}); timpm does not fall back to the CPU silently: "
+                              f"use timpm.init(arch='cpu')")
+
+
+def init(threads: int | None = None, debug: bool = False, precision: str = "f64",
+         pin: bool = True, arch: str = "cpu") -> None:
+    """Start Taichi, on the CPU unless ``arch`` names a GPU backend.
+
+    ``arch``: "cpu" (default), "cuda", "vulkan" or "metal"; a backend this machine lacks
+    raises :class:`BackendUnavailable`, not Taichi's silent fallback to the CPU (the
+    runtime stays as it was, or restarts with the last settings or the defaults).
+    ``threads`` caps the CPU worker threads (a positive integer; default: ``TIMPM_THREADS``
+    or all cores); ``precision`` sets the default float type of literals and fields ("f64"
+    or "f32"); ``debug=True`` turns on Taichi's own bounds checks (slow); ``pin`` binds
+    Taichi's CPU worker threads one per core, round robin over the cores this process may
+    use (Linux; like ``OMP_PROC_BIND=spread``; see :func:`pin_workers`).  The arguments
+    are checked (ValueError) before Taichi is touched.  Calling it again with other
+    settings restarts Taichi, which frees the fields of every existing solver (using one
+    then raises a RuntimeError; the study drivers build new ones).  The calling thread
+    owns the runtime (see :func:`check_caller`).
+    """
+    settings = _settings(threads, debug, precision, pin, arch)
+    check_caller()
+    previous = _state.get("settings")
+    if previous == settings:
         return
-    kwargs = dict(arch=ti.cpu, default_fp=ti.f64 if precision == "f64" else ti.f32,
-                  debug=debug, log_level=ti.WARN)
-    if threads:
-        kwargs["cpu_max_num_threads"] = int(threads)
+    if not _supported(ARCHS[arch]):
+        raise _unavailable(arch)
+    failure = None
+    try:
+        _start(settings)
+    except Exception as exc:  # a GPU driver that fails to start: back to a usable runtime
+        if arch == "cpu":
+            raise
+        failure = exc
+    if failure is None and (arch == "cpu" or impl.current_cfg().arch == ARCHS[arch]):
+        return
+    why = (f"Taichi failed to start it ({failure})" if failure else
+           f"Taichi fell back to {ti._lib.core.arch_name(impl.current_cfg().arch)}")
+    _start(previous or _settings())  # the last start again, or the defaults
+    raise _unavailable(arch, why) from failure
+
+
+def _start(settings: dict) -> None:
+    """``ti.init`` with ``settings``; the calling thread becomes the owner."""
+    _state.pop("settings", None)
+    _state["generation"] = generation() + 1  # the fields of the last start are gone
+    fp = ti.f64 if settings["precision"] == "f64" else ti.f32
+    kwargs = dict(arch=ARCHS[settings.get("arch", "cpu")], debug=settings["debug"],
+                  default_fp=fp, log_level=ti.WARN)
+    if settings["threads"]:
+        kwargs["cpu_max_num_threads"] = settings["threads"]
     ti.init(**kwargs)
-    _state["settings"] = settings
-    _state["generation"] = generation() + 1
-    _state["pinned"] = pin_workers() if pin else []
+    _state.update(settings=settings, owner=threading.get_ident(),
+                  owner_name=threading.current_thread().name)
+    _state["pinned"] = pin_workers() if settings["pin"] and on_cpu() else []
+
+
+def check_caller() -> None:
+    """Raise unless this thread of this process may use the runtime timpm started.
+
+    Taichi aborts the interpreter when a thread other than the one that started it
+    compiles a kernel (:class:`WrongThread`), and a child forked after the start hangs in
+    its first kernel (:class:`ForkedProcess`).  Before any start every caller may go on.
+    """
+    if "forked" in _state:
+        raise ForkedProcess(
+            f"Taichi was started in the parent process (pid {_state['forked']}) before this "
+            f"process was forked from it, and a forked child cannot use it (its first "
+            f"kernel would hang): start worker processes with the 'spawn' method, e.g. "
+            f"{_SPAWN}")
+    owner = _state.get("owner")
+    if owner is not None and owner != threading.get_ident():
+        raise WrongThread(
+            f"timpm runs in the thread that started it ({_state['owner_name']!r}), not in "
+            f"{threading.current_thread().name!r}: Taichi aborts the process when another "
+            f"thread launches a kernel.  Run parallel simulations in a process pool with "
+            f"the 'spawn' start method, e.g. {_SPAWN}")
+
+
+def _after_fork_in_child() -> None:
+    """Mark a child forked from a process with a running Taichi, and keep its copy of the
+    runtime alive: destroying it waits for worker threads that a forked child lacks, which
+    would hang the child at exit."""
+    prog = impl.get_runtime().prog
+    if prog is not None:
+        _state["forked"] = os.getppid()
+        ctypes.pythonapi.Py_IncRef(ctypes.py_object(prog))  # never freed in the child
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+def ensure_init() -> None:
+    """Start Taichi with the defaults unless it was started already (in this thread)."""
+    check_caller()
+    if "settings" not in _state:
+        init()
+
+
+def arch() -> str:
+    """The backend Taichi runs on: "cpu", "cuda", "vulkan", "metal" (or Taichi's name)."""
+    ensure_init()
+    current = impl.current_cfg().arch
+    if current in _CPUS:
+        return "cpu"
+    return next((name for name, a in ARCHS.items() if a == current),
+                ti._lib.core.arch_name(current))
+
+
+def on_cpu() -> bool:
+    """Whether Taichi runs on the CPU."""
+    ensure_init()
+    return impl.current_cfg().arch in _CPUS
+
+
+def cpu_threads() -> int:
+    """Taichi's CPU worker threads (its ``cpu_max_num_threads``), at least 1."""
+    ensure_init()
+    return max(1, int(impl.current_cfg().cpu_max_num_threads))
+
+
+def static_cpu_blocks() -> bool:
+    """Whether a CPU range-for hands each thread one contiguous block of the range
+    (Taichi's ``make_cpu_multithreading_loop``), which the private scatter relies on."""
+    ensure_init()
+    return bool(getattr(impl.current_cfg(), "make_cpu_multithreading_loop", False))
+
+
+def precision() -> str:
+    """The default float type of the runtime: "f64" or "f32"."""
+    ensure_init()
+    return "f32" if impl.get_runtime().default_fp == ti.f32 else "f64"
+
+
+def generation() -> int:
+    """How many times timpm started Taichi: fields (solvers) of an earlier start are gone."""
+    return _state.get("generation", 0)
 
 
 def _cpu_time(tid: int) -> int:
@@ -55,8 +229,6 @@ def pin_workers() -> list:
     kernel.  Returns ``[(thread id, core), ...]``; empty where this is not possible (not
     Linux, one thread or one core allowed), which changes nothing but speed.
     """
-    from taichi.lang import impl
-
     if not hasattr(os, "sched_setaffinity") or not os.path.isdir("/proc/self/task"):
         return []
     cores = sorted(os.sched_getaffinity(0))
@@ -86,14 +258,3 @@ def pin_workers() -> list:
     except (OSError, ValueError, KeyError):
         return []
     return pinned
-
-
-def generation() -> int:
-    """How many times timpm started Taichi: fields (solvers) of an earlier start are gone."""
-    return _state.get("generation", 0)
-
-
-def ensure_init() -> None:
-    """Start Taichi with the defaults unless it was started already."""
-    if "settings" not in _state:
-        init()

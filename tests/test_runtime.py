@@ -1,0 +1,252 @@
+"""The runtime: arguments checked before Taichi starts, no silent fallback from a GPU
+backend to the CPU, and clear errors (not an abort or a hang) for use from another thread
+or from a child forked after Taichi started; spawned worker processes work.
+
+The test session's runtime (tests/conftest.py) is never restarted here: what would start
+Taichi with other settings runs in a subprocess, under a timeout that also ends the
+subprocess's own workers."""
+import concurrent.futures
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+
+import pytest
+import taichi as ti
+from taichi.lang import impl
+from taichi.lang.misc import is_arch_supported
+
+from timpm import runtime
+
+#: seconds a subprocess may take (each needs ~2 s; a hang is what the limit catches)
+TIMEOUT = 60
+
+#: the start of every subprocess script: one worker thread, a tiny vibrating-string run
+PRELUDE = '''
+import os, sys
+import numpy as np
+import timpm
+from timpm import runtime
+from timpm.problems import get_problem
+
+def string_run(_=None):
+    solver = timpm.Solver(get_problem("vibrating-string").scene(elements=4))
+    solver.run(n_steps=10)
+    return solver.positions()
+'''
+
+
+def _script(tmp_path, body, env=None):
+    """Run PRELUDE + ``body`` as a script in a new process group (killed whole at the
+    timeout: a hung pool worker must not outlive the test); returns (rc, stdout, stderr)."""
+    path = tmp_path / "script.py"
+    path.write_text(PRELUDE + textwrap.dedent(body))
+    full_env = {**os.environ, "TIMPM_THREADS": "1", **(env or {})}
+    proc = subprocess.Popen([sys.executable, str(path)], env=full_env, cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=TIMEOUT)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate()
+        pytest.fail(f"the subprocess hung (killed after {TIMEOUT} s)\n{out}\n{err}")
+    return proc.returncode, out, err
+
+
+# ---- arguments ------------------------------------------------------------------------
+
+def test_unknown_arch_lists_the_choices():
+    before = runtime.generation()
+    with pytest.raises(ValueError, match=r"unknown arch 'gpu': choose one of cpu, cuda, "
+                                         r"vulkan, metal"):
+        runtime.init(arch="gpu")
+    assert runtime.generation() == before  # checked before Taichi was touched
+
+
+@pytest.mark.parametrize("threads", [0, -2, 2.5, True, "2"])
+def test_threads_must_be_a_positive_integer(threads):
+    before = runtime.generation()
+    with pytest.raises(ValueError, match=f"threads must be a positive integer, got "
+                                         f"{threads!r}"):
+        runtime.init(threads=threads)
+    assert runtime.generation() == before
+
+
+def test_precision_is_checked():
+    with pytest.raises(ValueError, match="precision must be 'f64' or 'f32', got 'f16'"):
+        runtime.init(precision="f16")
+
+
+@pytest.mark.parametrize("value", ["abc", "-2", "0", "2.5"])
+def test_bad_TIMPM_THREADS_is_named(tmp_path, value):
+    rc, _, err = _script(tmp_path, "timpm.init()\n", env={"TIMPM_THREADS": value})
+    assert rc != 0
+    assert (f"ValueError: the environment variable TIMPM_THREADS must be a positive "
+            f"integer (worker threads), got {value!r}") in err
+
+
+def test_TIMPM_THREADS_sets_the_default(tmp_path):
+    rc, out, err = _script(tmp_path, "print('threads', runtime.cpu_threads())\n",
+                           env={"TIMPM_THREADS": " 1 "})
+    assert rc == 0, err
+    assert "threads 1" in out
+
+
+# ---- backends -------------------------------------------------------------------------
+
+def test_helpers_describe_the_session_runtime():
+    cfg = impl.current_cfg()
+    assert runtime.arch() == "cpu" and runtime.on_cpu()
+    assert runtime.cpu_threads() == max(1, cfg.cpu_max_num_threads) >= 1
+    assert runtime.static_cpu_blocks() == bool(cfg.make_cpu_multithreading_loop)
+    assert runtime.precision() == "f64"
+
+
+@pytest.mark.skipif(is_arch_supported(ti.cuda), reason="this machine has CUDA")
+def test_missing_gpu_is_an_error_and_the_cpu_still_works(tmp_path):
+    rc, out, err = _script(tmp_path, '''
+        runtime.init(threads=1)
+        first = string_run()
+        generation = runtime.generation()
+        try:
+            timpm.init(arch="cuda")
+        except runtime.BackendUnavailable as exc:
+            print("error:", exc)
+        assert runtime.generation() == generation  # the runtime was not even restarted
+        assert runtime.arch() == "cpu"
+        assert np.array_equal(string_run(), first)
+        print("cpu ok")
+        ''')
+    assert rc == 0, err
+    assert ("error: timpm cannot run on the cuda backend: it is not available on this "
+            "machine (available: cpu") in out
+    assert "does not fall back to the CPU silently: use timpm.init(arch='cpu')" in out
+    assert "cpu ok" in out
+
+
+@pytest.mark.skipif(is_arch_supported(ti.metal), reason="this machine has Metal")
+def test_taichi_fallback_is_caught_and_the_last_settings_restored(tmp_path):
+    """Should Taichi start the CPU where a backend was asked for (its fallback, e.g. when
+    its check and timpm's disagree), timpm raises and restarts with the last settings."""
+    rc, out, err = _script(tmp_path, '''
+        import taichi as ti
+        runtime.init(threads=1, precision="f32")
+        settings = dict(runtime._state["settings"])
+        real = runtime._supported
+        runtime._supported = lambda a: a == ti.metal or real(a)  # timpm's check passes
+        try:
+            timpm.init(arch="metal")
+        except runtime.BackendUnavailable as exc:
+            print("error:", exc)
+        assert runtime._state["settings"] == settings, runtime._state["settings"]
+        assert runtime.arch() == "cpu" and runtime.precision() == "f32"
+        assert string_run().size > 0
+        print("cpu ok")
+        ''')
+    assert rc == 0, err
+    assert "error: timpm cannot run on the metal backend: Taichi fell back to x64" in out \
+        or "error: timpm cannot run on the metal backend: Taichi fell back to arm64" in out
+    assert "cpu ok" in out
+
+
+# ---- threads and processes ------------------------------------------------------------
+
+def test_other_threads_get_a_clear_error():
+    runtime.ensure_init()
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        for call in (runtime.check_caller, runtime.ensure_init, runtime.on_cpu,
+                     lambda: runtime.init(threads=2)):
+            exc = pool.submit(call).exception(timeout=TIMEOUT)
+            assert isinstance(exc, runtime.WrongThread), exc
+            assert isinstance(exc, RuntimeError)
+            message = str(exc)
+            assert "timpm runs in the thread that started it ('MainThread')" in message
+            assert "process pool with the 'spawn' start method" in message
+            assert "ProcessPoolExecutor(mp_context=multiprocessing.get_context('spawn'))" \
+                in message
+    runtime.check_caller()  # the owner thread goes on
+
+
+def test_first_start_in_another_thread_makes_it_the_owner(tmp_path):
+    rc, out, err = _script(tmp_path, '''
+        import threading
+        result = {}
+        def work():
+            result["positions"] = string_run()
+        thread = threading.Thread(target=work, name="worker")
+        thread.start(); thread.join()
+        assert result["positions"].shape[0] > 0
+        try:
+            runtime.check_caller()
+        except runtime.WrongThread as exc:
+            print("error:", exc)
+        ''')
+    assert rc == 0, err
+    assert "error: timpm runs in the thread that started it ('worker'), not in " \
+           "'MainThread'" in out
+
+
+def test_forked_worker_gets_a_clear_error_not_a_hang(tmp_path):
+    rc, out, err = _script(tmp_path, '''
+        import concurrent.futures, multiprocessing
+        string_run()  # Taichi runs in this process now
+        context = multiprocessing.get_context("fork")
+        with concurrent.futures.ProcessPoolExecutor(1, mp_context=context) as pool:
+            exc = pool.submit(string_run).exception(timeout=30)
+        assert isinstance(exc, runtime.ForkedProcess), repr(exc)
+        print("error:", exc)
+        pid = os.fork()  # a child that leaves through the interpreter's normal exit
+        if pid == 0:
+            try:
+                runtime.ensure_init()
+            except runtime.ForkedProcess:
+                sys.exit(7)
+            sys.exit(1)
+        assert os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]) == 7
+        assert string_run().shape[0] > 0  # the parent goes on
+        print("parent ok")
+        ''')
+    assert rc == 0, err
+    assert "error: Taichi was started in the parent process (pid " in out
+    assert ("a forked child cannot use it (its first kernel would hang): start worker "
+            "processes with the 'spawn' method") in out
+    assert "parent ok" in out
+
+
+def test_child_forked_before_the_start_works(tmp_path):
+    rc, out, err = _script(tmp_path, '''
+        read, write = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # Taichi never ran in the parent: the child starts its own
+            os.write(write, string_run().tobytes())
+            os._exit(0)
+        os.close(write)
+        data = b""
+        while chunk := os.read(read, 1 << 16):
+            data += chunk
+        assert os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]) == 0
+        child = np.frombuffer(data, dtype=np.float64)
+        mine = string_run()
+        assert np.array_equal(child, mine.ravel()), (child, mine)
+        print("same", mine.size)
+        ''')
+    assert rc == 0, err
+    assert "same" in out
+
+
+def test_spawned_workers_compute_what_the_parent_does(tmp_path):
+    rc, out, err = _script(tmp_path, '''
+        import concurrent.futures, multiprocessing
+        if __name__ == "__main__":
+            mine = string_run()
+            context = multiprocessing.get_context("spawn")
+            with concurrent.futures.ProcessPoolExecutor(2, mp_context=context) as pool:
+                theirs = list(pool.map(string_run, range(2), timeout=50))
+            for positions in theirs:
+                assert np.array_equal(positions, mine), (positions, mine)
+            print("identical", len(theirs), mine.shape)
+        ''')
+    assert rc == 0, err
+    assert "identical 2" in out
