@@ -26,7 +26,7 @@ import taichi as ti
 
 import timpm
 from timpm.problems import get_problem
-from timpm.study import convergence
+from timpm.studies.study import convergence
 
 PROBLEM = "vibrating-string"
 STUDY_ELEMENTS = (4, 8, 16, 32, 64)      # Table 3.2

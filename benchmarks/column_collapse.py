@@ -13,8 +13,8 @@ import json
 import time
 
 import timpm
-from timpm.demos import run_demo
-from timpm.viz import plot_runout
+from timpm.output.viz import plot_runout
+from timpm.scenarios import run_demo
 
 
 def main(argv=None):
@@ -33,7 +33,7 @@ def main(argv=None):
     for cells in args.cells:
         for a in args.aspects:
             t0 = time.perf_counter()
-            r = run_demo("column-collapse", out=None, frames=20, aspect=a, cells_per_width=cells)
+            r = run_demo("column-collapse", frames=20, aspect=a, cells_per_width=cells)
             s = r.summary
             row = {"cells": cells, "particles": r.particles, "steps": r.steps,
                    "t_end": r.t_end, "wall_seconds": time.perf_counter() - t0, **s}

@@ -13,8 +13,8 @@ import argparse
 import json
 import os
 
-from timpm.study import convergence
-from timpm.viz import plot_convergence
+from timpm.output.viz import plot_convergence
+from timpm.studies.study import convergence
 
 CASES = {
     "vibrating-string": dict(elements=(4, 8, 16, 32, 64), ppc=4, dt=1e-5, t_end=0.1),

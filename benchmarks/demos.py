@@ -15,7 +15,7 @@ import json
 import time
 
 import timpm
-from timpm.demos import DEMOS, get_demo
+from timpm.scenarios import DEMOS, get_demo
 from timpm.solver import Solver
 
 

@@ -8,7 +8,7 @@ one thread all in one serial task, on more a team: each thread whole substeps on
 block of particles and nodes, spin barriers between the passes), the faster counting.
 Its particle-substeps per second are the ceiling that any Taichi code of this algorithm
 reaches on this machine; Taichi's mpm88 (the better of pinned and unpinned workers on two
-threads) and timpm's mpm88 physics (`timpm.bench._mpm88_timpm`, in the mode timpm picks:
+threads) and timpm's mpm88 physics (`harness.bench._mpm88_timpm`, in the mode timpm picks:
 fused on one thread, a team on more) run in the same run beside it.
 
     python benchmarks/mpm88_ceiling.py [--threads 1]   # 8192 and 131072 particles
@@ -160,7 +160,7 @@ def ceiling(n_particles, threads=1, seconds=1.0):
                     for p in range(first, end):
                         g2p(p)
 
-    from timpm.numpy_mpm import mpm88_initial
+    from harness.numpy_mpm import mpm88_initial
 
     x0, v0, *_ = mpm88_initial(n_particles)
     steps = max(10, int(seconds * 2e7 / n_particles))
@@ -188,7 +188,7 @@ def ceiling(n_particles, threads=1, seconds=1.0):
 def timpm_rate(n_particles, threads):
     """timpm's mpm88 physics, f32, its best scatter strategy for this thread count."""
     import timpm
-    from timpm.bench import _mpm88_timpm
+    from harness.bench import _mpm88_timpm
 
     timpm.init(threads=threads, precision="f32")
     strategies = ["fused"] if threads == 1 else ["team"]  # what mode="auto" runs
@@ -204,7 +204,7 @@ def _in_subprocess(kind, n, threads):
 
 
 def main():
-    from timpm.mpm88 import run_mpm88
+    from harness.mpm88 import run_mpm88
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--threads", type=int, default=1)

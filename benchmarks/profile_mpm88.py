@@ -36,8 +36,8 @@ def main(argv=None):
     runtime._state["settings"] = dict(threads=args.threads, debug=False,
                                       precision=args.precision, pin=not args.no_pin)
     pinned = [] if args.no_pin else runtime.pin_workers()
-    from timpm.mpm88 import mpm88_world
-    from timpm.numpy_mpm import mpm88_initial
+    from harness.numpy_mpm import mpm88_initial
+    from timpm.scenarios.mpm88 import mpm88_world
     from timpm.solver import Solver
 
     world, _ = mpm88_world(mpm88_initial(args.particles)[0])

@@ -8,7 +8,7 @@ Run from the repository root:
 For each problem it sweeps basis x mass x elements at the problem's particles per element
 (plus the cubic B-spline at Gauss-Legendre particle positions, whose particle quadrature
 is accurate enough for its fourth order), chooses dt per run so that the time error does
-not hide the spatial error (see :mod:`timpm.speed_error`), and writes
+not hide the spatial error (see :mod:`timpm.studies.speed_error`), and writes
 ``speed_error_<problem>.json`` and ``speed_error_<problem>.png`` into ``--out``, printing
 the report: table, Pareto front, and for target errors the cheapest basis and mesh and its
 factor over linear elements.  Each problem takes a few minutes on two cores, most of it
@@ -24,8 +24,9 @@ import sys
 import time
 
 import timpm
-from timpm.speed_error import (cheapest_for, default_targets, format_report, merge_studies,
-                               plot_speed_error, speed_error_study)
+from timpm.output.viz import plot_speed_error
+from timpm.studies.speed_error import (cheapest_for, default_targets, format_report,
+                                       merge_studies, speed_error_study)
 
 ALL_COMBOS = (("linear", "lumped"), ("linear", "consistent"), ("bspline2", "lumped"),
               ("bspline2", "consistent"), ("bspline3", "lumped"), ("bspline3", "consistent"))

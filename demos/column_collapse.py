@@ -2,12 +2,12 @@
 
     python demos/column_collapse.py [--out column_collapse.gif] [--frames 60] [--param NAME=VALUE ...]
 
-The same as `timpm demo column-collapse --out column_collapse.gif --plot column_collapse.png`; see timpm/demos.py for the
-scene, its parameters and the comparison it makes.
+The same as `timpm demo column-collapse --out column_collapse.gif --plot column_collapse.png`;
+see timpm/scenarios/demos.py for the scene, its parameters and the comparison it makes.
 """
 import sys
 
-from timpm.demos import script
+from timpm.cli import demo_script
 
 if __name__ == "__main__":
-    sys.exit(script("column-collapse"))
+    sys.exit(demo_script("column-collapse"))

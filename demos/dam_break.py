@@ -2,12 +2,12 @@
 
     python demos/dam_break.py [--out dam_break.gif] [--frames 60] [--param NAME=VALUE ...]
 
-The same as `timpm demo dam-break --out dam_break.gif --plot dam_break.png`; see timpm/demos.py for the
-scene, its parameters and the comparison it makes.
+The same as `timpm demo dam-break --out dam_break.gif --plot dam_break.png`;
+see timpm/scenarios/demos.py for the scene, its parameters and the comparison it makes.
 """
 import sys
 
-from timpm.demos import script
+from timpm.cli import demo_script
 
 if __name__ == "__main__":
-    sys.exit(script("dam-break"))
+    sys.exit(demo_script("dam-break"))

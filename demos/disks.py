@@ -2,12 +2,12 @@
 
     python demos/disks.py [--out disks.gif] [--frames 60] [--param NAME=VALUE ...]
 
-The same as `timpm demo disks --out disks.gif --plot disks.png`; see timpm/demos.py for the
-scene, its parameters and the comparison it makes.
+The same as `timpm demo disks --out disks.gif --plot disks.png`;
+see timpm/scenarios/demos.py for the scene, its parameters and the comparison it makes.
 """
 import sys
 
-from timpm.demos import script
+from timpm.cli import demo_script
 
 if __name__ == "__main__":
-    sys.exit(script("disks"))
+    sys.exit(demo_script("disks"))

@@ -13,6 +13,6 @@ def pytest_configure(config):
 @pytest.fixture(scope="session")
 def study_table_3_2():
     """Runs of the vibrating string with the study's Table 3.2 settings (defaults)."""
-    from timpm.study import convergence
+    from timpm.studies.study import convergence
 
     return convergence("vibrating-string", elements=(4, 8, 16, 32, 64))

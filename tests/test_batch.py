@@ -9,7 +9,7 @@ from timpm.batch import Batch
 from timpm.materials import NeoHookean
 from timpm.problems import get_problem
 from timpm.solver import SimulationError, Solver
-from timpm.study import clear_solvers, convergence, run_problem
+from timpm.studies.study import clear_solvers, convergence, run_problem
 
 
 def _string(elements, **kw):
@@ -170,12 +170,17 @@ def test_batch_refuses_what_it_cannot_run():
     par.release()
 
 
-def test_a_study_reuses_its_solvers_and_a_batch_gives_the_same_table():
+def test_meshes_after_the_first_compile_nothing_and_a_batch_gives_the_same_table():
+    """Solvers of one feature set share one compiled program: a second run of the same
+    scene, and a run on another mesh, compile nothing."""
     clear_solvers()
     try:
         first = run_problem("vibrating-string", elements=8, t_end=0.02)
         again = run_problem("vibrating-string", elements=8, t_end=0.02)
+        finer = run_problem("vibrating-string", elements=32, t_end=0.02)
         assert again.record["compile_seconds"] == 0.0
+        assert finer.record["compile_seconds"] == 0.0
+        assert finer.record["rms_error"] < first.record["rms_error"]
         assert again.record["rms_error"] == first.record["rms_error"]
         np.testing.assert_array_equal(again.series["u"], first.series["u"])
         seq = convergence("vibrating-string", elements=(4, 8), t_end=0.02, energies=False,

@@ -4,7 +4,8 @@ import pytest
 from PIL import Image
 
 from timpm.cli import main
-from timpm.demos import MARTIN_MOYCE_N2_2, get_demo, lube_runout, run_demo
+from timpm.output.render import Movie
+from timpm.scenarios import MARTIN_MOYCE_N2_2, get_demo, lube_runout, run_demo
 
 
 @pytest.mark.parametrize("name, params", [
@@ -14,7 +15,7 @@ from timpm.demos import MARTIN_MOYCE_N2_2, get_demo, lube_runout, run_demo
 ])
 def test_demo_writes_a_gif(tmp_path, name, params):
     out = tmp_path / f"{name}.gif"
-    r = run_demo(name, out=out, frames=3, width=96, png_dir=tmp_path / "png", **params)
+    r = run_demo(name, movie=Movie(out, width=96, png_dir=tmp_path / "png"), frames=3, **params)
     with Image.open(out) as im:
         assert im.n_frames == 4 and im.size[0] == 96
     assert len(list((tmp_path / "png").glob("frame_*.png"))) == 4
@@ -39,9 +40,9 @@ def test_demo_bad_input(capsys):
     with pytest.raises(ValueError, match="has no parameter"):
         get_demo("disks", colour="red")
     with pytest.raises(ValueError, match="plastic material"):
-        run_demo("disks", out=None, frames=1, cells=16, t_end=0.01, color="plastic")
+        run_demo("disks", frames=1, cells=16, t_end=0.01, color="plastic")
     with pytest.raises(ValueError, match="unknown colour"):
-        run_demo("disks", out=None, frames=1, cells=16, t_end=0.01, color="temperature")
+        run_demo("disks", frames=1, cells=16, t_end=0.01, color="temperature")
     assert main(["demo", "disks", "--param", "dim=4", "--frames", "1"]) == 2
     assert "dim must be 2 or 3" in capsys.readouterr().err
 
@@ -49,14 +50,14 @@ def test_demo_bad_input(capsys):
 def test_disks_energy_with_the_affine_transfer():
     # the collision is inelastic only through the grid's shared velocity near contact:
     # the loss shrinks with h (measured 12.5% at 40 cells, 5.6% at 80, 2.8% at 160)
-    ends = [run_demo("disks", out=None, frames=2, cells=c).summary for c in (40, 80)]
+    ends = [run_demo("disks", frames=2, cells=c).summary for c in (40, 80)]
     assert ends[1]["energy_end"] > ends[0]["energy_end"]
     assert ends[1]["energy_end"] > 0.93 and ends[1]["energy_max"] < 1.0 + 1e-9
     assert ends[1]["strain_peak"] > 0.5  # the disks did collide
 
 
 def test_dam_break_front_moves_like_the_experiment():
-    r = run_demo("dam-break", out=None, frames=12, cells_per_a=12)
+    r = run_demo("dam-break", frames=12, cells_per_a=12)
     Z = r.series["Z"]
     assert np.all(np.diff(Z) >= -1e-9)  # the surge front only advances
     # within half a column width of Martin & Moyce over their whole range (coarse grid)

@@ -4,7 +4,7 @@ import pytest
 
 import timpm
 from timpm.problems import get_problem
-from timpm.study import run_problem
+from timpm.studies.study import run_problem
 
 
 @pytest.mark.parametrize("E,rho,match", [(0.0, 1.0, "Young's modulus E"), (-5.0, 1.0, "Young's modulus E"),
@@ -130,7 +130,9 @@ def test_nan_in_the_state_stops_the_run():
     scene = _scene(fixed_nodes=(0,))
     solver = timpm.Solver(scene, mode="serial")
     solver.run(n_steps=3)
-    solver.sigma[2] = [[float("nan")]]
+    sigma = solver.read("sigma")
+    sigma[2] = float("nan")
+    solver.write("sigma", sigma)
     with pytest.raises(timpm.SimulationError, match=r"step 4 .*particle \d+ has a non-finite"):
         solver.run(n_steps=10)
     solver.release()
@@ -155,15 +157,18 @@ import pytest, timpm
 from timpm.batch import Batch
 from timpm.problems import get_problem
 from timpm.solver import Solver
-from timpm.study import convergence, run_problem
+from timpm.studies.study import convergence, run_problem
 timpm.init(threads=2)
 scene = get_problem("vibrating-string").scene(elements=4, ppc=4)
 s = Solver(scene, mode="serial", energies=False)
 s.run(n_steps=10)
 kept = run_problem("vibrating-string", elements=4, t_end=0.01).record
 timpm.init(threads=1)  # other settings: Taichi restarts, the fields above are gone
-for use in (lambda: s.run(n_steps=1), s.reset, s.positions, lambda: s.step,
-            lambda: Batch([s])):
+ACCESSORS = (lambda: s.run(n_steps=1), s.reset, s.positions, s.velocities, s.displacements,
+             s.stresses, s.strains, s.volumes, s.densities, s.grid_crossings, s.tracked,
+             s.negative_pivots, s.memory, s.project, lambda: s.step, lambda: s.t,
+             lambda: s.read("x"), lambda: Batch([s]))
+for use in ACCESSORS:
     with pytest.raises((RuntimeError, ValueError), match="Taichi was restarted"):
         use()
 s.release()  # nothing left to free: no crash
@@ -171,6 +176,30 @@ again = run_problem("vibrating-string", elements=4, t_end=0.01).record  # a new 
 assert again["rms_error"] == kept["rms_error"] and again["compile_seconds"] > 0
 print("OK")
 """
+
+
+def test_every_accessor_of_a_released_solver_raises():
+    """After release() every accessor raises the same clear error (they used to abort the
+    process), for a 1D solver and an affine 2D one."""
+    from timpm import Body, Box, NeoHookean, World
+    from timpm.errors import Released
+
+    world = World(domain=(0.4, 0.4), cells=8, gravity=(0.0, 0.0),
+                  bodies=[Body(Box((0.1, 0.1), (0.2, 0.2)), NeoHookean(1e3, 0.3, 1e3))])
+    for scene in (_scene(fixed_nodes=(0,)), world):
+        s = timpm.Solver(scene, mode="serial")
+        s.run(n_steps=2)
+        s.release()
+        s.release()  # twice: nothing left to free
+        uses = [lambda: s.run(n_steps=1), s.reset, s.positions, s.velocities, s.stresses,
+                s.volumes, s.densities, s.energies, s.tracked, s.memory, s.project,
+                lambda: s.step, lambda: s.t, lambda: s.read("x"), lambda: s.write("x", 0)]
+        uses += ([s.displacements, s.strains, s.grid_crossings, s.negative_pivots]
+                 if scene.__class__.__name__ == "Scene" else
+                 [s.affine, lambda: s.set_affine(np.zeros((2, 2)))])
+        for use in uses:
+            with pytest.raises(Released, match="this solver was released"):
+                use()
 
 
 def test_a_taichi_restart_gives_clear_errors_not_a_crash():

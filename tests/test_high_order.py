@@ -6,7 +6,7 @@ import pytest
 import timpm
 from timpm.problems import get_problem
 from timpm.scene import particle_matrices
-from timpm.study import convergence, displacement_fields, run_problem
+from timpm.studies.study import convergence, displacement_fields, run_problem
 
 
 @pytest.mark.parametrize("basis,elements,order", [("bspline2", (4, 8, 16, 32), 3.0),

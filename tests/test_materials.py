@@ -2,6 +2,7 @@
 import numpy as np
 import taichi as ti
 
+from timpm.engine.params import ParamBlock
 from timpm.materials import DruckerPrager
 from timpm.runtime import ensure_init
 
@@ -23,13 +24,24 @@ class _Particles:
         self.vol.from_numpy(np.abs(np.linalg.det(F)))
 
     @ti.func
-    def _sum_into(self, ref: ti.template(), value):
+    def accumulate(self, ref: ti.template(), value):
         ref += value
 
 
-def _apply(sand, F, spectral):
+def _unit(material):
+    """The material's compiled unit, its constants uploaded (as a program holds them)."""
+    fb = ti.FieldsBuilder()
+    block = ParamBlock({"m": {name: "real" for name in type(material).CONSTANTS}}, float, fb)
+    fb.finalize()
+    block.set("m", material.constants(dt=1.0))
+    block.upload()
+    return type(material).unit(material.flags(), block.groups["m"])
+
+
+def _apply(material, F, spectral):
     ensure_init()
-    s = _Particles(F, sand.density)
+    s = _Particles(F, material.density)
+    sand = _unit(material)
     n = len(F)
 
     @ti.kernel

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from timpm.mls import (WEIGHTS, cubic_spline, element_points, get_weight, linear_hat,
+from timpm.studies.mls import (WEIGHTS, cubic_spline, element_points, get_weight, linear_hat,
                        mls_fit, mls_shape_functions, projection_study, quadratic_spline)
 
 H = 0.1

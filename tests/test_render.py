@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from timpm.render import NAN_COLOR, GifWriter, Renderer
+from timpm.output.render import NAN_COLOR, GifWriter, Renderer
 
 WHITE = (255, 255, 255)
 

@@ -151,7 +151,7 @@ def test_team_stops_at_a_nan_naming_step_and_particle():
         x = s.positions()
         v = s.velocities()
         v[k, 0] = np.nan
-        s.v.from_numpy(v)
+        s.write("v", v)
         with pytest.raises(SimulationError, match=r"step 4 \(t = .*\): particle \d+ has a "
                                                   r"non-finite") as err:
             s.run(n_steps=10)

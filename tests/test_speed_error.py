@@ -1,14 +1,15 @@
 """Speed against error: the dt rule, the Pareto front, cheapest-per-target answers, report,
 plot and command line (one tiny sweep of the vibrating string, shared by the tests)."""
-import argparse
 import json
 import math
 
 import pytest
 
-from timpm.speed_error import (RECORD_KEYS, add_parser, cheapest_for, choose_dt,
-                               default_targets, format_report, merge_studies, pareto_front,
-                               plateaus, plot_speed_error, speed_error_study)
+from timpm.cli import main
+from timpm.output.viz import plot_speed_error
+from timpm.studies.speed_error import (RECORD_KEYS, cheapest_for, choose_dt, default_targets,
+                                       format_report, merge_studies, pareto_front, plateaus,
+                                       speed_error_study)
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -71,7 +72,7 @@ def test_dt_rule_holds_for_every_accepted_step(tiny):
 
 
 def test_error_matches_run_problem(tiny):
-    from timpm.study import run_problem
+    from timpm.studies.study import run_problem
 
     rec = next(r for r in tiny["runs"] if r["basis"] == "linear" and r["elements"] == 8)
     ref = run_problem("vibrating-string", elements=8, dt=rec["dt"], t_end=0.02,
@@ -218,22 +219,18 @@ def test_report_and_png(tiny, tmp_path):
 
 
 def test_command_line(tmp_path, capsys):
-    ap = argparse.ArgumentParser(prog="timpm study")
-    add_parser(ap.add_subparsers(dest="study", required=True))
     out, png = tmp_path / "se.json", tmp_path / "se.png"
-    args = ap.parse_args(["speed-error", "vibrating-string", "--bases", "linear", "--masses",
-                          "lumped", "--elements", "4", "--t-end", "0.01", "--stress-update", "small", "--repeats", "1",
-                          "--targets", "1e-3", "1e-7", "--json", str(out), "--plot", str(png),
-                          "--quiet"])
-    assert args.func(args) == 0
+    assert main(["study", "speed-error", "vibrating-string", "--bases", "linear", "--masses",
+                 "lumped", "--elements", "4", "--t-end", "0.01", "--stress-update", "small",
+                 "--repeats", "1", "--targets", "1e-3", "1e-7", "--json", str(out),
+                 "--plot", str(png), "--quiet"]) == 0
     doc = json.loads(out.read_text())
     assert doc["stress_update"] == "small" and doc["runs"][0]["stress_update"] == "small"
     assert len(doc["runs"]) == 1 and [a["target"] for a in doc["targets"]] == [1e-3, 1e-7]
     assert png.read_bytes()[:8] == PNG
     text = capsys.readouterr().out
     assert "Time step per run" in text and "e_RMS <= 1e-07: no configuration" in text
-    bad = ap.parse_args(["speed-error", "large-column", "--quiet"])
-    assert bad.func(bad) == 2
+    assert main(["study", "speed-error", "large-column", "--quiet"]) == 2
     assert "no exact solution" in capsys.readouterr().err
     assert math.isfinite(doc["runs"][0]["wall_seconds"])
 

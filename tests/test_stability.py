@@ -4,7 +4,7 @@ import pytest
 
 import timpm
 from timpm.problems import get_problem
-from timpm.study import run_problem
+from timpm.studies.study import run_problem
 
 
 def _bounded(result, drift=0.10):

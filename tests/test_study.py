@@ -3,7 +3,7 @@ vibrating bar's lack of convergence, the oedometer strains."""
 import numpy as np
 import pytest
 
-from timpm.study import convergence, run_problem
+from timpm.studies.study import convergence, run_problem
 
 # Table 3.2 of the study: RMS error at t = 0.1 s, 4 PPC, dt = 1e-4 s
 TABLE_3_2 = {4: 8.2921e-4, 8: 2.1496e-4, 16: 5.4230e-5, 32: 1.3588e-5, 64: 3.3983e-6}

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from timpm.ulfem import ULFEM, large_column, oedometer_strain, period_from_maxima
+from timpm.studies.ulfem import ULFEM, large_column, oedometer_strain, period_from_maxima
 
 E = 1e5
 

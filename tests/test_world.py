@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from timpm import SimulationError, Solver
-from timpm.demos import Disks
+from timpm.scenarios import Disks
 from timpm.materials import (DruckerPrager, LinearElastic, NeoHookean,
                              WeaklyCompressibleFluid, get_material)
 from timpm.world import PRESETS, Ball, Body, Box, Wall, World
@@ -88,21 +88,21 @@ def shared():
 def reset(s, x=None, v=None, C=None):
     """Back to the world's initial state (F = I, zero stress), or the given x, v, C."""
     w, n, d = s.scene, s.n_particles, s.dim
-    s.x.from_numpy(np.ascontiguousarray(w.positions if x is None else x, dtype=np.float64))
-    s.v.from_numpy(np.ascontiguousarray(np.zeros((n, d)) if v is None else v, dtype=np.float64))
-    s.vol.from_numpy(np.ascontiguousarray(w.volume))
-    s.sigma.from_numpy(np.zeros((n, d, d)))
+    s.write("x", np.ascontiguousarray(w.positions if x is None else x, dtype=np.float64))
+    s.write("v", np.ascontiguousarray(np.zeros((n, d)) if v is None else v, dtype=np.float64))
+    s.write("vol", np.ascontiguousarray(w.volume))
+    s.write("sigma", np.zeros((n, d, d)))
     eye = np.ascontiguousarray(np.broadcast_to(np.eye(d), (n, d, d)))
-    if hasattr(s, "F"):
-        s.F.from_numpy(eye)
-    if hasattr(s, "plastic"):
-        s.plastic.from_numpy(np.zeros(n))
-    if hasattr(s, "C"):
+    if "F" in s.needs:
+        s.write("F", eye)
+    if "plastic" in s.needs:
+        s.write("plastic", np.zeros(n))
+    if s.apic:
         set_affine(s, np.zeros((n, d, d)) if C is None else C)
-    s.err[None] = 0
-    s.err_count[None] = 0
-    s.step_count[None] = 0
-    s.time[None] = 0.0
+    s.write("err", 0)
+    s.write("err_count", 0)
+    s.write("step_count", 0)
+    s.write("time", 0.0)
 
 
 def set_affine(s, C):
@@ -113,11 +113,11 @@ def set_affine(s, C):
     if hasattr(s, "set_affine"):
         s.set_affine(C)
     else:
-        s.C.from_numpy(C)
+        s.write("C", C)
 
 
 def affine(s):
-    return s.affine() if hasattr(s, "affine") else s.C.to_numpy()
+    return s.affine() if hasattr(s, "affine") else s.read("C")
 
 
 def jittered(s, rng, amount=0.2):
@@ -161,7 +161,7 @@ def cross(a, b):
 def angular_momentum(s, x, v, C=None):
     """L = sum_p m_p (x_p x v_p + eps : (C_p D_p)^T) (Jiang et al. 2015 with B_p = C_p D_p:
     the P2G of sum_i x_i x m_p phi_i (v_p + C_p (x_i - x_p)) sums to exactly this)."""
-    m = s.m.to_numpy()
+    m = s.read("m")
     L = np.einsum("p,p...->...", m, cross(x, v))
     if C is not None:
         L = L + np.einsum("p,p...->...", m, axial(C @ inertia(s, x)))
@@ -171,7 +171,7 @@ def angular_momentum(s, x, v, C=None):
 def grid_angular_momentum(s, gm):
     """sum_i x_i x m_i v_i of the grid after an APIC step, with the nodal masses ``gm``
     (the step clears its own; gv holds the velocities)."""
-    gv = s.gv.to_numpy()
+    gv = s.read("gv")
     Li = gm[..., None] * np.reshape(cross(node_positions(s), gv), gm.shape + (-1,))
     L = Li.reshape(-1, Li.shape[-1]).sum(0)
     return L[0] if s.dim == 2 else L
@@ -197,7 +197,7 @@ def test_partition_of_unity_through_project(shared, dim, basis, transfer):
     v = rng.normal(size=x.shape)
     reset(s, x=x, v=v)
     gm, gp = s.project()
-    m = s.m.to_numpy()
+    m = s.read("m")
     assert gm.sum() == pytest.approx(m.sum(), rel=1e-13)
     np.testing.assert_allclose(gp.reshape(-1, dim).sum(0), m @ v, rtol=0,
                                atol=1e-13 * np.abs(m @ np.abs(v)).sum())
@@ -276,11 +276,11 @@ T_FREE = 1.5  # s: 52 steps of the soft block (2D), 35 (3D)
 def test_free_flight_conserves_mass_and_linear_momentum(shared, dim, basis, transfer):
     s = shared(dim, basis, transfer)
     x0, v0, _ = free_flight(s, omega=0.3, noise=0.005)
-    m = s.m.to_numpy()
+    m = s.read("m")
     green = 0.0  # the block deforms, not just turns: largest Green strain (F^T F - I) / 2
     for _ in range(10):
         s.run(n_steps=int(round(T_FREE / s.dt / 10)))
-        F = s.F.to_numpy()
+        F = s.read("F")
         green = max(green, 0.5 * np.abs(F.transpose(0, 2, 1) @ F - np.eye(dim)).max())
     v = s.velocities()
     drift = np.abs(m @ v - m @ v0).max() / (m @ np.linalg.norm(v0, axis=1))
@@ -349,7 +349,7 @@ def test_apic_conserves_angular_momentum(shared, dim, basis, transfer):
     print(f"APIC angular momentum drift, {N_FREE} steps: {drift():.2e} ({basis}, {dim}D)")
     # measured: 1e-15 (2D quadratic)
     assert drift() < 1e-12
-    assert np.abs(s.sigma.to_numpy()).max() > 1.0  # stresses did act (Pa)
+    assert np.abs(s.read("sigma")).max() > 1.0  # stresses did act (Pa)
 
 
 @pytest.mark.parametrize("dim,basis,transfer", cases(["musl"]))
@@ -391,9 +391,9 @@ def test_elastic_scene_allocates_no_plastic_state(dim):
     s = _build([Body(_box(dim), NeoHookean(**SOFT))], dim)
     mem = s.memory()
     try:
-        assert not hasattr(s, "plastic") and "plastic" not in mem["particle_fields"]
-        assert not hasattr(s, "mat") and "mat" not in mem["particle_fields"]  # one material
-        assert not hasattr(s, "u") and not hasattr(s, "eps")  # 1D-only state
+        assert "plastic" not in mem["particle_fields"]
+        assert "mat" not in mem["particle_fields"]  # one material
+        assert "u" not in mem["particle_fields"] and "eps" not in mem["particle_fields"]
         assert sorted(mem["particle_fields"]) == sorted(["x", "v", "m", "vol", "sigma", "F", "C"])
         assert mem["particle_bytes"] == _bytes(dim, F=True, C=True)
         # APIC folds the force into the momentum: mass, momentum and the velocity handed
@@ -407,7 +407,7 @@ def test_sand_scene_has_plastic_strain():
     s = _build([Body(_box(), "sand")])
     try:
         assert isinstance(s.materials[0], DruckerPrager)
-        assert hasattr(s, "plastic") and "plastic" in s.memory()["particle_fields"]
+        assert "plastic" in s.memory()["particle_fields"]
         assert s.memory()["particle_bytes"] == _bytes(2, F=True, plastic=True, C=True)
     finally:
         s.release()
@@ -418,7 +418,7 @@ def test_musl_scene_has_no_affine_matrix(dim):
     apic = _build([Body(_box(dim), NeoHookean(**SOFT))], dim, "apic")
     musl = _build([Body(_box(dim), NeoHookean(**SOFT))], dim, "musl")
     try:
-        assert hasattr(apic, "C") and not hasattr(musl, "C")
+        assert "C" in apic.memory()["particle_fields"] and "C" not in musl.memory()["particle_fields"]
         assert "C" not in musl.memory()["particle_fields"]
         assert apic.memory()["particle_bytes"] - musl.memory()["particle_bytes"] == dim * dim * 8
         # MUSL keeps a nodal force as well
@@ -434,9 +434,10 @@ def test_material_index_only_for_several_materials():
     shared_mat = _build([Body(_box(k=0), mat), Body(_box(k=1), mat)])
     two = _build([Body(_box(k=0), NeoHookean(**SOFT)), Body(_box(k=1), "sand")])
     try:
-        assert not hasattr(one, "mat") and not hasattr(shared_mat, "mat")
-        assert hasattr(two, "mat") and "mat" in two.memory()["particle_fields"]
-        np.testing.assert_array_equal(two.mat.to_numpy(), two.scene.material_index)
+        assert "mat" not in one.memory()["particle_fields"]
+        assert "mat" not in shared_mat.memory()["particle_fields"]
+        assert "mat" in two.memory()["particle_fields"]
+        np.testing.assert_array_equal(two.read("mat"), two.scene.material_index)
         assert set(two.scene.material_index) == {0, 1}
         # the sand brings its plastic strain along; 4 bytes of material index (i32)
         assert two.memory()["particle_bytes"] == _bytes(2, F=True, plastic=True, C=True, mat=True)
@@ -449,7 +450,7 @@ def test_two_bodies_of_one_preset_are_one_material():
     s = _build([Body(_box(k=0), "rubber"), Body(_box(k=1), "rubber")])
     try:
         assert len(s.scene.materials) == 1
-        assert not hasattr(s, "mat") and "mat" not in s.memory()["particle_fields"]
+        assert "mat" not in s.memory()["particle_fields"]
         assert s.memory()["particle_bytes"] == _bytes(2, F=True, C=True)
     finally:
         s.release()
@@ -460,7 +461,7 @@ def test_fluid_scene_has_no_deformation_gradient(dim):
     s = _build([Body(_box(dim), "water")], dim, "musl")
     try:
         assert isinstance(s.materials[0], WeaklyCompressibleFluid)
-        assert not hasattr(s, "F") and not hasattr(s, "plastic") and not hasattr(s, "C")
+        assert not {"F", "plastic", "C"} & set(s.memory()["particle_fields"])
         assert s.memory()["particle_bytes"] == _bytes(dim)
     finally:
         s.release()
@@ -631,7 +632,7 @@ def test_nan_velocity_stops_the_run_naming_step_and_particle(shared):
     k = 27
     v = np.zeros_like(x0)
     v[k, 1] = np.nan
-    s.v.from_numpy(v)
+    s.write("v", v)
     with pytest.raises(SimulationError, match=r"step 1 \(t = .*\): particle \d+ has a "
                                               r"non-finite \(NaN or infinite\) state") as err:
         s.run(n_steps=5)
@@ -665,7 +666,7 @@ def walled():
 
 def _slide(s, t_end=0.2, chunks=20):
     """Centre-of-mass time series of a run: t, x, y, vx, vy."""
-    m = s.m.to_numpy()
+    m = s.read("m")
     out = []
     for _ in range(chunks + 1):
         x, v = s.positions(), s.velocities()
@@ -712,7 +713,7 @@ def test_block_thrown_at_a_wall_stays_inside(walled, kind):
     s = walled(kind)
     x0 = s.scene.positions + [0.0, 0.25]
     reset(s, x=x0, v=np.broadcast_to([0.0, -5.0], x0.shape))
-    m = s.m.to_numpy()
+    m = s.read("m")
     lowest, vy = [], []
     for _ in range(30):
         s.run(n_steps=10)
@@ -736,7 +737,7 @@ def test_only_a_sticky_floor_holds_a_block_that_jumps(walled, kind):
     x0 = s.scene.positions
     reset(s, v=np.broadcast_to([0.0, 2.0], x0.shape))
     s.run(n_steps=int(round(0.1 / s.dt)))
-    m = s.m.to_numpy()
+    m = s.read("m")
     y = m @ s.positions()[:, 1] / m.sum()
     free = x0[:, 1].mean() + 2.0 * s.t - 0.5 * 9.81 * s.t ** 2
     reset(s)
@@ -765,7 +766,7 @@ def test_neo_hookean_small_compression_is_linear_elastic(shared):
     # uniaxial: F = diag(1 - e, 1)
     sig = _impose(s, np.diag([-e / s.dt, 0.0]))
     F = np.diag([1 - e, 1.0])
-    np.testing.assert_allclose(s.F.to_numpy(), np.broadcast_to(F, sig.shape), atol=1e-14)
+    np.testing.assert_allclose(s.read("F"), np.broadcast_to(F, sig.shape), atol=1e-14)
     J = 1 - e
     exact = (mu * (F @ F.T - np.eye(2)) + lam * np.log(J) * np.eye(2)) / J
     np.testing.assert_allclose(sig, np.broadcast_to(exact, sig.shape), rtol=1e-9,
@@ -802,11 +803,11 @@ def test_drucker_prager_carries_no_tension(sand, stretch):
     A = e / sand.dt * np.diag(stretch)
     sig = _impose(sand, A)
     assert np.all(sig == 0.0)
-    F = sand.F.to_numpy()
+    F = sand.read("F")
     np.testing.assert_allclose(F @ F.transpose(0, 2, 1), np.broadcast_to(np.eye(2), F.shape),
                                atol=1e-12)
     eps = np.log(1 + e * np.array(stretch))
-    np.testing.assert_allclose(sand.plastic.to_numpy(), np.linalg.norm(eps), rtol=1e-9)
+    np.testing.assert_allclose(sand.read("plastic"), np.linalg.norm(eps), rtol=1e-9)
     reset(sand)
 
 
@@ -819,7 +820,7 @@ def test_drucker_prager_carries_compression(sand):
     expected = (2 * mat.mu + 2 * mat.lam) * np.log(1 - e) / (1 - e) ** 2
     np.testing.assert_allclose(sig, np.broadcast_to(expected * np.eye(2), sig.shape),
                                rtol=1e-9, atol=1e-9 * abs(expected))
-    np.testing.assert_allclose(sand.plastic.to_numpy(), 0.0, atol=0)
+    np.testing.assert_allclose(sand.read("plastic"), 0.0, atol=0)
     reset(sand)
 
 

@@ -11,9 +11,11 @@ import time
 import numpy as np
 import taichi as ti
 
-from .runtime import generation
-from .solver import _MIN_CPU_BLOCK, SimulationError, Solver, _cpu_threads, _Progress, \
-    _static_cpu_blocks
+from . import runtime
+from .engine.features import MIN_CPU_BLOCK
+from .errors import Released, SimulationError
+from .progress import Progress
+from .solver import Solver
 
 __all__ = ["Batch"]
 
@@ -43,23 +45,26 @@ class Batch:
                 raise ValueError(f"batch member {k} runs in {s.mode} mode: a Batch takes fused "
                                  "serial solvers, Solver(..., mode='serial')")
             try:
-                s._require_fields()
+                s._require()
             except RuntimeError as err:
                 raise ValueError(f"batch member {k}: {err}") from None
         if len({id(s) for s in solvers}) != len(solvers):
             raise ValueError("a solver appears twice in the batch")
         self.solvers = solvers
-        threads = _cpu_threads() if threads is None else int(threads)
+        threads = runtime.cpu_threads() if threads is None else int(threads)
         if threads < 1:
             raise ValueError(f"threads must be a positive integer, got {threads!r}")
         # the thread of a member follows from Taichi's static split of CPU range-for loops
-        self.n_threads = threads if _static_cpu_blocks() else 1
+        self.n_threads = threads if runtime.static_cpu_blocks() else 1
+        for k, s in enumerate(solvers):
+            s.move_to_slot(k + 1)  # slot 0 is the program single solvers share
         fb = ti.FieldsBuilder()
         self.order = ti.Vector.field(2, ti.i32)  # per member: steps to take, thread
         self.status = ti.Vector.field(2, ti.i32)  # per member: steps taken, errors
         fb.dense(ti.i, len(solvers)).place(self.order, self.status)
         self._tree = fb.finalize()
-        self._generation = generation()
+        self._generation = runtime.generation()
+        self._programs = None  # the members' programs the kernels were built for
         self._order = None  # the (steps, threads) in the order field
         self.run_seconds = 0.0
         self.compile_seconds = 0.0
@@ -68,68 +73,91 @@ class Batch:
     def release(self):
         """Free the batch's fields (the members stay usable; release them apart)."""
         if self._tree is not None:
-            if self._generation == generation():  # else Taichi freed it at its restart
+            if self._generation == runtime.generation():  # else Taichi freed it at its restart
                 self._tree.destroy()
             self._tree = None
 
     def _require_fields(self):
         """A clear error, not a launch on freed memory, for a batch or member without its
         fields."""
+        runtime.check_caller()
         if self._tree is None:
-            raise RuntimeError("this batch was released")
-        if self._generation != generation():
-            raise RuntimeError("Taichi was restarted (timpm.init with other settings) after "
-                               "this batch was built, which freed its fields")
+            raise Released("this batch was released")
+        if self._generation != runtime.generation():
+            raise Released("Taichi was restarted (timpm.init with other settings) after "
+                           "this batch was built, which freed its fields")
         for k, s in enumerate(self.solvers):
             try:
-                s._require_fields()
+                s._require()
             except RuntimeError as err:
-                raise RuntimeError(f"batch member {k}: {err}") from None
+                raise Released(f"batch member {k}: {err}") from None
 
-    @ti.kernel
-    def _advance_all(self) -> ti.i32:
-        # thread q of the static CPU split runs iterations [q B, (q + 1) B): iteration q B
-        # takes the members assigned to thread q, one after another; returns the number of
-        # members that stopped short or failed (then Python reads the status)
-        short = 0
-        for r in range(self.n_threads * _MIN_CPU_BLOCK):
-            if r % _MIN_CPU_BLOCK == 0:
-                q = r // _MIN_CPU_BLOCK
-                for k in ti.static(range(len(self.solvers))):
-                    if self.order[k][1] == q:
-                        member = self.solvers[k]  # k is static: a Python-level lookup
-                        done = member._advance_steps(self.order[k][0], member.record_every)
-                        errors = member.err_count[None]
-                        self.status[k] = ti.Vector([done, errors])
-                        if done != self.order[k][0] or errors != 0:
-                            short += 1
-        return short
+    def _members(self):
+        """The members' programs, each holding its member's state; the kernels are built
+        again where a program changed (grown)."""
+        self._require_fields()
+        programs = [s._program() for s in self.solvers]
+        if self._programs is None or any(a is not b for a, b in zip(programs, self._programs)):
+            self._bind(programs)
+            self._programs = programs
+        return programs
+
+    def _bind(self, programs):
+        n_threads, order, status = self.n_threads, self.order, self.status
+        every = [s.record_every for s in self.solvers]
+
+        @ti.kernel
+        def advance_all() -> ti.i32:
+            # thread q of the static CPU split runs iterations [q B, (q + 1) B): iteration
+            # q B takes the members assigned to thread q, one after another; returns the
+            # number of members that stopped short or failed (then Python reads the status)
+            short = 0
+            for r in range(n_threads * MIN_CPU_BLOCK):
+                if r % MIN_CPU_BLOCK == 0:
+                    q = r // MIN_CPU_BLOCK
+                    for k in ti.static(range(len(programs))):
+                        if order[k][1] == q:
+                            prog = programs[k]  # k is static: a Python-level lookup
+                            done = prog._advance_steps(order[k][0], every[k])
+                            errors = prog.err_count[None]
+                            status[k] = ti.Vector([done, errors])
+                            if done != order[k][0] or errors != 0:
+                                short += 1
+            return short
+
+        @ti.kernel
+        def read_states(u: ti.types.ndarray(), scalars: ti.types.ndarray()):
+            ti.loop_config(serialize=True)
+            for _ in range(1):
+                start = 0
+                for k in ti.static(range(len(programs))):
+                    prog = programs[k]
+                    n = prog.p.n_particles()
+                    for p in range(n):
+                        u[start + p] = prog.u[p][0]
+                    start += n
+                    scalars[k, 0] = prog.step_count[None]
+                    scalars[k, 1] = prog.time[None]
+                    scalars[k, 2] = prog.crossings[None]
+
+        self._advance_all, self._read_states = advance_all, read_states
 
     def reset(self):
-        """Every member back to its initial state (:meth:`Solver.reset`), one launch."""
+        """Every member back to its initial state (:meth:`Solver.reset`)."""
         self._require_fields()
         for s in self.solvers:
-            s._prepare_reset()
-        self._reset_all()
-        for s in self.solvers:
-            s._reset_host()
+            s.reset()
         return self
-
-    @ti.kernel
-    def _reset_all(self):
-        ti.loop_config(serialize=True)
-        for _ in range(1):
-            for k in ti.static(range(len(self.solvers))):
-                self.solvers[k]._reset_state()
 
     def compile(self):
         """Compile the batch kernel and the members' accessors (``compile_seconds``)."""
         if self._compiled:
             return
         t0 = time.perf_counter()
+        self._members()
         self._launch([0] * len(self.solvers))  # zero steps: compiles, changes nothing
         for s in self.solvers:
-            s._compile_io()
+            s.compile()
         self.states()
         self.compile_seconds += time.perf_counter() - t0
         self._compiled = True
@@ -140,7 +168,7 @@ class Batch:
         member is 1D and counts grid crossings."""
         if not all(s.dim == 1 and s.has_u and s.track_crossings for s in self.solvers):
             return None
-        self._require_fields()
+        self._members()
         counts = [s.n_particles for s in self.solvers]
         u = np.empty(sum(counts))
         scalars = np.empty((len(counts), 3))
@@ -149,20 +177,6 @@ class Batch:
         return [{"u": u[a:b], "step": int(row[0]), "t": float(row[1]),
                  "grid_crossings": int(row[2])}
                 for a, b, row in zip(starts[:-1], starts[1:], scalars)]
-
-    @ti.kernel
-    def _read_states(self, u: ti.types.ndarray(), scalars: ti.types.ndarray()):
-        ti.loop_config(serialize=True)
-        for _ in range(1):
-            start = 0
-            for k in ti.static(range(len(self.solvers))):
-                member = self.solvers[k]
-                for p in range(member.n_particles):
-                    u[start + p] = member.u[p][0]
-                start += member.n_particles
-                scalars[k, 0] = member.step_count[None]
-                scalars[k, 1] = member.time[None]
-                scalars[k, 2] = member.crossings[None]
 
     def _launch(self, steps):
         """One launch: member k takes steps[k] steps; threads balanced by particle-steps."""
@@ -177,6 +191,7 @@ class Batch:
         if order != self._order:  # a study's launches repeat: upload only a new order
             self.order.from_numpy(np.asarray(order, dtype=np.int32).T.copy())
             self._order = order
+        self._members()
         if self._advance_all() == 0:  # every member took its steps: no read-back
             return np.array([[n, 0] for n in steps])
         return self.status.to_numpy()
@@ -188,31 +203,31 @@ class Batch:
         """
         if (t_end is None) == (n_steps is None):
             raise ValueError("give exactly one of t_end and n_steps")
-        self._require_fields()
+        self._members()
         remaining = []
         for k, s in enumerate(self.solvers):
             try:
-                remaining.append(s._steps_to(t_end, n_steps))
+                remaining.append(s.steps_to(t_end, n_steps))
             except ValueError as err:
                 raise ValueError(f"batch member {k}: {err}") from None
         self.compile()
         for s in self.solvers:
-            s._record_start()
+            s.record_start()
         totals = list(remaining)
-        bar = _Progress(max(totals), progress)
+        bar = Progress(max(totals), progress)
         start = time.perf_counter()
         done = 0
         while any(remaining):
             chunk = bar.suggested_chunk(done)
-            steps = [s._fused_chunk(min(left, chunk))
+            steps = [s.fused_chunk(min(left, chunk))
                      for s, left in zip(self.solvers, remaining)]
             status = self._launch(steps)
             for k, s in enumerate(self.solvers):
                 remaining[k] -= int(status[k, 0])
                 try:
-                    s._drain()  # the energy guard may stop a member here
+                    s.drain()  # the energy guard may stop a member here
                     if status[k, 1]:
-                        s._check()
+                        s.check()
                 except SimulationError as err:
                     raise SimulationError(f"batch member {k}: {err}", err.code, err.step,
                                           err.particle, err.node) from None
@@ -220,7 +235,7 @@ class Batch:
             bar.update(done)
         bar.close()
         for s in self.solvers:
-            s._record_end()
+            s.record_end()
         wall = time.perf_counter() - start
         self.run_seconds += wall
         for s in self.solvers:

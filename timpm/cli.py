@@ -1,16 +1,21 @@
-"""The ``timpm`` command: run the study's benchmarks and convergence studies."""
+"""The ``timpm`` command: run the study's benchmarks and convergence studies.
+
+The top layer: it may import every other module of the package (``tests/test_layers.py``).
+The throughput benchmark is not part of the package: ``python benchmarks/throughput.py``.
+"""
 import argparse
 import json
 import sys
 
-from . import __version__, speed_error
+from . import __version__
 from .argtypes import param, positive_int, setting
 from .basis import BASES
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .solver import SimulationError
+from .studies import speed_error
 
-__all__ = ["main"]
+__all__ = ["main", "demo_script"]
 
 
 def _add_common(p):
@@ -42,7 +47,9 @@ def _add_common(p):
 
 def _parser():
     ap = argparse.ArgumentParser(prog="timpm", description="High-order material point method "
-                                 "in Taichi: the study's 1D benchmarks and convergence studies.")
+                                 "in Taichi: the study's 1D benchmarks and convergence studies.",
+                                 epilog="The throughput benchmark (Taichi's mpm88, NumPy, the "
+                                 "machine's bounds): python benchmarks/throughput.py --help")
     ap.add_argument("--version", action="version", version=f"timpm {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run one benchmark and compare with its exact solution")
@@ -79,17 +86,15 @@ def _parser():
     demo.add_argument("--json", metavar="FILE", help="write times, summary and series as JSON")
     demo.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                       help="progress bar (default: on a terminal, for runs over 2 s)")
-    # parsed by timpm.bench itself (see main): listed here for the help
-    sub.add_parser("bench", help="throughput side by side with Taichi's mpm88 and NumPy, and "
-                   "the machine's bounds (timpm bench --help)", add_help=False)
     study = sub.add_parser("study", help="studies over many runs: speed-error")
-    speed_error.add_parser(study.add_subparsers(dest="study", required=True))
+    studies = study.add_subparsers(dest="study", required=True)
+    speed_error.add_parser(studies).set_defaults(func=_speed_error)
     return ap
 
 
 def _compare(args):
-    from .study import compare_large_column
-    from .viz import plot_comparison
+    from .output.viz import plot_comparison
+    from .studies.study import compare_large_column
 
     cmp = compare_large_column(elements=args.elements, ppc=args.ppc, dt=args.dt,
                                t_end=args.t_end, basis=args.basis)
@@ -133,18 +138,21 @@ def _table(records, rates=None):
 
 def _demo(args):
     from . import runtime
-    from .demos import run_demo
+    from .output.render import Movie
+    from .scenarios.demos import run_demo
 
     params = dict(args.param)
     if args.t_end is not None:
         params["t_end"] = args.t_end
     runtime.init(threads=args.threads)
-    result = run_demo(args.name, out=args.out, frames=args.frames, fps=args.fps, width=args.width,
-                      color=args.color, png_dir=args.png_dir, progress=args.progress,
-                      mode=args.mode, **params)
+    movie = None
+    if args.out:
+        movie = Movie(args.out, fps=args.fps, width=args.width, png_dir=args.png_dir)
+    result = run_demo(args.name, movie=movie, frames=args.frames, color=args.color,
+                      progress=args.progress, mode=args.mode, **params)
     print(result.report())
     if args.plot:
-        from .viz import plot_demo
+        from .output.viz import plot_demo
 
         plot_demo(result, args.plot)
     if args.json:
@@ -159,12 +167,42 @@ def _demo(args):
     return 0
 
 
+def _speed_error(args) -> int:
+    """``timpm study speed-error``: run the sweep, print the report, write plot and JSON."""
+    from . import runtime
+    from .output.viz import plot_speed_error
+
+    def progress(msg):
+        print(msg, file=sys.stderr, flush=True)
+
+    try:
+        if args.max_halvings < 0:
+            raise ValueError(f"--max-halvings must be non-negative, got {args.max_halvings}")
+        get_problem(args.problem, **dict(args.param))
+        runtime.init(threads=args.threads)
+        doc = speed_error.speed_error_study(
+            args.problem, bases=args.bases, masses=args.masses, stress_update=args.stress_update,
+            params=dict(args.param), elements=args.elements, ppcs=args.ppc,
+            placement=args.placement, t_end=args.t_end, dt_tolerance=args.dt_tolerance,
+            max_halvings=args.max_halvings, repeats=args.repeats, mode=args.mode,
+            progress=None if args.quiet else progress)
+    except (ValueError, SimulationError) as exc:
+        print(f"timpm: error: {exc}", file=sys.stderr)
+        return 2
+    targets = args.targets or speed_error.default_targets(doc["runs"])
+    answers = speed_error.cheapest_for(doc["runs"], targets)
+    doc["targets"] = answers
+    print(speed_error.format_report(doc, answers))
+    if args.plot:
+        plot_speed_error(doc, args.plot)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(doc, fh, indent=2)
+    return 0
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["bench"]:
-        from .bench import main as bench_main
-
-        return bench_main(argv[1:])
     args = _parser().parse_args(argv)
     if args.command == "study":
         return args.func(args)
@@ -183,8 +221,8 @@ def main(argv=None):
         print("demos: column-collapse, disks, dam-break (timpm demo NAME --out FILE.gif)")
         return 0
     from . import runtime
-    from .study import convergence, run_problem
-    from .viz import plot_convergence, plot_series
+    from .output.viz import plot_convergence, plot_series
+    from .studies.study import convergence, run_problem
 
     try:
         if args.command == "compare-ulfem":
@@ -217,6 +255,18 @@ def main(argv=None):
         with open(args.json, "w") as fh:
             json.dump(doc, fh, indent=2)
     return 0
+
+
+def demo_script(name, argv=None):
+    """Entry of the scripts in demos/: ``timpm demo NAME`` writing NAME.gif and NAME.png
+    (underscores for dashes) unless ``--out`` / ``--plot`` are given."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    stem = name.replace("-", "_")
+    if "--out" not in args:
+        args += ["--out", f"{stem}.gif"]
+    if "--plot" not in args:
+        args += ["--plot", f"{stem}.png"]
+    return main(["demo", name, *args])
 
 
 if __name__ == "__main__":

@@ -98,8 +98,13 @@ class Constant:
     def __call__(self, t):
         return np.ones_like(np.asarray(t, dtype=float))
 
+    #: the run-time parameter of ``at`` (none)
+    param = 0.0
+
+    @staticmethod
     @ti.func
-    def value(self, t):
+    def at(t, a):
+        """f(t) in a kernel, the parameter ``a`` read at run time."""
         return 1.0
 
     def __repr__(self):
@@ -116,9 +121,14 @@ class Sine:
     def __call__(self, t):
         return np.sin(self.omega * np.asarray(t, dtype=float))
 
+    @property
+    def param(self):
+        return self.omega
+
+    @staticmethod
     @ti.func
-    def value(self, t):
-        return ti.sin(self.omega * t)
+    def at(t, a):
+        return ti.sin(a * t)
 
     def __repr__(self):
         return f"Sine(omega={self.omega!r})"
@@ -134,9 +144,14 @@ class Ramp:
     def __call__(self, t):
         return np.minimum(np.asarray(t, dtype=float) / self.duration, 1.0)
 
+    @property
+    def param(self):
+        return self.duration
+
+    @staticmethod
     @ti.func
-    def value(self, t):
-        return ti.min(t / self.duration, 1.0)
+    def at(t, a):
+        return ti.min(t / a, 1.0)
 
     def __repr__(self):
         return f"Ramp(duration={self.duration!r})"
@@ -153,7 +168,7 @@ class Traction:
     def __post_init__(self):
         if not math.isfinite(float(self.amplitude)):
             raise ValueError(f"traction amplitude must be finite, got {self.amplitude!r}")
-        if not callable(getattr(self.time_function, "value", None)):
+        if not callable(getattr(self.time_function, "at", None)):
             raise ValueError("traction time_function must be Constant, Sine, Ramp or alike")
 
 

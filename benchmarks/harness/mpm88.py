@@ -1,4 +1,4 @@
-"""Taichi's own ``mpm88`` example run headless, and the same physics as a timpm World.
+"""Taichi's own ``mpm88`` example run headless.
 
 :func:`run_mpm88` executes ``examples/simulation/mpm88.py`` of the installed taichi
 package in a fresh process, its code unchanged except for the particle count (a
@@ -7,9 +7,7 @@ stand-in that times the frames (50 substeps each) and records the particles.  Th
 backend and the thread count come from Taichi's own environment variables (``TI_ARCH``,
 ``TI_CPU_MAX_NUM_THREADS``), so ``ti.init`` in the script is untouched.
 
-:func:`mpm88_world` builds the same physics in timpm: quadratic B-splines, the MLS-MPM
-transfer, :class:`timpm.materials.JFluid` (mpm88's fluid), walls where mpm88 clamps the
-grid velocity, the same particles, masses, grid, gravity and time step.
+The same physics in timpm is :func:`timpm.scenarios.mpm88.mpm88_world`.
 """
 import os
 import re
@@ -21,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .numpy_mpm import MPM88
+from . import BENCHMARKS
 
-__all__ = ["mpm88_path", "run_mpm88", "mpm88_world"]
+__all__ = ["mpm88_path", "run_mpm88"]
 
 SUBSTEPS_PER_FRAME = 50
 
@@ -52,7 +50,7 @@ def _worker(n_particles, frames, out, pin=False):
     (``pin``: bind Taichi's workers one per core once the script has started Taichi)."""
     import taichi as ti
 
-    from .runtime import pin_workers
+    from timpm.runtime import pin_workers
 
     record = {"frame_times": []}
     namespace = {"__name__": "__mpm88__"}
@@ -111,7 +109,8 @@ def run_mpm88(n_particles=8192, frames=4, threads=None, pin=False, timeout=900) 
         env["TI_CPU_MAX_NUM_THREADS"] = str(int(threads))
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "mpm88.npz")
-        cmd = [sys.executable, "-c", f"from timpm.mpm88 import _worker; "
+        cmd = [sys.executable, "-c", f"import sys; sys.path.insert(0, {str(BENCHMARKS)!r}); "
+               f"from harness.mpm88 import _worker; "
                f"_worker({int(n_particles)}, {int(frames)}, {out!r}, {bool(pin)})"]
         proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout)
         if proc.returncode != 0:
@@ -129,26 +128,3 @@ def run_mpm88(n_particles=8192, frames=4, threads=None, pin=False, timeout=900) 
             "mpss": n_particles * SUBSTEPS_PER_FRAME / float(timed.min()) / 1e6,
             "first_frame_seconds": float(times[1] - times[0]),
             "x0": data["x0"], "x1": data["x1"]}
-
-
-def mpm88_world(x0, velocity=(0.0, -1.0)):
-    """The World that runs mpm88's physics from positions ``x0`` (mpm88's unit square).
-
-    mpm88 clamps the velocity of nodes i < 3 and i > n_grid - 3; timpm's walls hold the
-    nodes at and beyond the domain's sides, so the domain is [2 dx, 126 dx]^2 and the
-    positions shift by -2 dx (``shift``, returned with the world).
-    """
-    from .materials import JFluid
-    from .world import Body, Points, World
-
-    n_grid, bound = MPM88["n_grid"], MPM88["bound"]
-    dx = 1.0 / n_grid
-    lo, hi = bound - 1, n_grid - bound + 1  # first and last clamped node inward
-    shift = lo * dx
-    fluid = JFluid(bulk_modulus=MPM88["E"], density=MPM88["p_rho"])
-    body = Body(Points(np.asarray(x0, dtype=np.float64) - shift, (0.5 * dx) ** 2), fluid,
-                velocity=velocity)
-    world = World(domain=((hi - lo) * dx,) * 2, cells=hi - lo, bodies=[body],
-                  basis="uniform-bspline2", transfer="mls-mpm", gravity=(0.0, -MPM88["gravity"]),
-                  walls="slip", dt=MPM88["dt"], name="mpm88")
-    return world, shift

@@ -8,9 +8,11 @@
 * ``dam-break``: a water column of width a and height 2a (n^2 = 2) collapsing onto a dry
   floor; the surge front x / a against t sqrt(2 g / a) is Martin & Moyce's (1952) data.
 
-``run_demo(name, out="scene.gif")`` builds the scene, runs it frame by frame, rasterises
-every frame in a Taichi kernel and writes the GIF; simulation and rendering times are
-reported apart.  Each demo's ``observe`` collects its diagnostic series per frame.
+``run_demo(name, movie=Movie("scene.gif"))`` builds the scene, runs it frame by frame and
+hands every frame to the movie (:class:`timpm.output.render.Movie` rasterises it in a
+Taichi kernel and writes the GIF); simulation and rendering times are reported apart.
+Each demo's ``observe`` collects its diagnostic series per frame.  The plots of the
+diagnostics are :func:`timpm.output.viz.plot_demo` and :func:`timpm.output.viz.plot_runout`.
 """
 
 import math
@@ -18,11 +20,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .materials import DruckerPrager, NeoHookean, WeaklyCompressibleFluid
-from .render import GifWriter, Renderer
-from .scene import _positive
-from .solver import Solver, _Progress
-from .world import Ball, Body, Box, Wall, World
+from ..materials import DruckerPrager, NeoHookean, WeaklyCompressibleFluid
+from ..progress import Progress
+from ..scene import _positive
+from ..solver import Solver
+from ..world import Ball, Body, Box, Wall, World
 
 __all__ = ["DEMOS", "get_demo", "run_demo", "DemoResult", "ColumnCollapse", "Disks", "DamBreak",
            "QUANTITIES", "lube_runout", "lajeunesse_runout", "MARTIN_MOYCE_N2_2"]
@@ -268,9 +270,9 @@ def quantity(solver, name):
         dev = s - np.trace(s, axis1=1, axis2=2)[:, None, None] / d * np.eye(d)
         return np.sqrt(1.5 * np.sum(dev * dev, axis=(1, 2))), 0.0, None
     if name == "plastic":
-        if not hasattr(solver, "plastic"):
+        if "plastic" not in solver.needs:
             raise ValueError("colour 'plastic' needs a plastic material (sand) in the scene")
-        return solver.plastic.to_numpy(), 0.0, None
+        return solver.read("plastic"), 0.0, None
     if name == "body":
         return solver.scene.body_index.astype(float), None, None
     raise ValueError(f"unknown colour quantity {name!r}: choose one of {', '.join(QUANTITIES)}")
@@ -314,12 +316,15 @@ class DemoResult:
         return "\n".join(lines)
 
 
-def run_demo(name, out=None, frames=60, fps=20, width=480, color=None, png_dir=None,
-             progress=None, mode="auto", **params) -> DemoResult:
-    """Run demo ``name`` (``DEMOS``) and write ``out`` (a .gif, or None for no images).
+def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto",
+             **params) -> DemoResult:
+    """Run demo ``name`` (``DEMOS``), drawing its frames into ``movie`` (None: no images).
 
     ``frames`` frames are spread evenly over the run (plus the initial state); ``params``
     override the demo's parameters (``t_end``, resolution, material constants ...).
+    ``movie`` is a sink such as :class:`timpm.output.render.Movie`: ``movie.start(world,
+    color)`` before the run, ``movie.add(positions, values, vmin, vmax)`` at every frame,
+    ``movie.close()`` after it; its ``out`` and ``seconds`` go into the result.
     """
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise ValueError(f"frames must be a positive integer, got {frames!r}")
@@ -330,14 +335,10 @@ def run_demo(name, out=None, frames=60, fps=20, width=480, color=None, png_dir=N
     solver = Solver(world, mode=mode, energies=True,
                     record_every=max(1, int(round(t_end / world.dt / 200))))
     quantity(solver, color)  # an unknown or unavailable colour fails before the run
-    renderer = writer = None
-    if out is not None:
-        renderer = Renderer((0.0,) * world.dim, world.domain, width=width,
-                            radius=max(1.0, 0.8 * width / world.cells / 2),
-                            cmap="viridis" if color != "body" else "coolwarm")
-        writer = GifWriter(out, fps=fps, png_dir=png_dir)
+    if movie is not None:
+        movie.start(world, color)
     series = {}
-    bar = _Progress(frames, progress)
+    bar = Progress(frames, progress)
     solver.compile()
     for k in range(frames + 1):
         if k:
@@ -345,15 +346,15 @@ def run_demo(name, out=None, frames=60, fps=20, width=480, color=None, png_dir=N
         for key, value in demo.observe(solver, solver.t).items():
             series.setdefault(key, []).append(value)
         series.setdefault("t", []).append(solver.t)
-        if renderer is not None:
+        if movie is not None:
             values, lo, hi = quantity(solver, color)
-            writer.add(renderer.frame(solver.positions(), values, vmin=lo, vmax=hi))
+            movie.add(solver.positions(), values, lo, hi)
         bar.update(k)
     bar.close()
-    if writer is not None:
-        writer.close()
-    render_seconds = (renderer.seconds + writer.seconds) if renderer is not None else 0.0
-    result = DemoResult(name=name, out=None if out is None else str(out), frames=frames,
+    if movie is not None:
+        movie.close()
+    render_seconds = movie.seconds if movie is not None else 0.0
+    result = DemoResult(name=name, out=None if movie is None else str(movie.out), frames=frames,
                         particles=world.n_particles, steps=solver.step, t_end=solver.t,
                         dt=world.dt, compile_seconds=solver.compile_seconds,
                         simulation_seconds=solver.run_seconds, render_seconds=render_seconds,
@@ -362,20 +363,3 @@ def run_demo(name, out=None, frames=60, fps=20, width=480, color=None, png_dir=N
     result.summary = demo.summary(solver, result.series)
     result.solver = solver
     return result
-
-
-
-def script(name, argv=None):
-    """Entry of the scripts in demos/: ``timpm demo NAME`` writing NAME.gif and NAME.png
-    (underscores for dashes) unless ``--out`` / ``--plot`` are given."""
-    import sys
-
-    from .cli import main
-
-    args = list(sys.argv[1:] if argv is None else argv)
-    stem = name.replace("-", "_")
-    if "--out" not in args:
-        args += ["--out", f"{stem}.gif"]
-    if "--plot" not in args:
-        args += ["--plot", f"{stem}.png"]
-    return main(["demo", name, *args])

@@ -1,5 +1,5 @@
 """Vectorised NumPy implementations of two timpm steps, the baselines of the throughput
-benchmark (``timpm bench``) and independent checks of the Taichi kernels.
+benchmark (``benchmarks/throughput.py``) and independent checks of the Taichi kernels.
 
 * :func:`mpm88_step` -- the physics of Taichi's ``mpm88`` example (Hu et al. 2018): 2D,
   quadratic B-splines, MLS-MPM affine transfer, a fluid whose J advances as
@@ -10,10 +10,9 @@ benchmark (``timpm bench``) and independent checks of the Taichi kernels.
 """
 import numpy as np
 
-__all__ = ["MPM88", "mpm88_initial", "mpm88_step", "mpm88_run", "Numpy1D"]
+from timpm.scenarios.mpm88 import MPM88
 
-#: parameters of Taichi's examples/simulation/mpm88.py
-MPM88 = dict(n_grid=128, dt=2e-4, p_rho=1.0, gravity=9.8, bound=3, E=400.0)
+__all__ = ["MPM88", "mpm88_initial", "mpm88_step", "mpm88_run", "Numpy1D"]
 
 
 def mpm88_initial(n_particles, seed=0):

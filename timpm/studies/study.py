@@ -5,10 +5,10 @@ import time
 
 import numpy as np
 
+from ..batch import Batch
+from ..problems import get_problem
+from ..solver import Solver
 from .analysis import energy_drift, observed_rates, rms_error
-from .batch import Batch
-from .problems import get_problem
-from .solver import Solver
 
 __all__ = ["RunResult", "run_problem", "convergence", "clear_solvers"]
 
@@ -41,29 +41,22 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     basis, mass, dt, t_end, steps, rms_error, wall_seconds (stepping only; compilation is
     ``compile_seconds``) and grid_crossings.  ``series=False`` records no time series of
     the monitored particle (the study's figures need it, its tables do not);
-    ``reuse=True`` keeps the solver for a later run of the same scene (see
-    :func:`clear_solvers`), whose kernels are then compiled already.
+    ``reuse=True`` keeps the scene for a later run with the same arguments (see
+    :func:`clear_solvers`).  Solvers of one feature set share their compiled program, so
+    a run after the first of its kind compiles nothing.
     """
     run = _plan(problem, elements, ppc, basis, mass, dt, t_end, placement, stress_update,
                 damping, allow_unstable_dt, record_every, params, energies, projection, series,
                 reuse=reuse)
-    key = run.key(mode=mode)
     t_build = time.perf_counter()
-    solver = _usable(_SOLVERS.pop(key, None)) if reuse else None
-    if solver is not None:
-        solver.reset()  # compiled at the first reuse, then a single launch
-    else:
-        solver = Solver(run.scene, track=run.track, record_every=run.every, energies=energies,
-                        mode=mode)
+    solver = Solver(run.scene, track=run.track, record_every=run.every, energies=energies,
+                    mode=mode)
     build_seconds = time.perf_counter() - t_build
     try:
         solver.run(run.t_end, progress=progress)
         return run.result(solver, build_seconds)
     finally:
-        if reuse:
-            _keep(_SOLVERS, key, solver)
-        else:
-            solver.release()
+        solver.release()
 
 
 def _plan(problem, *options, reuse=True):
@@ -110,16 +103,6 @@ class _Run:
         steps = int(round(self.t_end / self.scene.dt))
         self.every = _default_record_every(steps) if record_every is None else int(record_every)
 
-    def key(self, **solver_options):
-        """What makes two runs' solvers interchangeable: the scene, by value, and the
-        solver's options."""
-        sc = self.scene
-        return (repr((sc.grid, sc.material, sc.dt, sc.basis, sc.mass, sc.gravity, sc.traction,
-                      sc.fixed_nodes, sc.damping, sc.projection, sc.name)),
-                sc.positions.tobytes(), sc.volume.tobytes(), sc.velocity.tobytes(),
-                tuple(self.track), self.every, self.energies,
-                tuple(sorted(solver_options.items())))
-
     def result(self, solver, build_seconds, state=None) -> RunResult:
         """The run's result from the solver, or from its ``state`` read by the batch."""
         prob, x0, monitor, stress_update = self.prob, self.x0, self.monitor, self.stress_update
@@ -159,58 +142,30 @@ class _Run:
         return RunResult(record, x0.copy(), u, exact, series, en)
 
 
-#: solvers kept for another run of the same scene, and batches of them (oldest first)
-_SOLVERS: "OrderedDict[tuple, Solver]" = OrderedDict()
-_BATCHES: "OrderedDict[tuple, Batch]" = OrderedDict()
-#: runs (their scenes) by the arguments that built them
+#: runs (their scenes) by the arguments that built them (oldest first)
 _PLANS: "OrderedDict[tuple, _Run]" = OrderedDict()
-KEEP = {"solvers": 16, "batches": 4, "plans": 64}
+KEEP = {"plans": 64}
 
 
 def _keep(cache, key, item):
-    """Keep ``item`` under ``key``, releasing the oldest beyond the cache's limit."""
+    """Keep ``item`` under ``key``, forgetting the oldest beyond the cache's limit."""
     cache[key] = item
-    limit = KEEP["solvers" if cache is _SOLVERS else "batches" if cache is _BATCHES else "plans"]
-    while len(cache) > limit:
-        _, old = cache.popitem(last=False)
-        _release(old)
-
-
-def _release(item):
-    if isinstance(item, Batch):
-        for s in item.solvers:
-            s.release()
-    if isinstance(item, (Batch, Solver)):
-        item.release()
-
-
-def _usable(item):
-    """A kept solver or batch, or None where its fields are gone (Taichi restarted by
-    ``timpm.init`` with other settings): then a new one is built."""
-    try:
-        if item is not None:
-            item._require_fields()
-        return item
-    except RuntimeError:
-        _release(item)
-        return None
+    while len(cache) > KEEP["plans"]:
+        cache.popitem(last=False)
 
 
 def clear_solvers():
-    """Release the solvers (and batches) kept for later runs of the same scenes, and forget
-    the scenes."""
-    for cache in (_SOLVERS, _BATCHES, _PLANS):
-        while cache:
-            _release(cache.popitem()[1])
+    """Forget the scenes kept for later runs with the same arguments."""
+    _PLANS.clear()
 
 
 def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=False,
                 **kwargs) -> dict:
     """Run the problem on each mesh; returns the records and the observed rates.
 
-    ``batch=True`` runs the meshes side by side, one thread each (:class:`timpm.Batch`,
-    fused serial solvers kept for a later study of the same meshes): the records' wall
-    seconds are then the batch's, shared by all runs.
+    ``batch=True`` runs the meshes side by side, one thread each (:class:`timpm.Batch` of
+    fused serial solvers): the records' wall seconds are then the batch's, shared by all
+    runs.
     """
     if len(elements) == 0:
         raise ValueError("give at least one number of elements")
@@ -238,14 +193,9 @@ def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", d
             for n in elements]
     if len({r.t_end for r in runs}) != 1:
         raise ValueError("the runs of a batch share t_end")
-    key = tuple(r.key(mode="serial") for r in runs)
     t_build = time.perf_counter()
-    batch = _usable(_BATCHES.pop(key, None)) if reuse else None
-    if batch is not None:
-        batch.reset()
-    else:
-        batch = Batch([Solver(r.scene, track=r.track, record_every=r.every, energies=energies,
-                              mode="serial") for r in runs])
+    batch = Batch([Solver(r.scene, track=r.track, record_every=r.every, energies=energies,
+                          mode="serial") for r in runs])
     build_seconds = time.perf_counter() - t_build
     try:
         batch.run(runs[0].t_end, progress=progress)
@@ -253,10 +203,9 @@ def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", d
         return [r.result(s, build_seconds, state)
                 for r, s, state in zip(runs, batch.solvers, states)]
     finally:
-        if reuse:
-            _keep(_BATCHES, key, batch)
-        else:
-            _release(batch)
+        for s in batch.solvers:
+            s.release()
+        batch.release()
 
 
 def compare_large_column(elements=30, ppc=50, dt=1e-3, t_end=3.0, basis="linear",

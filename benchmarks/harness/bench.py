@@ -1,4 +1,6 @@
-"""``timpm bench``: throughput side by side with Taichi's mpm88 and NumPy, and the limits.
+"""The throughput benchmark: timpm side by side with Taichi's mpm88 and NumPy, and the limits.
+
+Run it as ``python benchmarks/throughput.py [--size full|quick|tiny]``.
 
 Everything is measured in one run on this machine; each thread count runs in its own
 process (Taichi fixes the thread count at start-up).  Reported:
@@ -6,7 +8,7 @@ process (Taichi fixes the thread count at start-up).  Reported:
 * the machine: a STREAM-like triad (GB/s) and a compute-bound kernel (GFLOP/s), both
   Taichi kernels on 1 and 2 threads;
 * mpm88's physics (2D, quadratic B-splines, MLS-MPM, J-fluid, 128^2 grid, dt 2e-4): the
-  installed mpm88 example (headless), the NumPy step (:mod:`timpm.numpy_mpm`) and timpm in
+  installed mpm88 example (headless), the NumPy step (:mod:`harness.numpy_mpm`) and timpm in
   float32 and float64, with every scatter strategy (and fused steps on one thread, a team
   on two), for 1e3..1e6 particles; agreement of the positions after 50 substeps from
   mpm88's own initial state;
@@ -28,6 +30,8 @@ import tempfile
 import time
 
 import numpy as np
+
+from . import BENCHMARKS
 
 __all__ = ["main", "bench"]
 
@@ -107,9 +111,10 @@ def _probes(threads):
 
 
 def _mpm88_timpm(counts, strategies, threads, precision, x0_file=None):
-    from .mpm88 import mpm88_world
+    from timpm.scenarios.mpm88 import mpm88_world
+    from timpm.solver import Solver
+
     from .numpy_mpm import mpm88_initial
-    from .solver import Solver
 
     out = []
     agree = {}
@@ -154,8 +159,8 @@ def _strategy(solver) -> str:
 def _block_world(dim, basis, n_target):
     """A Neo-Hookean block falling onto a slip floor, about ``n_target`` particles (2 per
     cell and axis), MUSL transfer: the per-basis and per-dimension comparison scene."""
-    from .materials import NeoHookean
-    from .world import Body, Box, World
+    from timpm.materials import NeoHookean
+    from timpm.world import Body, Box, World
 
     ppc = 2
     cells_in_block = max(2, round((n_target / ppc ** dim) ** (1.0 / dim)))
@@ -168,8 +173,8 @@ def _block_world(dim, basis, n_target):
 
 
 def _per_basis(cases, threads):
-    from .problems import get_problem
-    from .solver import Solver
+    from timpm.problems import get_problem
+    from timpm.solver import Solver
 
     out = []
     for dim, basis, n in cases:
@@ -204,9 +209,9 @@ def _study_1d(elements=STUDY_ELEMENTS, tiny_steps=200_000):
     side by side (a Batch, solvers kept between studies) recording what the table reports,
     and one after another recording the figures' series and energies as the CLI does; and
     the steps per second of a 64-particle run with everything fused in one launch."""
-    from .problems import get_problem
-    from .solver import Solver
-    from .study import clear_solvers, convergence
+    from timpm.problems import get_problem
+    from timpm.solver import Solver
+    from timpm.studies.study import clear_solvers, convergence
 
     study = {}
     for name, options in (("batch", dict(batch=True, energies=False, series=False)),
@@ -244,9 +249,10 @@ def _study_1d(elements=STUDY_ELEMENTS, tiny_steps=200_000):
 
 def _compile_probe():
     """First-step time (compile + one step) of the mpm88 scene in this process."""
-    from .mpm88 import mpm88_world
+    from timpm.scenarios.mpm88 import mpm88_world
+    from timpm.solver import Solver
+
     from .numpy_mpm import mpm88_initial
-    from .solver import Solver
 
     world, _ = mpm88_world(mpm88_initial(8192)[0])
     s = Solver(world, energies=False)
@@ -257,7 +263,7 @@ def _compile_probe():
 
 
 def _worker(spec):
-    from . import runtime
+    from timpm import runtime
 
     runtime.init(threads=spec["threads"], precision=spec.get("precision", "f64"))
     task = spec["task"]
@@ -277,7 +283,8 @@ def _worker(spec):
 
 def _spawn(spec, env=None, timeout=1800):
     """Run one measurement in a fresh process; returns its JSON result."""
-    cmd = [sys.executable, "-c", "import json, sys; from timpm.bench import _worker; "
+    cmd = [sys.executable, "-c", f"import json, sys; sys.path.insert(0, {str(BENCHMARKS)!r}); "
+           "from harness.bench import _worker; "
            "print('@@' + json.dumps(_worker(json.loads(sys.argv[1]))))", json.dumps(spec)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout,
                           env=dict(os.environ, **(env or {})))
@@ -305,11 +312,12 @@ def _numpy_mpm88(counts, seconds=0.6):
 
 
 def _numpy_study(elements=STUDY_ELEMENTS):
-    """The Table 3.2 runs with :class:`timpm.numpy_mpm.Numpy1D`: stepping alone, and the
+    """The Table 3.2 runs with :class:`harness.numpy_mpm.Numpy1D`: stepping alone, and the
     whole study as timpm's is timed (scenes built, runs, RMS errors), fastest of three."""
-    from .analysis import rms_error
+    from timpm.problems import get_problem
+    from timpm.studies.analysis import rms_error
+
     from .numpy_mpm import Numpy1D
-    from .problems import get_problem
 
     prob = get_problem("vibrating-string")
     stepping, totals = [], []
@@ -465,7 +473,7 @@ def _bounds(res):
 def markdown(res) -> str:
     lines = [f"# timpm throughput ({res['size']} run)", "",
              f"taichi {res['taichi']}, {res['cpu_count']} cores; Mpss = million "
-             "particle-substeps per second; each figure from one run of `timpm bench`, the fastest "
+             "particle-substeps per second; each figure from one run of `benchmarks/throughput.py`, the fastest "
              f"of {CHUNKS} timed chunks (mpm88: its fastest frame of 50 substeps; the means are in "
              "the JSON).", ""]
     lines += ["## Machine", "", "| threads | triad GB/s | compute GFLOP/s (f64 FMA chains) |",
@@ -599,7 +607,8 @@ def write(res, out):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="timpm bench", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python benchmarks/throughput.py",
+                                 description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="docs/throughput",
                     help="output prefix: OUT.json, OUT.md, OUT.png (default docs/throughput)")
     ap.add_argument("--size", choices=list(SIZES), default="full",

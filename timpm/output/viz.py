@@ -1,8 +1,13 @@
 """Plots: convergence (like the study's Figures 3.2, 3.6, 3.12) and particle time series
-with the exact solution beside them (like Figures 3.3-3.4, 3.7-3.10)."""
+with the exact solution beside them (like Figures 3.3-3.4, 3.7-3.10), the ULFEM
+comparison, displacement fields, speed against error, and the demos' diagnostics.
+
+The data come in as arguments (records, documents, demo results); the few reference
+curves the plots draw are imported from the layers below (scenarios, studies)."""
 import numpy as np
 
-__all__ = ["plot_convergence", "plot_series"]
+__all__ = ["plot_convergence", "plot_series", "plot_comparison", "plot_fields", "plot_demo",
+           "plot_runout", "plot_speed_error"]
 
 
 def _pyplot():
@@ -132,7 +137,7 @@ def plot_demo(result, path):
         ax.set_title(f"disks: {result.particles} particles, {result.solver.transfer}; total at the end "
                      f"{100 * total[-1] / total[0]:.1f}% of the initial", fontsize=9)
     elif result.name == "dam-break":
-        from .demos import MARTIN_MOYCE_N2_2
+        from ..scenarios.demos import MARTIN_MOYCE_N2_2
 
         ax.plot(s["T"], s["Z"], "-", lw=1.4, label="timpm (MPM, weakly compressible)")
         ax.plot(*MARTIN_MOYCE_N2_2.T, "ko", ms=4, label="Martin & Moyce (1952), n$^2$ = 2")
@@ -155,7 +160,7 @@ def plot_demo(result, path):
 
 def plot_runout(rows, path):
     """Run-out (L_inf - L0) / L0 against the aspect ratio, with Lube et al.'s laws."""
-    from .demos import lajeunesse_runout, lube_runout
+    from ..scenarios.demos import lajeunesse_runout, lube_runout
 
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6, 4.5))
@@ -169,6 +174,47 @@ def plot_runout(rows, path):
               label="Lajeunesse et al. 2005: 1.8 a, 2.3 a^(2/3)")
     ax.set_xlabel("aspect ratio a = H0 / L0")
     ax.set_ylabel("run-out (L_inf - L0) / L0")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return save(fig, path)
+
+
+def plot_speed_error(doc, path, title=None):
+    """Log-log plot of RMS error against wall time, one colour/marker per basis/mass,
+    the Pareto front as a black line, hollow markers where the time error was not
+    separated, labels ``elements x PPC`` on the front."""
+    from ..studies.speed_error_report import _groups, _valid
+
+    plt = _pyplot()
+    runs = [r for r in doc["runs"] if _valid(r) and r["rms_error"] > 0 and r["wall_seconds"] > 0]
+    groups, with_place = _groups(runs)
+    fig, ax = plt.subplots(figsize=(7.5, 5.5))
+    markers = "osD^vP*Xh<>"
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, (label, rs) in enumerate(groups.items()):
+        rs = sorted(rs, key=lambda r: (r["ppc"], r["elements"]))
+        c, m = colours[i % len(colours)], markers[i % len(markers)]
+        w = np.array([r["wall_seconds"] for r in rs])
+        e = np.array([r["rms_error"] for r in rs])
+        sep = np.array([r.get("time_error_separated", True) for r in rs], dtype=bool)
+        ax.loglog(w, e, "-", color=c, lw=0.8, alpha=0.5)
+        ax.loglog(w[sep], e[sep], m, color=c, ls="none", label=label)
+        if (~sep).any():
+            ax.loglog(w[~sep], e[~sep], m, mfc="none", color=c, ls="none")
+    front = sorted((r for r in runs if r.get("pareto")), key=lambda r: r["wall_seconds"])
+    if front:
+        ax.loglog([r["wall_seconds"] for r in front], [r["rms_error"] for r in front], "k-",
+                  lw=1.5, alpha=0.7, zorder=0, label="Pareto front")
+        for r in front:
+            ax.annotate(f"{r['elements']}x{r['ppc']}", (r["wall_seconds"], r["rms_error"]),
+                        textcoords="offset points", xytext=(5, 4), fontsize=7)
+    if any(not r.get("time_error_separated", True) for r in runs):
+        ax.plot([], [], "o", mfc="none", color="gray", ls="none", label="time error not separated")
+    ax.set_xlabel("wall time of the run [s] (stepping, compilation excluded)")
+    ax.set_ylabel("RMS displacement error [m]")
+    ax.set_title(title or f"{doc['problem']}: error against wall time, t_end = {doc['t_end']:g} s"
+                 f"\n(dt per run: halved until time error < {100 * doc['dt_tolerance']:g} % of "
+                 f"the error; labels: elements x PPC)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     return save(fig, path)

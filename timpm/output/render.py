@@ -3,7 +3,8 @@
 ``Renderer`` splats particles as filled disks into an RGB image with one compiled Taichi
 kernel (positions and values are passed as NumPy arrays, so every frame reuses it).  In
 3D the nearest particle wins each pixel and is shaded slightly darker the farther it is.
-``GifWriter`` collects frames and writes them with Pillow.
+``GifWriter`` collects frames and writes them with Pillow; ``Movie`` joins the two into
+the sink :func:`timpm.scenarios.demos.run_demo` draws a demo's frames into.
 """
 import numbers
 import os
@@ -13,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import taichi as ti
 
-from .runtime import ensure_init
+from ..runtime import ensure_init
 
-__all__ = ["Renderer", "GifWriter", "colormap_lut"]
+__all__ = ["Renderer", "GifWriter", "Movie", "colormap_lut"]
 
 _SHIFT = 31                 # depth key = depth level << _SHIFT | reversed particle index
 _LEVELS = (1 << 24) - 1     # depth levels across the box
@@ -324,3 +325,35 @@ class GifWriter:
         if exc_type is None or self._frames:
             self.close()
         return False
+
+
+class Movie:
+    """A simulation's frames rendered into an animated GIF ``out`` (``width`` pixels wide,
+    ``fps`` frames a second, each frame also as PNG in ``png_dir`` when given).
+
+    ``start(world, color)`` fits a :class:`Renderer` to the world's domain and cells (the
+    colour ``body`` gets a diverging colormap), ``add`` renders and appends one frame,
+    ``close`` writes the GIF; ``seconds`` is the time spent rendering and writing."""
+
+    def __init__(self, out, fps=20, width=480, png_dir=None):
+        self.out = str(out)
+        self.width = width
+        self.writer = GifWriter(out, fps=fps, png_dir=png_dir)
+        self.renderer = None
+
+    def start(self, world, color=None):
+        self.renderer = Renderer((0.0,) * world.dim, world.domain, width=self.width,
+                                 radius=max(1.0, 0.8 * self.width / world.cells / 2),
+                                 cmap="viridis" if color != "body" else "coolwarm")
+
+    def add(self, positions, values=None, vmin=None, vmax=None):
+        if self.renderer is None:
+            raise ValueError("Movie.start(world) must come before the first frame")
+        self.writer.add(self.renderer.frame(positions, values, vmin=vmin, vmax=vmax))
+
+    def close(self):
+        self.writer.close()
+
+    @property
+    def seconds(self) -> float:
+        return self.writer.seconds + (self.renderer.seconds if self.renderer is not None else 0.0)

@@ -1,0 +1,11 @@
+"""The benchmark harness: the throughput benchmark (:mod:`harness.bench`), the NumPy
+baselines (:mod:`harness.numpy_mpm`) and Taichi's mpm88 run headless (:mod:`harness.mpm88`).
+
+Not part of the ``timpm`` package: the scripts in ``benchmarks/`` import it as ``harness``
+(Python puts a script's folder first on ``sys.path``); tests and the worker processes the
+harness starts put ``BENCHMARKS`` on ``sys.path`` themselves.
+"""
+from pathlib import Path
+
+#: the benchmarks folder, which holds this package
+BENCHMARKS = Path(__file__).resolve().parent.parent

@@ -1,0 +1,213 @@
+"""Layers: the package's imports point one way, down the layer order, and form no cycle.
+
+Every module under timpm/ is parsed with ``ast`` (nothing is imported); its imports of
+timpm modules, absolute and relative, at module level and inside functions, are the edges
+of the import graph.  ``from X import name`` points at the module ``X.name`` when there is
+one, else at ``X``.  Importing a submodule also runs its packages' ``__init__``; those
+implicit edges are left out (``timpm/__init__.py`` re-exports the model and is exempt from
+the layer order, though not from the cycle check).
+"""
+import ast
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parent.parent / "timpm"
+
+#: the layers, lowest first: a module may import modules of its own layer and of the layers
+#: below it.  A name covers the module and its submodules; a trailing ``*`` covers every
+#: module whose name starts so (``timpm.model*``: timpm.model, timpm.models.x, ...)
+LAYERS = (
+    ("timpm.runtime", "timpm.argtypes", "timpm.progress"),
+    ("timpm.scene", "timpm.world", "timpm.basis", "timpm.materials*", "timpm.model*",
+     "timpm.engine*", "timpm.errors", "timpm.checks"),
+    ("timpm.solver", "timpm.batch"),
+    ("timpm.problems*", "timpm.scenarios*"),
+    ("timpm.studies*",),
+    ("timpm.output*",),
+    ("timpm.cli", "timpm.__main__"),
+)
+
+#: modules outside the layer order
+EXEMPT = {"timpm"}
+
+
+def module_name(path, root=PACKAGE.parent):
+    """``timpm/studies/study.py`` -> ``timpm.studies.study``; a package's ``__init__.py``
+    is the package."""
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def package_modules(package=PACKAGE):
+    """Module name -> path of every ``.py`` file under ``package``."""
+    return {module_name(p, package.parent): p for p in sorted(package.rglob("*.py"))
+            if "__pycache__" not in p.parts}
+
+
+def imports(module, source, is_package=False):
+    """(name, line, from_import) of every import in ``source``, wherever it stands (other
+    packages' too); ``from X import a`` gives ``X.a``; relative imports are made absolute
+    against ``module`` (``is_package``: the source is its ``__init__.py``)."""
+    here = module if is_package else module.rpartition(".")[0]
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield alias.name, node.lineno, False
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module
+            if node.level:
+                parts = here.split(".")
+                base = ".".join(parts[:len(parts) - node.level + 1] + ([base] if base else []))
+            for alias in node.names:
+                yield f"{base}.{alias.name}", node.lineno, True
+
+
+def _is_ours(name, top="timpm"):
+    return name == top or name.startswith(top + ".")
+
+
+def import_graph(modules):
+    """module -> {imported module: first line}, and the imports that name no module."""
+    graph, unresolved = {}, []
+    for module, path in modules.items():
+        edges = graph.setdefault(module, {})
+        for name, line, from_import in imports(module, path.read_text(),
+                                               path.name == "__init__.py"):
+            if not _is_ours(name):
+                continue
+            target = name
+            if from_import and name not in modules:  # ``from X import a``: X.a or X
+                target = name.rpartition(".")[0]
+            if target not in modules:
+                unresolved.append(f"{module}:{line} imports {name}, which is no module of "
+                                  "the package")
+            elif target != module:
+                edges.setdefault(target, line)
+    return graph, unresolved
+
+
+def layer_of(module, layers=LAYERS):
+    """Index of ``module``'s layer in ``layers``, or None."""
+    for i, names in enumerate(layers):
+        for name in names:
+            if name.endswith("*"):
+                if module.startswith(name[:-1]):
+                    return i
+            elif module == name or module.startswith(name + "."):
+                return i
+    return None
+
+
+def upward_imports(graph, layers=LAYERS, exempt=EXEMPT):
+    """'importer (layer) imports imported (layer)' for every import that points up."""
+    bad = []
+    for module, edges in sorted(graph.items()):
+        if module in exempt:
+            continue
+        low = layer_of(module, layers)
+        for target, line in sorted(edges.items()):
+            high = layer_of(target, layers)
+            if target not in exempt and low is not None and high is not None and high > low:
+                bad.append(f"{module} (layer {low + 1}) imports {target} (layer {high + 1}) "
+                           f"at line {line}")
+    return bad
+
+
+def find_cycles(graph):
+    """Import cycles of ``graph`` (module -> imported modules), each as [a, b, ..., a]: one
+    per back edge of a depth-first search, so every cyclic group of modules shows up."""
+    state, stack, cycles = {}, [], []
+
+    def visit(node):
+        state[node] = "open"
+        stack.append(node)
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == "open":
+                cycles.append(stack[stack.index(nxt):] + [nxt])
+            elif nxt not in state:
+                visit(nxt)
+        stack.pop()
+        state[node] = "done"
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node)
+    return cycles
+
+
+# ---- the package --------------------------------------------------------------------------
+
+MODULES = package_modules()
+GRAPH, UNRESOLVED = import_graph(MODULES)
+
+
+def test_the_package_was_parsed():
+    assert {"timpm", "timpm.cli", "timpm.solver"} <= set(MODULES)
+    assert "timpm.solver" in GRAPH["timpm.cli"]
+
+
+def test_every_timpm_import_names_a_module():
+    # an import inside a function runs only when called: a moved module shows up here
+    assert not UNRESOLVED, "\n".join(UNRESOLVED)
+
+
+def test_every_module_has_a_layer():
+    missing = [m for m in MODULES if m not in EXEMPT and layer_of(m) is None]
+    assert not missing, f"modules in no layer (add them to LAYERS): {', '.join(missing)}"
+
+
+def test_no_import_cycles():
+    cycles = find_cycles({m: set(edges) for m, edges in GRAPH.items()})
+    assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_imports_point_down_the_layers():
+    bad = upward_imports(GRAPH)
+    assert not bad, "imports pointing up the layer order:\n" + "\n".join(bad)
+
+
+# ---- the checks can fail ------------------------------------------------------------------
+
+class _source:
+    """Stands in for a module's path in :func:`import_graph`."""
+
+    name = "module.py"
+
+    def __init__(self, text):
+        self.text = text
+
+    def read_text(self):
+        return self.text
+
+
+def test_cycle_finder_finds_a_synthetic_cycle():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a", "d"}, "d": set(), "e": {"a"}}
+    assert find_cycles(graph) == [["a", "b", "c", "a"]]
+    assert find_cycles({"a": {"b"}, "b": {"c"}, "c": set()}) == []
+    assert find_cycles({"a": {"a"}}) == [["a", "a"]]
+
+
+def test_imports_are_found_relative_and_inside_functions():
+    source = ("import os\nimport timpm.solver\nfrom ..scene import Scene\n"
+              "from . import analysis\n"
+              "def f():\n    from ..output.viz import save\n    from timpm import runtime\n")
+    found = [name for name, _, _ in imports("timpm.studies.study", source) if _is_ours(name)]
+    assert found == ["timpm.solver", "timpm.scene.Scene", "timpm.studies.analysis",
+                     "timpm.output.viz.save", "timpm.runtime"]
+    # in a package's __init__, "." is the package itself
+    assert [n for n, _, _ in imports("timpm.studies", "from .study import x", True)] == [
+        "timpm.studies.study.x"]
+    graph, unresolved = import_graph({"timpm.a": _source("from .b import f\nimport timpm.c"),
+                                      "timpm.b": _source("")})
+    assert graph == {"timpm.a": {"timpm.b": 1}, "timpm.b": {}}
+    assert unresolved == ["timpm.a:2 imports timpm.c, which is no module of the package"]
+
+
+def test_upward_imports_are_named():
+    graph = {"timpm.solver": {"timpm.cli": 3, "timpm.scene": 4},
+             "timpm.output.viz": {"timpm.scenarios.demos": 5}, "timpm": {"timpm.cli": 1}}
+    assert upward_imports(graph) == ["timpm.solver (layer 3) imports timpm.cli (layer 7) "
+                                     "at line 3"]
+    assert layer_of("timpm.models.base") == layer_of("timpm.world") == 1
+    assert layer_of("timpm.elsewhere") is None

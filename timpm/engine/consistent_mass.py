@@ -1,0 +1,73 @@
+"""The consistent mass matrix (study A.1): banded LU without pivoting, on one thread.
+
+Mixed into :class:`~timpm.engine.program.Program` (1D scenes with ``mass="consistent"``):
+P2G assembles ``band[i, k] = M[i, i + k - b]``, ``_banded_factorise`` factorises it in
+place every step and ``_banded_substitute`` solves ``M x = rhs``.
+"""
+import taichi as ti
+
+__all__ = ["ConsistentMass"]
+
+
+class ConsistentMass:
+    """See the module."""
+
+    @ti.func
+    def _banded_factorise(self):
+        # consistent mass (A.1): banded LU without pivoting, in place, on one thread; fixed
+        # and empty rows become identity rows (their right-hand sides are zeroed)
+        b = ti.static(self.bandwidth)
+        nn = self.p.nodes()[0]
+        for _ in range(1):
+            for i in range(nn):
+                self.inactive[i] = 0
+                if self._is_fixed(i) or self.band[i, b] <= self.p.mass_tol():
+                    self.inactive[i] = 1
+                    for k in ti.static(range(2 * b + 1)):
+                        self.band[i, k] = 0.0
+                    for r in ti.static(range(1, b + 1)):
+                        if i - r >= 0:
+                            self.band[i - r, b + r] = 0.0
+                        if i + r < nn:
+                            self.band[i + r, b - r] = 0.0
+                    self.band[i, b] = 1.0
+            for k in range(nn):
+                pivot = self.band[k, b]
+                if ti.abs(pivot) <= self.p.pivot_tol():
+                    self._fail(4, k)
+                    pivot = 1.0
+                    self.band[k, b] = 1.0
+                if pivot < 0.0:
+                    self.accumulate(self.neg_pivots[None], 1)
+                for r in ti.static(range(1, b + 1)):
+                    i = k + r
+                    if i < nn:
+                        lik = self.band[i, b - r] / pivot
+                        self.band[i, b - r] = lik  # the multiplier, kept for substitution
+                        for c in ti.static(range(1, b + 1)):
+                            if c - r <= b:
+                                self.band[i, b - r + c] -= lik * self.band[k, b + c]
+
+    @ti.func
+    def _banded_substitute(self, rhs: ti.template()):
+        b = ti.static(self.bandwidth)
+        nn = self.p.nodes()[0]
+        for _ in range(1):
+            for i in range(nn):
+                if self.inactive[i]:
+                    rhs[i] = ti.Vector.zero(float, self.dim)
+            for i in range(nn):  # forward: L y = rhs
+                acc = rhs[i]
+                for r in ti.static(range(1, b + 1)):
+                    if i - r >= 0:
+                        acc -= self.band[i, b - r] * rhs[i - r]
+                rhs[i] = acc
+            for j in range(nn):  # backward: U x = y
+                i = nn - 1 - j
+                acc = rhs[i]
+                # no test i + c < nn: the band and rhs are zero there (the capacity leaves
+                # room for b nodes beyond the last), and a branch-free row is what the
+                # compiler contracts into fused multiply-adds
+                for c in ti.static(range(1, b + 1)):
+                    acc -= self.band[i, b + c] * rhs[i + c]
+                rhs[i] = acc / self.band[i, b]

@@ -1,0 +1,283 @@
+"""What a scene asks of the engine: the feature set (compile time) and the layout (run time).
+
+:func:`plan` reads a 1D :class:`~timpm.scene.Scene` or a 2D/3D :class:`~timpm.world.World`
+and the solver's options and splits them in two:
+
+- a :class:`FeatureSet`, a frozen, hashable value of every compile-time choice (dimension,
+  basis, transfer, mass, projection, materials, walls, loads, scatter, mode, what is
+  recorded).  Programs are compiled and cached per feature set: scenes that share it
+  share the compiled kernels, whatever their size;
+- a :class:`Layout`: the sizes (particles, nodes, elements, tracked particles) and the
+  run-time values (grid spacing, time step, gravity, loads, material constants).
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..basis import get_basis
+from ..materials import Hypoelastic1D
+from ..scene import Scene
+from ..world import World
+from .. import runtime
+
+__all__ = ["FeatureSet", "Layout", "plan", "MODES", "SCATTERS", "MIN_CPU_BLOCK", "auto_mode"]
+
+MODES = ("auto", "parallel", "serial", "team")
+#: P2G scatter strategies: parallel atomic adds (the GPU path); the scatter loop on one
+#: thread (plain adds); or one private grid copy per CPU thread, each filled with plain adds
+#: by its share of the particles and summed into the grid afterwards.  "auto" picks
+#: private on a multi-threaded CPU, serial on one thread and atomic on a GPU.
+SCATTERS = ("auto", "atomic", "serial", "private")
+#: Taichi's CPU range-for hands each thread one contiguous block of at least this many
+#: iterations (pass make_cpu_multithreading_loop); shorter loops run on one thread
+MIN_CPU_BLOCK = 512
+
+
+def auto_mode(n_particles: int, serial_threshold: int, cpu_threads: int) -> str:
+    """The mode ``mode="auto"`` picks: fused serial steps up to ``serial_threshold``
+    particles, and at any size on one CPU thread (``cpu_threads``: 0 off the CPU), where a
+    parallel loop only hands its work to Taichi's pool and waits to be woken (0.1-0.4 ms
+    per step on a 2-vCPU machine, at any particle count)."""
+    return "serial" if n_particles <= serial_threshold or cpu_threads == 1 else "parallel"
+
+
+@dataclass(frozen=True)
+class FeatureSet:
+    """Every compile-time choice of a program.  Two scenes with equal feature sets run the
+    same compiled kernels."""
+
+    dim: int
+    basis: str
+    transfer: str                # "musl", "apic" or "mls-mpm"
+    consistent: bool             # consistent mass matrix (1D)
+    mls: bool                    # MLS projection of 4.4 (1D)
+    materials: tuple             # ((material class, its flags()), ...) in material-index order
+    walls: tuple | None          # wall kind per side (2D/3D), None in 1D
+    damping: bool                # local damping of A.4
+    traction: type | None        # time-function class of the 1D traction
+    fixed: bool                  # Dirichlet nodes
+    gravity: tuple               # per axis: a non-zero gravity
+    has_u: bool                  # particle displacements (1D)
+    grid_displacement: bool      # nodal displacements u_i += v_i dt
+    track_crossings: bool
+    energies: bool
+    tracking: bool               # time series of tracked particles
+    mode: str                    # "serial" (fused, one thread) or "parallel"
+    scatter: str                 # "atomic", "serial" or "private"
+    n_copies: int                # grid copies of the private scatter (1 otherwise)
+    team: bool
+    precision: str
+    arch: str
+
+    # ---- derived choices ---------------------------------------------------------------
+    @property
+    def basis_class(self):
+        return get_basis(self.basis)
+
+    @property
+    def apic(self) -> bool:
+        """The affine transfers: APIC, and MLS-MPM (Hu et al. 2018), which also takes the
+        force and the velocity gradient from the affine moments."""
+        return self.transfer in ("apic", "mls-mpm")
+
+    @property
+    def mls_mpm(self) -> bool:
+        return self.transfer == "mls-mpm"
+
+    @property
+    def strain_remap(self) -> bool:
+        """APIC with the linear basis takes the strain increment from the remapped velocity
+        P'_i / m_i, P'_i = sum_p m_p phi_i v_p (the study's MUSL remap, 2.2.4): the grid
+        velocity of a node a particle barely touches ~ 1 / phi and grad phi does not vanish
+        with phi, so sum_i v_i grad phi_i^T is unbounded there (v_p and C_p are not)."""
+        return self.transfer == "apic" and self.basis_class.support == 2
+
+    @property
+    def needs(self) -> frozenset:
+        return frozenset().union(*(cls.needs for cls, _ in self.materials))
+
+    @property
+    def multi_material(self) -> bool:
+        return len(self.materials) > 1
+
+    @property
+    def update_volume(self) -> bool:
+        """V_p = det(F) V0, unless every material's stress acts on the initial volume."""
+        return not all(cls.initial_volume for cls, _ in self.materials)
+
+    @property
+    def has_walls(self) -> bool:
+        return self.walls is not None
+
+    @property
+    def recording(self) -> bool:
+        return self.energies or self.tracking
+
+    @property
+    def private_scatter(self) -> bool:
+        return self.n_copies > 1
+
+    @property
+    def serial_scatter(self) -> bool:
+        """The scatter loop on one thread inside the parallel mode (the fused serial mode
+        runs every loop on one thread anyway)."""
+        return self.scatter == "serial" and self.mode == "parallel"
+
+    @property
+    def run_sums(self) -> bool:
+        """1D on one thread (MUSL, lumped, standard projection): neighbouring particles
+        share their element, so a run of them sums its node values in registers and adds
+        them to the grid once (a store-to-load chain through the grid per particle
+        otherwise)."""
+        return (self.dim == 1 and not self.apic and not self.consistent and not self.mls
+                and (self.mode == "serial" or self.serial_scatter))
+
+    @property
+    def bandwidth(self) -> int:
+        return self.basis_class.support - 1
+
+    @property
+    def node_offset(self) -> int:
+        basis = self.basis_class
+        return basis.offset() if hasattr(basis, "offset") else 0
+
+
+@dataclass
+class Layout:
+    """Sizes and run-time values of one scene under its feature set."""
+
+    n_particles: int
+    elements: tuple              # grid elements per axis
+    nodes: tuple                 # grid nodes per axis
+    n_tracked: int
+    history: int                 # records the kernels hold between two reads
+    room: tuple                  # grid nodes per axis the fields must hold (1D: + support)
+    h: float                     # grid spacing
+    origin: tuple                # position of the grid's first node (element 0)
+    values: dict = field(default_factory=dict)          # the program's run-time values
+    materials: list = field(default_factory=list)       # the material of each slot
+    material_values: list = field(default_factory=list)  # its run-time constants
+    fixed_nodes: list = field(default_factory=list)     # Dirichlet nodes (1D)
+
+
+def _scatter_choice(scatter, mode, private_ok):
+    if scatter not in SCATTERS:
+        raise ValueError(f"unknown scatter {scatter!r}: choose one of {', '.join(SCATTERS)}")
+    if scatter == "private" and not private_ok:
+        raise ValueError("the private scatter needs a lumped mass without the MLS "
+                         "projection; use scatter='serial' or 'atomic'")
+    if scatter == "auto":
+        # a float atomic add is a compare-and-swap loop on the CPU, ~5x a plain add:
+        # plain adds into a grid copy per thread there, atomics on GPUs
+        if not runtime.on_cpu():
+            return "atomic"
+        if runtime.cpu_threads() > 1 and private_ok and mode == "parallel":
+            return "private"
+        return "serial"
+    return scatter
+
+
+def plan(scene, track=(), record_every=1, energies=True, mode="auto", serial_threshold=4096,
+         history_chunk=None, track_crossings=None, grid_displacement=False,
+         small_mass=1e-3, scatter="auto"):
+    """The feature set and layout of ``scene`` run with the solver's options (checked)."""
+    if not isinstance(scene, (Scene, World)):
+        raise TypeError(f"Solver takes a timpm.Scene (1D) or a timpm.World (2D/3D), "
+                        f"got {type(scene).__name__}")
+    if mode not in MODES:
+        raise ValueError(f"unknown mode {mode!r}: choose auto, parallel, serial or team")
+    n = scene.n_particles
+    for p in track:
+        if not 0 <= p < n:
+            raise ValueError(f"tracked particle {p} does not exist ({n} particles)")
+    basis = scene.basis_class
+    one_d = isinstance(scene, Scene)
+    requested = mode
+    on_cpu = runtime.on_cpu()
+    threads = runtime.cpu_threads() if on_cpu else 0
+    if mode == "auto":
+        mode = auto_mode(n, serial_threshold, threads)
+    run_mode = "parallel" if mode == "team" else mode  # a team runs the parallel kernels
+    consistent = one_d and scene.mass == "consistent"
+    mls = one_d and scene.projection == "mls"
+    scatter = _scatter_choice(scatter, run_mode, not (consistent or mls))
+    # private: at least two copies, so that the path is the same on a one-core machine
+    n_copies = max(2, threads) if scatter == "private" and run_mode == "parallel" else 1
+    if n_copies > 1 and not runtime.static_cpu_blocks():
+        raise ValueError("the private scatter relies on Taichi's static split of CPU "
+                         "range-for loops (make_cpu_multithreading_loop), which is off")
+    if grid_displacement and not one_d:
+        raise ValueError("grid_displacement is available for 1D scenes only")
+    if one_d:
+        dim, transfer = 1, "musl"
+        elements = (scene.grid.n_elements,)
+        origin, gravity = (scene.grid.origin,), (float(scene.gravity),)
+        materials = [Hypoelastic1D(scene.material.E, scene.material.stress_update == "study")]
+        walls, damping = None, float(scene.damping)
+        traction = scene.traction
+        fixed_nodes = [(i,) for i in scene.fixed_nodes]
+    else:
+        dim, transfer = scene.dim, scene.transfer
+        elements = scene.grid_elements
+        origin, gravity = scene.origin, tuple(float(g) for g in scene.gravity)
+        materials = list(scene.materials)
+        walls, damping = tuple(w.kind for w in scene.walls), float(scene.damping)
+        traction, fixed_nodes = None, []
+    if consistent and dim != 1:
+        raise ValueError("the consistent mass matrix is implemented for 1D scenes only")
+    nodes = tuple(basis.n_nodes(e) for e in elements)
+    apic = transfer in ("apic", "mls-mpm")
+    strain_remap = transfer == "apic" and basis.support == 2
+    private = n_copies > 1
+    # team: the passes of many steps in one parallel task, each thread a fixed block of
+    # particles (its own grid copy) and of nodes, the passes separated by spin barriers:
+    # Taichi's pool is woken once per launch, not three times per step
+    team_ok = private and apic and not strain_remap and threads >= n_copies
+    if requested == "team" and not team_ok:
+        raise ValueError("mode='team' needs the private scatter with a thread per grid "
+                         "copy (two CPU threads or more) and the affine transfer (APIC "
+                         "with a B-spline basis, or MLS-MPM)")
+    has_u = one_d
+    crossings = (dim == 1) if track_crossings is None else bool(track_crossings)
+    features = FeatureSet(
+        dim=dim, basis=basis.name, transfer=transfer, consistent=consistent, mls=mls,
+        materials=tuple((type(m), m.flags()) for m in materials), walls=walls,
+        damping=damping > 0.0, traction=None if traction is None else type(traction.time_function),
+        fixed=bool(fixed_nodes), gravity=tuple(g != 0.0 for g in gravity), has_u=has_u,
+        grid_displacement=bool(grid_displacement), track_crossings=crossings,
+        energies=bool(energies), tracking=len(track) > 0, mode=run_mode, scatter=scatter,
+        n_copies=n_copies, team=team_ok and requested in ("team", "auto"),
+        precision=runtime.precision(), arch=runtime.arch())
+    if history_chunk is None:
+        # records the kernels hold between two reads from Python: about 4 MiB
+        per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))
+        record = 16 + 32 * bool(energies) + len(track) * per_tracked
+        history_chunk = min(16384, max(512, (4 << 20) // record))
+    h = scene.grid.h if one_d else scene.h
+    mass_scale = float(np.mean(scene.mass_per_particle))
+    values = dict(
+        n_particles=n, elements=elements, nodes=nodes, h=h, inv_h=1.0 / h, dt=scene.dt,
+        origin=origin, gravity=gravity, damping=damping,
+        # nodes with less mass than this are empty; the consistent mass drops nodes that a
+        # particle barely touches (their rows make M ill-conditioned: the small-mass problem)
+        mass_tol=(small_mass if consistent else 1e-14) * mass_scale,
+        pivot_tol=1e-14 * mass_scale,
+        scatter_block=max(MIN_CPU_BLOCK, -(-n // n_copies)), n_tracked=len(track))
+    if features.mls_mpm:
+        D_inv = 1.0 / (basis.inertia * h ** 2)
+        values.update(D_inv=D_inv, dt_D_inv=scene.dt * D_inv)
+    if traction is not None:
+        values.update(traction_particle=traction.particle,
+                      traction_amplitude=float(traction.amplitude),
+                      traction_param=float(traction.time_function.param))
+    if walls is not None:
+        values.update(wall_mu=tuple(float(w.mu) for w in scene.walls), pad=scene.padding,
+                      domain_cells=tuple(e - 2 * scene.padding for e in elements))
+    # 1D: room for a stencil beyond the last node (the banded solve reads it, as zeros)
+    room = (nodes[0] + basis.support,) if dim == 1 else nodes
+    layout = Layout(n_particles=n, elements=tuple(elements), nodes=nodes, room=room,
+                    n_tracked=len(track), history=int(history_chunk), h=h,
+                    origin=tuple(origin), values=values, materials=materials,
+                    material_values=[m.constants(scene.dt) for m in materials],
+                    fixed_nodes=fixed_nodes)
+    return features, layout

@@ -1,0 +1,135 @@
+"""The grid phases: clearing, boundary conditions (Dirichlet nodes, walls), nodal solves.
+
+Mixed into :class:`~timpm.engine.program.Program`.
+"""
+import taichi as ti
+
+from .mls_projection import GAUSS_POINTS
+
+__all__ = ["GridOps"]
+
+
+class GridOps:
+    """See the module."""
+
+    @ti.func
+    def _is_fixed(self, I):
+        fixed = 0
+        if ti.static(self.f.fixed):
+            fixed = self.fixed[I]
+        return fixed
+
+    @ti.func
+    def _wall(self, I, v):
+        """Wall conditions on the velocity of node I (sides left/right, bottom/top, ...):
+        sticky v = 0; slip removes the outward normal component; friction also slows the
+        tangential velocity by mu |v_n| (Coulomb), down to rest."""
+        for k in ti.static(range(self.dim)):
+            c = I[k] - self.node_offset - self.p.pad()  # node coordinate, cells from the lower wall
+            for side in ti.static(range(2)):
+                sticky = ti.static(self.walls[2 * k + side] == "sticky")
+                friction = ti.static(self.walls[2 * k + side] == "friction")
+                hit = c <= 0 if ti.static(side == 0) else c >= self.p.domain_cells()[k]
+                if hit:
+                    vn = v[k] if ti.static(side == 0) else -v[k]  # along the inward normal
+                    if ti.static(sticky):
+                        v = ti.Vector.zero(float, self.dim)
+                    elif vn < 0.0:
+                        if ti.static(friction):
+                            vt = v
+                            vt[k] = 0.0
+                            speed = vt.norm()
+                            scale = 0.0
+                            if speed > 0.0:
+                                mu = self.p.wall_mu()[2 * k + side]
+                                scale = ti.max(0.0, 1.0 - mu * (-vn) / speed)
+                            v = vt * scale
+                        else:
+                            v[k] = 0.0
+        return v
+
+    @ti.func
+    def _clear_grid(self):
+        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            self.gm[I] = 0.0
+            self.gp[I] = ti.Vector.zero(float, self.dim)
+            if ti.static(not self.apic):
+                self.gf[I] = ti.Vector.zero(float, self.dim)
+        if ti.static(self.consistent):
+            for i, k in ti.ndrange(self.p.nodes()[0], 2 * self.bandwidth + 1):
+                self.band[i, k] = 0.0
+        if ti.static(self.mls):
+            for e, g in ti.ndrange(self.p.elements()[0], ti.static(len(GAUSS_POINTS))):
+                self.g_mom[e, g] = ti.Vector.zero(float, 3)
+                self.g_rho[e, g] = ti.Vector.zero(float, 2)
+                self.g_sig[e, g] = ti.Vector.zero(float, 2)
+            self.body[None] = ti.Vector([1e300, -1e300])
+            for i in range(self.p.nodes()[0]):
+                self.n_mom[i] = ti.Vector.zero(float, 3)
+                self.n_vel[i] = ti.Vector.zero(float, 2)
+
+    @ti.func
+    def _grid_acceleration(self):
+        # grid: local damping F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F; at a
+        # wall a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
+        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            if ti.static(self.damping):
+                self.gf[I] -= self.p.damping() * ti.math.sign(self.gp[I]) * ti.abs(self.gf[I])
+            if ti.static(self.has_walls):
+                a = ti.Vector.zero(float, self.dim)
+                if self.gm[I] > self.p.mass_tol():
+                    vn = self.gp[I] / self.gm[I]
+                    a = (self._wall(I, vn + self.p.dt() * self.gf[I] / self.gm[I]) - vn) / self.p.dt()
+                self.gf[I] = a
+            elif ti.static(not self.consistent):
+                self.gf[I] = self._lumped_solve(I, self.gf[I])  # a = F / m in the same pass
+            if ti.static(self.damping or self.has_walls):
+                self.gp[I] = ti.Vector.zero(float, self.dim)  # P2G scattered P_i
+        if ti.static(self.consistent and not self.has_walls):
+            self._solve_mass(self.gf, False)
+
+    @ti.func
+    def _grid_velocity(self):
+        # grid (APIC): v_i = P_i / m_i, wall conditions applied; in the same pass the
+        # private copies are summed in and m_i, P_i cleared for the next P2G
+        # (a node no particle reached has m = P = 0 and is left alone: G2P weighs it by 0)
+        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            self._grid_velocity_node(I)
+
+    @ti.func
+    def _grid_velocity_node(self, I):
+        if self._reached(I):
+            m = self._merged("gm", I)
+            P = self._merged("gp", I)
+            v = ti.Vector.zero(float, self.dim)
+            if m > self.p.mass_tol() and not self._is_fixed(I):
+                v = P / m
+                if ti.static(self.has_walls):
+                    v = self._wall(I, v)
+            self.gv[I] = v
+            if ti.static(self.strain_remap):
+                self.gm[I] = m  # P cleared for the remap
+                self.gp[I] = ti.Vector.zero(float, self.dim)
+            elif ti.static(not self.private_scatter):
+                self.gm[I] = 0.0
+                self.gp[I] = ti.Vector.zero(float, self.dim)
+
+    @ti.func
+    def _solve_mass(self, rhs: ti.template(), walls: ti.template()):
+        """rhs <- M^-1 rhs with Dirichlet nodes held at zero and empty nodes left at zero;
+        ``walls``: apply the wall conditions to the result (a velocity)."""
+        if ti.static(not self.consistent):
+            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                rhs[I] = self._lumped_solve(I, rhs[I])
+                if ti.static(walls and self.has_walls):
+                    rhs[I] = self._wall(I, rhs[I])
+        else:
+            self._banded_substitute(rhs)
+
+    @ti.func
+    def _lumped_solve(self, I, value):
+        """value / m_i at node I; zero at Dirichlet and empty nodes."""
+        out = ti.Vector.zero(float, self.dim)
+        if not (self._is_fixed(I) or self.gm[I] <= self.p.mass_tol()):
+            out = value / self.gm[I]
+        return out

@@ -1,0 +1,132 @@
+"""The moving-least-squares projection of study 4.4 (1D, linear basis, lumped mass).
+
+Mixed into :class:`~timpm.engine.program.Program`.  Nodal velocities are reconstructed
+from the particles by MLS (cubic-spline weight), density and stress by MLS at the Gauss
+points of each element's part of the body (quadratic-spline weight), where mass and
+forces are integrated.
+"""
+import taichi as ti
+
+__all__ = ["MLSProjection", "GAUSS_POINTS", "GAUSS_WEIGHTS"]
+
+#: two-point Gauss-Legendre rule on [0, 1] (MLS projection: integration points)
+GAUSS_POINTS = (0.5 - 0.5 / 3 ** 0.5, 0.5 + 0.5 / 3 ** 0.5)
+GAUSS_WEIGHTS = (0.5, 0.5)
+
+
+@ti.func
+def _quadratic_spline(r):
+    """Quadratic-spline MLS weight of 4.4, r = |x - x_p| / h (the continuous standard form)."""
+    w = 0.0
+    if r <= 0.5:
+        w = 0.75 - r * r
+    elif r <= 1.5:
+        w = 0.5 * (1.5 - r) ** 2
+    return w
+
+
+@ti.func
+def _cubic_spline(r):
+    """Cubic-spline MLS weight of 4.4, r = |x - x_p| / (2 h)."""
+    w = 0.0
+    if r <= 0.5:
+        w = 2.0 / 3.0 - 4.0 * r * r + 4.0 * r * r * r
+    elif r <= 1.0:
+        w = 4.0 / 3.0 * (1.0 - r) ** 3
+    return w
+
+
+@ti.func
+def _mls_value(mom, b):
+    """u_h(y) = p(y)^T A^-1 B u with p = [1, d]: the first coefficient of the 2x2 solve;
+    Shepard's value sum w u / sum w where A is singular (fewer than two points around)."""
+    det = mom[0] * mom[2] - mom[1] * mom[1]
+    value = 0.0
+    if det > 1e-10 * mom[0] * mom[0] and mom[0] > 0.0:
+        value = (mom[2] * b[0] - mom[1] * b[1]) / det
+    elif mom[0] > 0.0:
+        value = b[0] / mom[0]
+    return value
+
+
+class MLSProjection:
+    """See the module."""
+
+    @ti.func
+    def _scatter_gauss_moments(self, p):
+        # MLS moments at the Gauss points within 1.5 h of the particle, quadratic-spline
+        # weight, basis [1, d] with d = (x_p - y) / h
+        xi = (self.x[p][0] - self.p.origin()[0]) * self.p.inv_h()
+        e0 = ti.floor(xi, ti.i32)
+        rho = self.m[p] / self.vol[p]
+        sig = self.sigma[p][0, 0]
+        for k in ti.static(range(-2, 3)):
+            e = e0 + k
+            if 0 <= e < self.p.elements()[0]:
+                for g in ti.static(range(len(GAUSS_POINTS))):
+                    y, jw = self._gauss_point(e, g)
+                    d = xi - y
+                    w = _quadratic_spline(ti.abs(d)) if jw > 0.0 else 0.0
+                    if w > 0.0:
+                        self.accumulate(self.g_mom[e, g], w * ti.Vector([1.0, d, d * d]))
+                        self.accumulate(self.g_rho[e, g], w * rho * ti.Vector([1.0, d]))
+                        self.accumulate(self.g_sig[e, g], w * sig * ti.Vector([1.0, d]))
+
+    @ti.func
+    def _body_extent(self):
+        # the body is the union of the particle domains x_p -+ V_p / 2 (element units)
+        for p in range(self.p.n_particles()):
+            xi = (self.x[p][0] - self.p.origin()[0]) * self.p.inv_h()
+            half = 0.5 * self.vol[p] * self.p.inv_h()
+            if ti.static(self.mode == "serial"):  # one thread: no atomics (see _sum_into)
+                self.body[None][0] = ti.min(self.body[None][0], xi - half)
+                self.body[None][1] = ti.max(self.body[None][1], xi + half)
+            else:
+                ti.atomic_min(self.body[None][0], xi - half)
+                ti.atomic_max(self.body[None][1], xi + half)
+
+    @ti.func
+    def _gauss_point(self, e, g: ti.template()):
+        """Gauss point g of element e's part of the body, and its weight times length."""
+        a = ti.max(ti.cast(e, float), self.body[None][0])
+        b = ti.min(ti.cast(e + 1, float), self.body[None][1])
+        return a + (b - a) * GAUSS_POINTS[g], GAUSS_WEIGHTS[g] * ti.max(b - a, 0.0) * self.p.h()
+
+    @ti.func
+    def _integrate_gauss(self):
+        # M_ii = int rho phi_i, F_i = int (rho g phi_i - sigma dphi_i) by Gauss quadrature
+        # over each element's part of the body, rho and sigma reconstructed by MLS (4.4)
+        for e in range(self.p.elements()[0]):
+            for g in ti.static(range(len(GAUSS_POINTS))):
+                y, jw = self._gauss_point(e, g)
+                if jw > 0.0:
+                    rho = _mls_value(self.g_mom[e, g], self.g_rho[e, g])
+                    sig = _mls_value(self.g_mom[e, g], self.g_sig[e, g])
+                    base, w, dw = self.basis.stencil(y, self.p.elements()[0])
+                    for a in ti.static(range(self.basis.support)):
+                        self.accumulate(self.gm[base + a], jw * rho * w[a])
+                        self.accumulate(self.gf[base + a][0], jw * (rho * self.p.gravity()[0] * w[a]
+                                                                   - sig * dw[a] * self.p.inv_h()))
+
+    @ti.func
+    def _scatter_node_moments(self, p, vp):
+        # MLS moments at the nodes within 2 h, cubic-spline weight (r = |d| / 2)
+        xi = (self.x[p][0] - self.p.origin()[0]) * self.p.inv_h()
+        i0 = ti.floor(xi, ti.i32)
+        for k in ti.static(range(-1, 3)):
+            i = i0 + k
+            if 0 <= i < self.p.nodes()[0]:
+                d = xi - i
+                w = _cubic_spline(0.5 * ti.abs(d))
+                if w > 0.0:
+                    self.accumulate(self.n_mom[i], w * ti.Vector([1.0, d, d * d]))
+                    self.accumulate(self.n_vel[i], w * vp * ti.Vector([1.0, d]))
+
+    @ti.func
+    def _mls_nodal_velocity(self):
+        # v_i = sum_p Phi_p(x_i) v_p: the MLS reconstruction of the velocity field (4.4)
+        for i in range(self.p.nodes()[0]):
+            v = 0.0
+            if not self._is_fixed(i):
+                v = _mls_value(self.n_mom[i], self.n_vel[i])
+            self.gp[i][0] = v

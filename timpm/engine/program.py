@@ -1,0 +1,401 @@
+"""The compiled step program of one feature set, its fields allocated at a capacity.
+
+A :class:`Program` is compiled once per :class:`~timpm.engine.features.FeatureSet` per
+process (and loaded from Taichi's offline cache across processes): its fields hold up to
+a capacity of particles, nodes and records, the live sizes and every other scene value
+are run-time values (:mod:`.params`).  Scenes of one feature set take turns in the same
+fields: a solver *activates* its state (uploads it) before it runs or reads, and the
+state it replaces is saved to host memory first.  A scene larger than the capacity grows
+it (doubling), which builds a new program and compiles again: log2 of the size range at
+most.
+
+The phases of a step come from the mixins, one unit each: the stencil, the scatter
+strategies, the grid phases, the consistent mass, the transfers, the MLS projection,
+recording and the drivers (fused serial, parallel, team).
+"""
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+import taichi as ti
+
+from .consistent_mass import ConsistentMass
+from .drivers import Drivers
+from .grid import GridOps
+from .mls_projection import GAUSS_POINTS, MLSProjection
+from .params import ParamBlock
+from .recorder import Recorder
+from .scatter import ScatterOps
+from .stencil import StencilOps
+from .transfer import Transfer
+
+__all__ = ["Program", "Capacity", "program_for", "clear_programs"]
+
+
+@dataclass(frozen=True)
+class Capacity:
+    """How much a program's fields hold."""
+
+    particles: int
+    nodes: tuple
+    tracked: int
+    history: int
+
+    def holds(self, layout) -> bool:
+        return (layout.n_particles <= self.particles and layout.n_tracked <= self.tracked
+                and layout.history <= self.history
+                and all(n <= c for n, c in zip(layout.room, self.nodes)))
+
+    def grown(self, layout) -> "Capacity":
+        """A capacity that holds ``layout``: every size too small doubles (at least)."""
+        def grow(have, need, least):
+            return have if need <= have else max(need, 2 * have, least)
+        return Capacity(grow(self.particles, layout.n_particles, 0),
+                        tuple(grow(c, n, 0) for c, n in zip(self.nodes, layout.room)),
+                        grow(self.tracked, layout.n_tracked, 0),
+                        grow(self.history, layout.history, 0))
+
+    @staticmethod
+    def first(features, layout) -> "Capacity":
+        """The first capacity of a feature set: room for a 1D study's meshes (1024
+        particles, 256 nodes); the scene's own sizes in 2D and 3D."""
+        if features.dim == 1:
+            return Capacity(max(1024, layout.n_particles), (max(256, layout.room[0]),),
+                            max(8, layout.n_tracked), max(1024, layout.history))
+        return Capacity(layout.n_particles, tuple(layout.room), max(8, layout.n_tracked),
+                        layout.history)
+
+
+def _param_spec(features):
+    d = features.dim
+    spec = {"n_particles": "int", "elements": ("int", d), "nodes": ("int", d),
+            "node_count": "int", "nodes_per_thread": "int", "scatter_block": "int",
+            "n_tracked": "int", "h": "real", "inv_h": "real", "dt": "real",
+            "origin": ("real", d), "gravity": ("real", d), "damping": "real",
+            "mass_tol": "real", "pivot_tol": "real"}
+    if features.mls_mpm:
+        spec.update(D_inv="real", dt_D_inv="real")
+    if features.traction is not None:
+        spec.update(traction_particle="int", traction_amplitude="real", traction_param="real")
+    if features.has_walls:
+        spec.update(wall_mu=("real", 2 * d), pad="int", domain_cells=("int", d))
+    groups = {"p": spec}
+    for k, (cls, _) in enumerate(features.materials):
+        groups[f"m{k}"] = {name: "real" for name in cls.CONSTANTS}
+    return groups
+
+
+@ti.data_oriented
+class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProjection,
+              Recorder, Drivers):
+    """Fields and kernels of one feature set at one capacity."""
+
+    def __init__(self, features, capacity: Capacity):
+        f = self.f = features
+        self.capacity = capacity
+        # compile-time choices the phases read (through ti.static)
+        self.dim, self.basis = f.dim, f.basis_class
+        self.transfer, self.mode, self.team = f.transfer, f.mode, f.team
+        self.apic, self.mls_mpm, self.strain_remap = f.apic, f.mls_mpm, f.strain_remap
+        self.consistent, self.mls, self.damping = f.consistent, f.mls, f.damping
+        self.private_scatter, self.serial_scatter = f.private_scatter, f.serial_scatter
+        self.run_sums, self.n_copies = f.run_sums, f.n_copies
+        self.walls, self.has_walls = f.walls, f.has_walls
+        self.has_traction, self.traction_fn = f.traction is not None, f.traction
+        self.has_u, self.grid_displacement = f.has_u, f.grid_displacement
+        self.track_crossings, self.tracking = f.track_crossings, f.tracking
+        self.recording, self.record_energies = f.recording, f.energies
+        self.needs, self.multi_material = f.needs, f.multi_material
+        self.update_volume = f.update_volume
+        self.bandwidth, self.node_offset = f.bandwidth, f.node_offset
+        # rows of the run sums: the grid fields each scattering phase adds to
+        self.scatter_rows = {"p2g": ("gm", "gf") + (("gp",) if self.damping else ()),
+                             "g2p-velocity": ("gp",)}
+        self._allocate(capacity)
+        self._bind_kernels()
+        self._active = None  # weak reference to the solver whose state the fields hold
+        self._numpy_shapes = {}  # id(field) -> the shape of its NumPy copy
+        self.compiled = set()  # the kernels that ran once (compiled)
+
+    # ---- fields ------------------------------------------------------------------------
+    def _allocate(self, cap):
+        d, n = self.dim, cap.particles
+        fb = ti.FieldsBuilder()
+        real = float  # Taichi's default_fp: timpm.init(precision=...)
+        block = ParamBlock(_param_spec(self.f), real, fb)
+        self.params = block
+        self.p = block.groups["p"]
+        # the compiled unit of each material, reading its constants from its group
+        self.material_units = [cls.unit(flags, block.groups[f"m{k}"])
+                               for k, (cls, flags) in enumerate(self.f.materials)]
+        particle = {"x": ti.Vector.field(d, real), "v": ti.Vector.field(d, real),
+                    "m": ti.field(real), "vol": ti.field(real),
+                    "sigma": ti.Matrix.field(d, d, real)}
+        # state only where a feature of the scene needs it
+        if self.has_u:
+            particle["u"] = ti.Vector.field(d, real)  # displacement (1D analytic solutions)
+        if "eps" in self.needs:
+            particle["eps"] = ti.Matrix.field(d, d, real)  # accumulated strain (1D law)
+        if "F" in self.needs:
+            particle["F"] = ti.Matrix.field(d, d, real)  # (elastic) deformation gradient
+        if "J" in self.needs:
+            particle["J"] = ti.field(real)  # volume ratio by its linearised rate (JFluid)
+        if "plastic" in self.needs:
+            particle["plastic"] = ti.field(real)  # accumulated plastic strain
+        if self.apic:
+            # affine velocity C_p of the APIC transfers (B_p = C_p D_p for the linear basis)
+            particle["C"] = ti.Matrix.field(d, d, real)
+        if self.multi_material:
+            particle["mat"] = ti.field(ti.i32)
+        if self.record_energies:
+            particle["work"] = ti.field(real)  # strain energy, integrated along the path
+        if self.track_crossings:
+            particle["elem"] = ti.Vector.field(d, ti.i32)
+        fb.dense(ti.i, n).place(*particle.values())
+        self.particle_fields = particle
+        # grid: mass, momentum then velocity, force then acceleration (the affine transfer
+        # folds the force into the momentum), Dirichlet mask (1D)
+        grid = {"gm": ti.field(real), "gp": ti.Vector.field(d, real)}
+        if not self.apic:
+            grid["gf"] = ti.Vector.field(d, real)
+        else:
+            grid["gv"] = ti.Vector.field(d, real)  # velocity of the last grid update
+        if self.f.fixed:
+            grid["fixed"] = ti.field(ti.i32)
+        if self.grid_displacement:
+            grid["gu"] = ti.Vector.field(d, real)
+        fb.dense(ti.axes(*range(d)), cap.nodes).place(*grid.values())
+        self.grid_fields = grid
+        # private scatter: thread k fills copy k of each scattered grid field (a leading
+        # copy axis: no branch on the thread per add), summed into the grid afterwards
+        self.copies = {}
+        if self.private_scatter:
+            for name in ["gm", "gp"] + ([] if self.apic else ["gf"]):
+                self.copies[name] = ti.field(real) if name == "gm" else ti.Vector.field(d, real)
+            fb.dense(ti.axes(*range(d + 1)), (self.n_copies, *cap.nodes)).place(
+                *self.copies.values())
+        scratch = {}
+        nn = cap.nodes[0]
+        if self.consistent:
+            scratch["band"] = ti.field(real)  # M[i, i + k - b] stored at band[i, k]
+            scratch["inactive"] = ti.field(ti.i32)  # fixed or untouched rows of M
+            fb.dense(ti.ij, (nn, 2 * self.bandwidth + 1)).place(scratch["band"])
+            fb.dense(ti.i, nn).place(scratch["inactive"])
+        if self.mls:
+            ng = len(GAUSS_POINTS)
+            # MLS moments sum w [1, d, d^2] at Gauss points, sum w rho_p [1, d], sum w sigma_p
+            scratch.update(g_mom=ti.Vector.field(3, real), g_rho=ti.Vector.field(2, real),
+                           g_sig=ti.Vector.field(2, real))
+            fb.dense(ti.ij, (nn, ng)).place(scratch["g_mom"], scratch["g_rho"], scratch["g_sig"])
+            scratch["body"] = ti.Vector.field(2, real)  # the body: union of x_p -+ V_p / 2
+            fb.place(scratch["body"])
+            scratch.update(n_mom=ti.Vector.field(3, real), n_vel=ti.Vector.field(2, real))
+            fb.dense(ti.i, nn).place(scratch["n_mom"], scratch["n_vel"])
+        # run state and the first error
+        run = {"step_count": ti.field(ti.i64), "time": ti.field(ti.f64),
+               "crossings": ti.field(ti.i64), "err": ti.field(ti.i32),
+               "err_count": ti.field(ti.i32), "err_step": ti.field(ti.i64),
+               "err_where": ti.field(ti.i32), "neg_pivots": ti.field(ti.i64)}
+        if self.has_traction and self.record_energies:
+            run["ext_work"] = ti.field(real)
+        fb.place(*run.values())
+        self.run_fields = run
+        if self.team:
+            scratch["team_arrived"] = ti.field(ti.i32)  # arrivals at the barriers of a launch
+            scratch["team_abort"] = ti.field(ti.i32)
+            scratch["rank_step"] = ti.field(ti.i64)  # the step each thread of the team is in
+            fb.place(scratch["team_arrived"], scratch["team_abort"])
+            fb.dense(ti.i, self.n_copies).place(scratch["rank_step"])
+        history = {}
+        if self.recording:
+            cap_h = cap.history
+            scratch["rec_count"] = ti.field(ti.i32)
+            fb.place(scratch["rec_count"])
+            history.update(t=ti.field(real), step=ti.field(ti.i64))
+            fb.dense(ti.i, cap_h).place(history["t"], history["step"])
+            if self.record_energies:
+                # kinetic, strain, gravity, external
+                history["energy"] = ti.Vector.field(4, real)
+                fb.dense(ti.i, cap_h).place(history["energy"])
+            if self.tracking:
+                scratch["track_ids"] = ti.field(ti.i32)
+                fb.dense(ti.i, cap.tracked).place(scratch["track_ids"])
+                history.update(x=ti.Vector.field(d, real), v=ti.Vector.field(d, real),
+                               stress=ti.Matrix.field(d, d, real))
+                if self.has_u:
+                    history["u"] = ti.Vector.field(d, real)
+                fb.dense(ti.ij, (cap_h, cap.tracked)).place(
+                    *(history[k] for k in ("x", "v", "stress", "u") if k in history))
+        self.history_fields = history
+        self.scratch_fields = scratch
+        self._tree = fb.finalize()
+        # the names the phases use
+        for group in (particle, grid, scratch, run):
+            for name, fld in group.items():
+                setattr(self, name, fld)
+        if history:
+            self.h_t, self.h_step = history["t"], history["step"]
+            for key, attr in (("energy", "h_energy"), ("x", "h_x"), ("v", "h_v"),
+                              ("stress", "h_s"), ("u", "h_u")):
+                if key in history:
+                    setattr(self, attr, history[key])
+
+    def all_fields(self):
+        return [*self.particle_fields.values(), *self.grid_fields.values(),
+                *self.copies.values(), *self.scratch_fields.values(),
+                *self.run_fields.values(), *self.history_fields.values()]
+
+    def release(self):
+        if self._tree is not None:
+            self._tree.destroy()
+            self._tree = None
+
+    # ---- kernels -----------------------------------------------------------------------
+    @ti.func
+    def _zero(self, fields: ti.template()):
+        for fld in ti.static(fields):
+            if ti.static(len(fld.shape) == 0):
+                fld[None] = ti.zero(fld[None])
+            else:
+                for I in ti.grouped(ti.ndrange(*fld.shape)):
+                    fld[I] = ti.zero(fld[I])
+
+    def _bind_kernels(self):
+        """The kernels as plain kernels closed over this program: a method kernel of a
+        data-oriented class maps ``self`` to its compiled instance on every call, which
+        doubled the launch (~27 against ~15 us, most of a small scene's step)."""
+        @ti.kernel
+        def step():
+            self._one_step()
+
+        @ti.kernel
+        def record():
+            self._one_task(self._record)
+
+        @ti.kernel
+        def advance(n_steps: ti.i32, every: ti.i32) -> ti.i32:
+            done = 0
+            ti.loop_config(serialize=True)
+            for _ in range(1):  # one task on one thread: the fused serial mode
+                done = self._advance_steps(n_steps, every)
+            return done
+
+        @ti.kernel
+        def project():
+            self._one_task(self._clear_and_project)
+
+        @ti.kernel
+        def clear():
+            self._clear_grid()
+
+        groups = [list(g.values()) for g in (self.particle_fields, self.grid_fields, self.copies,
+                                             self.scratch_fields, self.run_fields,
+                                             self.history_fields)]
+
+        @ti.kernel
+        def zero_all():
+            for fields in ti.static(groups):
+                self._zero(fields)
+
+        self.step, self.record, self.advance = step, record, advance
+        self.project, self.clear, self.zero_all = project, clear, zero_all
+        if self.team:
+            @ti.kernel
+            def team(n_steps: ti.i32):
+                self._team_steps(n_steps)
+
+            self.team_steps = team
+
+    def launch(self, n: int):
+        """n steps of the parallel mode: one launch for a team, else one launch per step."""
+        if self.team:
+            self.team_steps(n)
+        else:
+            for _ in range(n):
+                self.step()
+
+    # ---- states taking turns -------------------------------------------------------------
+    @property
+    def active(self):
+        return self._active() if self._active is not None else None
+
+    def activate(self, owner):
+        """Make the fields hold ``owner``'s state: the state there now is saved to its
+        owner first, the fields are cleared and ``owner`` uploads its values and arrays
+        (``owner.save_to_host(program)``, ``owner.load_into(program)``)."""
+        current = self.active
+        if current is owner:
+            return False
+        if current is not None:
+            current.save_to_host(self)
+        self._active = None
+        self.zero_all()
+        owner.load_into(self)
+        self._active = weakref.ref(owner)
+        return True
+
+    def deactivate(self, owner):
+        """Forget ``owner`` (released): its state is not saved."""
+        if self.active is owner:
+            self._active = None
+
+    # ---- host transfers -------------------------------------------------------------------
+    def read(self, fld, count=None):
+        """Field values as NumPy, the first ``count`` entries along every axis given."""
+        a = fld.to_numpy()
+        if count is None:
+            return a
+        return a[tuple(slice(0, c) for c in count)]
+
+    def write(self, fld, values, count):
+        """Store ``values`` (``count`` entries along the leading axes) in the first entries
+        of ``fld``, the rest zero."""
+        shape = self._numpy_shapes.get(id(fld))
+        if shape is None:
+            shape = self._numpy_shapes[id(fld)] = fld.to_numpy().shape
+        full = np.zeros(shape, dtype=_numpy_dtype(fld))
+        count = tuple(count)
+        full[tuple(slice(0, c) for c in count)] = np.asarray(values).reshape(
+            count + shape[len(count):])
+        fld.from_numpy(full)
+
+
+def _numpy_dtype(fld):
+    return {ti.f64: np.float64, ti.f32: np.float32, ti.i32: np.int32,
+            ti.i64: np.int64}[fld.dtype]
+
+
+_PROGRAMS: dict = {}
+
+
+def program_for(features, layout, slot: int = 0):
+    """The process's program of ``features`` (``slot``: another copy, for a Batch), grown
+    to hold ``layout``; built and compiled on first use."""
+    from .. import runtime
+
+    runtime.check_caller()
+    for old in [k for k in _PROGRAMS if k[2] != runtime.generation()]:
+        del _PROGRAMS[old]  # Taichi restarted: their fields are gone with it
+    key = (features, slot, runtime.generation())
+    prog = _PROGRAMS.get(key)
+    if prog is not None and prog.capacity.holds(layout):
+        return prog
+    if prog is None:
+        cap = Capacity.first(features, layout)
+    else:
+        cap = prog.capacity.grown(layout)
+        owner = prog.active
+        if owner is not None:
+            owner.save_to_host(prog)
+        prog.release()
+    prog = Program(features, cap)
+    _PROGRAMS[key] = prog
+    return prog
+
+
+def clear_programs():
+    """Free every program's fields (the solvers that used them keep nothing on the
+    device: they must be built again)."""
+    for prog in _PROGRAMS.values():
+        prog.release()
+    _PROGRAMS.clear()

@@ -1,0 +1,177 @@
+"""P2G scatter strategies: atomic adds, one thread's plain adds, private grid copies.
+
+Mixed into :class:`~timpm.engine.program.Program`.  A scattering particle phase calls
+``_add(name, copy, node, value)`` (or ``_deposit`` where 1D run sums may collect it); the
+strategy is a compile-time choice of the feature set:
+
+- ``atomic``: parallel atomic adds into the grid (the GPU path);
+- ``serial``: the scatter loop on one thread with plain adds (1D: a run of particles in
+  one element summed in registers first, the *run sums*);
+- ``private``: thread c adds into its own copy c of each scattered grid field, summed
+  into the grid afterwards (``_merged``, ``_merge_copies``).
+"""
+import taichi as ti
+
+__all__ = ["ScatterOps", "SUM_ROWS"]
+
+#: rows of the 1D run sums (see ``FeatureSet.run_sums``)
+SUM_ROWS = {"gm": 0, "gf": 1, "gp": 2}
+
+
+class ScatterOps:
+    """See the module."""
+
+    @ti.func
+    def accumulate(self, ref: ti.template(), value):
+        """ref += value.  In the fused serial mode every kernel of the solver is one task on
+        one thread, so the add is plain, also where the task is a member of a parallel
+        :class:`Batch` (whose tasks are parallel: Taichi would keep the atomic); else an
+        atomic add (Taichi demotes it where the loop is serial or ref belongs to one
+        iteration)."""
+        if ti.static(self.mode == "serial"):
+            ref = ref + value
+        else:
+            ref += value
+
+    @ti.func
+    def _one_task(self, body: ti.template()):
+        """Run ``body`` as one serial task in the fused serial mode, else as it is."""
+        if ti.static(self.mode == "serial"):
+            ti.loop_config(serialize=True)
+            for _ in range(1):
+                body()
+        else:
+            body()
+
+    @ti.func
+    def _add(self, name: ti.template(), copy, node, value):
+        """grid field ``name`` at ``node`` += value, by the scatter strategy: into the
+        calling thread's private copy (plain adds) or the grid itself (atomic in a
+        parallel loop, plain in a serial one)."""
+        if ti.static(self.private_scatter):
+            fld = ti.static(self.copies[name])
+            at = self._copy_index(copy, node)
+            fld[at] = fld[at] + value
+        else:
+            self.accumulate(ti.static(getattr(self, name))[node], value)
+
+    @ti.func
+    def _copy_index(self, copy, node):
+        """Index of ``node`` in private copy ``copy``."""
+        at = ti.Vector.zero(ti.i32, self.dim + 1)
+        at[0] = copy
+        for k in ti.static(range(self.dim)):
+            at[k + 1] = node[k]
+        return at
+
+    @ti.func
+    def _merged(self, name: ti.template(), I):
+        """Grid quantity ``name`` at node I: with the private scatter the sum of the
+        threads' copies (cleared for the next scatter), else the grid field itself."""
+        total = ti.static(getattr(self, name))[I]
+        if ti.static(self.private_scatter):
+            fld = ti.static(self.copies[name])
+            for c in ti.static(range(self.n_copies)):
+                at = self._copy_index(c, I)
+                if ti.static(c == 0):
+                    total = fld[at]
+                else:
+                    total += fld[at]
+                if ti.static(name == "gm"):
+                    fld[at] = 0.0
+                else:
+                    fld[at] = ti.Vector.zero(float, self.dim)
+        return total
+
+    @ti.func
+    def _merge_copies(self, names: ti.template()):
+        # private scatter: sum the threads' grid copies into the grid, and clear them
+        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            for name in ti.static(names):
+                grid = ti.static(getattr(self, name))
+                grid[I] = self._merged(name, I)  # a plain store: no other thread writes I
+
+    @ti.func
+    def _scatter_particles(self, phase: ti.template()):
+        """Run the scattering particle phase ("p2g" or "g2p-velocity") for every particle,
+        by the scatter strategy."""
+        if ti.static(self.private_scatter):
+            # Taichi's CPU range-for gives thread c the iterations [c B, (c + 1) B) with
+            # B = max(ceil(N / threads), 512): iteration p writes the copy of thread p // B
+            B = self.p.scatter_block()
+            for p in range(self.n_copies * B):
+                if p < self.p.n_particles():
+                    self._scatter_particle(phase, p, p // B)
+        elif ti.static(self.run_sums):
+            ti.loop_config(serialize=True)
+            for _ in range(1):  # one task: the sums stay in registers
+                rows = ti.static(self.scatter_rows[phase])
+                first = -1  # first node of the run's stencil
+                sums = ti.Matrix.zero(float, 3, self.basis.support)
+                for p in range(self.p.n_particles()):
+                    base, inside, node_values = self._scatter_particle(phase, p, 0)
+                    if inside:
+                        if base[0] != first:
+                            self._add_sums(rows, first, sums)
+                            first = base[0]
+                            sums = ti.Matrix.zero(float, 3, self.basis.support)
+                        sums += node_values
+                self._add_sums(rows, first, sums)
+        elif ti.static(self.serial_scatter):
+            ti.loop_config(serialize=True)  # plain adds instead of contended atomics
+            for p in range(self.p.n_particles()):
+                self._scatter_particle(phase, p, 0)
+        else:
+            for p in range(self.p.n_particles()):
+                self._scatter_particle(phase, p, 0)
+
+    @ti.func
+    def _scatter_particle(self, phase: ti.template(), p, copy):
+        """The particle's stencil base, whether it scattered, and (run sums) its node
+        values: rows gm, gf, gp, one column per stencil node."""
+        base = ti.Vector.zero(ti.i32, self.dim)
+        inside = 0
+        node_values = ti.Matrix.zero(float, 3, self.basis.support)
+        if not self._halted(p):
+            if ti.static(phase == "p2g"):
+                base, inside, node_values = self._p2g_particle(p, copy)
+            else:
+                base, inside, node_values = self._g2p_velocity_particle(p, copy)
+        return base, inside, node_values
+
+    @ti.func
+    def _add_sums(self, rows: ti.template(), first, sums):
+        """Add a run's node sums to the grid nodes first, first + 1, ... (none if first < 0)."""
+        if first >= 0:
+            for name in ti.static(rows):
+                row = ti.static(SUM_ROWS[name])
+                for a in ti.static(range(self.basis.support)):
+                    if ti.static(name == "gm"):
+                        self.accumulate(self.gm[first + a], sums[row, a])
+                    else:
+                        self.accumulate(ti.static(getattr(self, name))[first + a][0], sums[row, a])
+
+    @ti.func
+    def _deposit(self, name: ti.template(), copy, node, offset: ti.template(), value,
+                 node_values):
+        """Scatter ``value`` to grid field ``name`` at ``node``: into the run sums' column
+        ``offset`` (returned), or by the scatter strategy (``_add``)."""
+        if ti.static(self.run_sums):
+            if ti.static(name == "gm"):
+                node_values[SUM_ROWS[name], offset[0]] = value
+            else:
+                node_values[SUM_ROWS[name], offset[0]] = value[0]
+        else:
+            self._add(name, copy, node, value)
+        return node_values
+
+    @ti.func
+    def _reached(self, I):
+        """Whether a particle scattered mass to node I (in any private copy)."""
+        reached = False
+        if ti.static(self.private_scatter):
+            for c in ti.static(range(self.n_copies)):
+                reached = reached or self.copies["gm"][self._copy_index(c, I)] != 0.0
+        else:
+            reached = self.gm[I] != 0.0
+        return reached

@@ -1,0 +1,87 @@
+"""The stencil of a particle: its nodes, the basis weights and gradients (any dimension).
+
+Mixed into :class:`~timpm.engine.program.Program`.  Reads ``x`` and the run-time grid
+values (``self.p``); the basis (``self.basis``) is a compile-time class whose ``stencil``
+``ti.func`` gives the 1D weights, combined here as tensor products.
+"""
+import taichi as ti
+
+__all__ = ["StencilOps"]
+
+
+class StencilOps:
+    """See the module."""
+
+    @ti.func
+    def _stencil(self, p):
+        """Node base, weights and gradients of particle p, its coordinate in element units,
+        and whether p is on the grid."""
+        xi = ti.Vector.zero(float, self.dim)
+        base = ti.Vector.zero(ti.i32, self.dim)
+        w = ti.Matrix.zero(float, self.basis.support, self.dim)
+        dw = ti.Matrix.zero(float, self.basis.support, self.dim)
+        inside = 1
+        for k in ti.static(range(self.dim)):
+            xi[k] = (self.x[p][k] - self.p.origin()[k]) * self.p.inv_h()
+            # NaN fails both comparisons, so it is caught here too
+            if not (xi[k] >= 0.0 and xi[k] <= self.p.elements()[k]):
+                inside = 0
+            b, wk, dwk = self.basis.stencil(xi[k], self.p.elements()[k])
+            base[k] = b
+            if b < 0 or b + self.basis.support > self.p.nodes()[k]:
+                inside = 0
+            for a in ti.static(range(self.basis.support)):
+                w[a, k] = wk[a]
+                dw[a, k] = dwk[a] * self.p.inv_h()
+        return base, w, dw, xi, inside
+
+    @ti.func
+    def _weight(self, w, dw, offset):
+        """Tensor-product value and gradient of the basis function at stencil ``offset``."""
+        phi = 1.0
+        grad = ti.Vector.zero(float, self.dim)
+        for k in ti.static(range(self.dim)):
+            phi *= w[offset[k], k]
+        for j in ti.static(range(self.dim)):
+            g = 1.0
+            for k in ti.static(range(self.dim)):
+                if ti.static(j == k):
+                    g *= dw[offset[k], k]
+                else:
+                    g *= w[offset[k], k]
+            grad[j] = g
+        return phi, grad
+
+    @ti.func
+    def _from_first_node(self, xi, base):
+        """x_p - x of the stencil's first node, so that x_i - x_p = h o - this for the node
+        at stencil offset o (the factored affine terms of P2G and G2P)."""
+        return (xi - ti.cast(base, float) + self.node_offset) * self.p.h()
+
+    @ti.func
+    def _times_offset(self, A, offset: ti.template()):
+        """A o for a stencil offset o known at compile time: column adds, no products."""
+        out = ti.Vector.zero(float, self.dim)
+        for k in ti.static(range(self.dim)):
+            if ti.static(offset[k] > 0):
+                for j in ti.static(range(self.dim)):
+                    out[j] += A[j, k] if ti.static(offset[k] == 1) else offset[k] * A[j, k]
+        return out
+
+    @ti.func
+    def _outer_offset(self, u, offset: ti.template()):
+        """u o^T for a stencil offset o known at compile time."""
+        out = ti.Matrix.zero(float, self.dim, self.dim)
+        for k in ti.static(range(self.dim)):
+            if ti.static(offset[k] > 0):
+                for j in ti.static(range(self.dim)):
+                    out[j, k] = u[j] if ti.static(offset[k] == 1) else offset[k] * u[j]
+        return out
+
+    @ti.func
+    def _element(self, xi):
+        """Element of a point at ``xi`` (element units), clamped to the grid."""
+        e = ti.Vector.zero(ti.i32, self.dim)
+        for k in ti.static(range(self.dim)):
+            e[k] = ti.min(ti.max(ti.floor(xi[k], ti.i32), 0), self.p.elements()[k] - 1)
+        return e

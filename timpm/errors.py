@@ -1,0 +1,47 @@
+"""Named error codes of a run, and the exceptions timpm raises."""
+import enum
+
+__all__ = ["ErrorCode", "SimulationError", "Released", "TEAM_SPIN_LIMIT"]
+
+#: spins of a team barrier (an atomic read each, tens of ns) before the step gives up
+TEAM_SPIN_LIMIT = 1 << 29
+
+
+class ErrorCode(enum.IntEnum):
+    """What stopped a run; the kernels record the code of the first failure."""
+
+    OFF_GRID = 1
+    NOT_FINITE = 2
+    INVERTED = 3
+    SINGULAR_MASS = 4
+    ENERGY_GROWTH = 5
+    TEAM_BARRIER = 6
+
+    @property
+    def message(self) -> str:
+        return _MESSAGES[self]
+
+
+_MESSAGES = {
+    ErrorCode.OFF_GRID: "left the grid",
+    ErrorCode.NOT_FINITE: "has a non-finite (NaN or infinite) state",
+    ErrorCode.INVERTED: "has a non-positive volume (the material inverted)",
+    ErrorCode.SINGULAR_MASS: "the consistent mass matrix is singular",
+    ErrorCode.ENERGY_GROWTH: "energy grew without a source",
+    ErrorCode.TEAM_BARRIER: "the threads of a team step did not meet at a barrier",
+}
+
+#: code -> message, as the kernels record it
+ERRORS = {int(code): code.message for code in ErrorCode}
+
+
+class SimulationError(RuntimeError):
+    """A run stopped because the state became invalid; the message names step and where."""
+
+    def __init__(self, message, code=0, step=-1, particle=-1, node=-1):
+        super().__init__(message)
+        self.code, self.step, self.particle, self.node = code, step, particle, node
+
+
+class Released(RuntimeError):
+    """A solver or batch used after ``release()`` or after a Taichi restart freed it."""

@@ -1,0 +1,31 @@
+"""Constitutive models, one file each; :mod:`.base` states the contract they keep.
+
+Materials for multi-dimensional scenes: :class:`LinearElastic`, :class:`NeoHookean`,
+:class:`DruckerPrager` (sand, return mapping of Klar et al. 2016),
+:class:`WeaklyCompressibleFluid` (Tait equation of state) and :class:`JFluid` (mpm88's
+fluid).  :class:`Hypoelastic1D` is the study's 1D law, built by the engine from a 1D
+:class:`timpm.scene.Material`.
+"""
+from .base import Material, SolidMaterial
+from .drucker_prager import DruckerPrager
+from .fluid import WeaklyCompressibleFluid
+from .hypoelastic import Hypoelastic1D
+from .j_fluid import JFluid
+from .linear_elastic import LinearElastic
+from .neo_hookean import NeoHookean
+
+__all__ = ["Material", "SolidMaterial", "LinearElastic", "NeoHookean", "DruckerPrager",
+           "WeaklyCompressibleFluid", "JFluid", "Hypoelastic1D", "MATERIALS", "get_material"]
+
+MATERIALS = {cls.name: cls for cls in (LinearElastic, NeoHookean, DruckerPrager,
+                                       WeaklyCompressibleFluid, JFluid)}
+
+
+def get_material(name: str, **params) -> Material:
+    """A material by name: ``get_material("neo-hookean", E=1e3, nu=0.3, density=1e3)``."""
+    if name not in MATERIALS:
+        raise ValueError(f"unknown material {name!r}: choose one of {', '.join(MATERIALS)}")
+    try:
+        return MATERIALS[name](**params)
+    except TypeError as err:
+        raise ValueError(f"material {name!r}: {err}") from None

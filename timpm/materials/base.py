@@ -1,0 +1,116 @@
+"""The contract every constitutive model keeps.
+
+A material is a value (its parameters, checked on construction) and a compiled unit.  The
+value says what the engine compiles and with which numbers:
+
+- ``needs``: the particle state the law keeps besides stress and volume (``"F"``, the
+  deformation gradient; ``"plastic"``, the plastic strain; ``"J"``; ``"eps"``); the engine
+  allocates a field only when a material of the scene needs it;
+- ``flags()``: the compile-time choices of the law (part of the feature set);
+- ``constants(dt)``: the run-time numbers its update reads, by name (``CONSTANTS``), every
+  derived constant computed here once, in double precision.
+
+The compiled unit is the same class built by :meth:`unit` with a getter per constant
+(``self.c.mu()``) and one ``@ti.func``::
+
+    sigma_new = unit.update(s, p, grad_du, sigma_old)
+
+called in G2P with the displacement-increment gradient ``grad_du`` of particle ``p``
+after the engine stored the particle's new volume in ``s.vol[p]``.  ``s`` is the engine's
+particle state: fields ``m, vol, F, J, plastic, eps``, the dimension ``s.dim``, the flag
+``s.update_volume`` and ``s.accumulate(ref, value)`` (``ref += value`` as the driver needs
+it).  The update advances the state the law owns and returns the new Cauchy stress.
+"""
+import math
+
+import taichi as ti
+
+from ..scene import _positive as positive
+
+__all__ = ["Material", "SolidMaterial"]
+
+
+@ti.data_oriented
+class Material:
+    """Common interface: ``density``, ``wave_speed`` (for the CFL limit), ``needs``."""
+
+    name = ""
+    #: particle state this material keeps, besides stress and volume
+    needs = frozenset()
+    #: names of the run-time constants the update reads
+    CONSTANTS = ("density",)
+    #: wave speed (m/s) that bounds the time step, set by each material
+    wave_speed = 0.0
+    #: True where the stress acts on the initial volume (sigma V = sigma V0): the solver
+    #: then leaves V_p alone
+    initial_volume = False
+
+    def __init__(self, density):
+        self.density = positive(f"{self.name}: density", density)
+
+    def __repr__(self):
+        params = ", ".join(f"{k}={v:g}" for k, v in self.parameters().items())
+        return f"{type(self).__name__}({params})"
+
+    def parameters(self) -> dict:
+        return {"density": self.density}
+
+    def flags(self) -> tuple:
+        """Compile-time choices (hashable); the feature set holds (class, flags)."""
+        return ()
+
+    def constants(self, dt: float) -> dict:
+        """Run-time constants by name (``CONSTANTS``) for a run with time step ``dt``."""
+        return {"density": self.density}
+
+    @classmethod
+    def unit(cls, flags: tuple, constants):
+        """The compiled unit: an instance that holds no value, only ``flags`` and the
+        getters of its constants (a :class:`timpm.engine.params.Params`)."""
+        unit = object.__new__(cls)
+        unit.c = constants
+        unit.set_flags(flags)
+        return unit
+
+    def set_flags(self, flags: tuple):
+        """Set the compile-time attributes of a unit from ``flags()``."""
+
+    @ti.func
+    def _initial_over_current_volume(self, s: ti.template(), p):
+        """V0 / V_p: Cauchy stress = Kirchhoff stress times this."""
+        return s.m[p] / self.c.density() / s.vol[p]
+
+
+class SolidMaterial(Material):
+    """Isotropic elastic constants from Young's modulus and Poisson's ratio."""
+
+    needs = frozenset({"F"})
+    CONSTANTS = ("density", "mu", "lam", "two_mu")
+
+    def __init__(self, E, nu, density):
+        super().__init__(density)
+        self.E = positive(f"{self.name}: Young's modulus E", E)
+        try:
+            nu = float(nu)
+        except (TypeError, ValueError):
+            raise ValueError(f"{self.name}: Poisson's ratio must be a number, got {nu!r}") from None
+        if not (-1.0 < nu < 0.5):
+            raise ValueError(f"{self.name}: Poisson's ratio must lie in (-1, 0.5), got {nu!r} "
+                             "(0.5 is incompressible: use a fluid or a smaller ratio)")
+        self.nu = nu
+        self.mu = self.E / (2.0 * (1.0 + nu))
+        self.lam = self.E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+        # P-wave speed sqrt((lambda + 2 mu) / rho)
+        self.wave_speed = math.sqrt((self.lam + 2.0 * self.mu) / self.density)
+
+    def parameters(self) -> dict:
+        return {"E": self.E, "nu": self.nu, "density": self.density}
+
+    def constants(self, dt: float) -> dict:
+        return {"density": self.density, "mu": self.mu, "lam": self.lam,
+                "two_mu": 2.0 * self.mu}
+
+    @ti.func
+    def _trial_F(self, s: ti.template(), p, grad_du):
+        """F_trial = (I + grad du) F_p: the deformation gradient advanced by the step."""
+        return (ti.Matrix.identity(float, s.dim) + grad_du) @ s.F[p]

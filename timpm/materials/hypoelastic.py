@@ -1,0 +1,41 @@
+"""The study's 1D law."""
+import taichi as ti
+
+from .base import Material
+
+__all__ = ["Hypoelastic1D"]
+
+
+class Hypoelastic1D(Material):
+    """The study's 1D law (2.2.4): sigma += (E - sigma) d_eps (``study``), or sigma += E d_eps.
+
+    Built by the engine from a 1D :class:`timpm.scene.Material` (its density acts through
+    the particle masses)."""
+
+    name = "hypoelastic-1d"
+    needs = frozenset({"eps"})
+    CONSTANTS = ("E",)
+
+    def __init__(self, E, study: bool):
+        self.E, self.study = float(E), bool(study)
+
+    def parameters(self) -> dict:
+        return {"E": self.E, "study": self.study}
+
+    def flags(self) -> tuple:
+        return (self.study,)
+
+    def set_flags(self, flags):
+        (self.study,) = flags
+
+    def constants(self, dt: float) -> dict:
+        return {"E": self.E}
+
+    @ti.func
+    def update(self, s: ti.template(), p, grad_du, sigma_old):
+        deps = 0.5 * (grad_du + grad_du.transpose())
+        sig_new = sigma_old + self.c.E() * deps
+        if ti.static(self.study):
+            sig_new = sigma_old + (self.c.E() - sigma_old) * deps
+        s.accumulate(s.eps[p], deps)
+        return sig_new

@@ -1,0 +1,41 @@
+"""The fluid of Taichi's mpm88."""
+import math
+
+import taichi as ti
+
+from .base import Material, positive
+
+__all__ = ["JFluid"]
+
+
+class JFluid(Material):
+    """The fluid of Taichi's ``mpm88`` (Hu et al. 2018): J advances by its linearised rate,
+    J <- J (1 + tr grad du), and the pressure K (1 - J) acts on the initial volume
+    (sigma V = K (J - 1) V0 I).  Cheaper than :class:`WeaklyCompressibleFluid` and
+    first-order in the step; here to run mpm88's physics side by side with it.  As in
+    mpm88, a particle's volume stays V0 (J holds the volume ratio)."""
+
+    name = "j-fluid"
+    needs = frozenset({"J"})
+    initial_volume = True
+    CONSTANTS = ("density", "bulk_modulus")
+
+    def __init__(self, bulk_modulus, density):
+        super().__init__(density)
+        self.bulk_modulus = positive(f"{self.name}: bulk modulus", bulk_modulus)
+        self.wave_speed = math.sqrt(self.bulk_modulus / self.density)
+
+    def parameters(self) -> dict:
+        return {"bulk_modulus": self.bulk_modulus, "density": self.density}
+
+    def constants(self, dt: float) -> dict:
+        return {"density": self.density, "bulk_modulus": self.bulk_modulus}
+
+    @ti.func
+    def update(self, s: ti.template(), p, grad_du, sigma_old):
+        J = s.J[p] * (1.0 + grad_du.trace())
+        s.J[p] = J
+        scale = 1.0  # V = V0 alone: no division by a volume that a crushed particle drives to 0
+        if ti.static(s.update_volume):  # mixed with materials whose volume changes
+            scale = self._initial_over_current_volume(s, p)
+        return (self.c.bulk_modulus() * (J - 1.0) * scale) * ti.Matrix.identity(float, s.dim)

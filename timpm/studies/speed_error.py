@@ -1,0 +1,381 @@
+"""Speed against error: which basis and mesh reaches a given accuracy cheapest?
+
+``timpm study speed-error <problem>`` sweeps basis, mass matrix, number of elements and
+particles per element (PPC), measures the RMS displacement error against the exact
+solution and the wall time of every run, and writes a table, a log-log plot of error
+against wall time with the Pareto front marked (:func:`timpm.output.viz.plot_speed_error`)
+and, for target errors, the cheapest configuration per basis and its speed-up over linear
+elements.
+
+Time step rule
+--------------
+The study's time integration (Euler-Cromer) is first order in time, so at a fixed time
+step the time error puts a floor under the error that a finer mesh or a higher-order
+basis cannot go below; compared at one dt, a high-order basis would look no better than
+linear.  So every configuration gets its own time step, chosen so that the time error
+does not hide the spatial error:
+
+1. ``dt0 = min(problem's default dt, 0.5 * critical dt)`` of that discretisation (the
+   critical dt is Eq. 2.4 for linear elements with lumped mass, 2 / w_max of the particle
+   discretisation otherwise), rounded down so that it divides ``t_end``:
+   ``dt0 = t_end / ceil(t_end / dt0)``;
+2. run at ``dt`` and ``dt / 2``; while ``|e(dt) - e(dt/2)| > dt_tolerance * e(dt/2)``
+   (halving the step would change the error by more than 10 %: the time error hides
+   more than about a tenth of the spatial error), halve ``dt``, at most ``max_halvings``
+   times;
+3. accept the coarser step of the first pair that passes (the cheapest step whose error
+   is, to within ``dt_tolerance``, the spatial error).  If no pair passes, the finest
+   step tried is kept and the run is flagged "time error not separated" (``!`` in the
+   table, hollow marker in the plot): its error still contains time error.
+
+Each record keeps the accepted ``dt``, its error ``rms_error`` and the time-error
+estimate ``time_error_estimate = |e(dt) - e(dt/2)|`` (for a first-order scheme this is
+about the time error at ``dt / 2``, half the time error at ``dt``), and all trials in
+``dt_trials``.
+
+The rule measures rather than assumes the time error, and it often finds it tiny: a
+run that starts with zero acceleration (the vibrating string: u = 0 at t = 0) is
+Euler-Cromer started exactly like the second-order leapfrog scheme, and the string's
+time error at dt = 1e-4 s is ~1e-11 m.  An error that stops falling with the mesh while
+the time error is separated is not time error; the report lists such stalls.  (Measured:
+the string's floor of 1.2e-8 m for cubic B-splines is the same at dt = 1e-4 and 1e-5 s
+and halves with the small-strain stress update: it is the finite-deformation MPM against
+the linear exact solution.)
+
+Wall time
+---------
+``wall_seconds`` is the stepping time of a run to ``t_end`` at the accepted ``dt``:
+kernel compilation (``compile_seconds``, reported apart) and energy recording are
+excluded, no particle is tracked.  It is the minimum over ``repeats`` timed runs, the
+usual estimate on a shared, noisy machine.  The timed runs advance the accepted run's
+compiled solver by the same number of steps again (the work per step does not depend on
+the state), so they cost no further compilation.  The accepted run itself is not a sample
+(its time is kept as ``first_run_seconds``): the first run of a solver carries one-time
+costs (Taichi compiles its field accessors on first use, the first launches warm up)
+that are far larger than the stepping of a small 1D run - e.g. 3.5 ms against 0.4 ms for
+1000 steps of the 4-element string.  The runs of the dt trials are released only after
+the timing: freeing a solver's fields makes the next launch of every other solver slow
+(~0.4 s, measured).
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..argtypes import param, positive_float, positive_int
+from ..basis import BASES, get_basis
+from ..problems import PROBLEMS, get_problem
+from ..scene import MASS_KINDS, PLACEMENTS, STRESS_UPDATES
+from .analysis import rms_error
+from .speed_error_report import (cheapest_for, default_targets, format_report, merge_studies,
+                                 pareto_front, plateaus)
+
+__all__ = ["speed_error_study", "merge_studies", "choose_dt", "pareto_front", "cheapest_for",
+           "plateaus", "default_targets", "dt_rule_text", "format_report", "add_parser"]
+
+RECORD_KEYS = ("problem", "basis", "mass", "elements", "ppc", "placement", "dt", "steps",
+               "t_end", "rms_error", "time_error_estimate", "time_error_separated",
+               "wall_seconds", "compile_seconds", "particles", "grid_crossings",
+               "critical_dt", "pareto")
+
+
+# ---- one run --------------------------------------------------------------------------------
+
+class _Run:
+    """One simulation to ``t_end``: error against the exact solution and stepping time.
+
+    The solver stays alive (``release()`` frees it) so that further timing samples can
+    advance it without compiling again.  Nothing is tracked and no energy is recorded, so
+    ``run_seconds`` is pure stepping; the error is the study's RMS error (3.2), as in
+    :func:`timpm.studies.study.run_problem`.
+    """
+
+    def __init__(self, prob, *, elements, ppc, basis, mass, dt, t_end, placement, mode,
+                 stress_update="study"):
+        from ..solver import Solver
+
+        scene = prob.scene(elements=elements, ppc=ppc, basis=basis, mass=mass, dt=dt,
+                           placement=placement, stress_update=stress_update)
+        x0 = scene.positions.copy()
+        self.solver = Solver(scene, track=(), energies=False, mode=mode)
+        try:
+            self.solver.run(t_end, progress=False)
+            s = self.solver
+            exact = prob.displacement(x0, s.t, stress_update=stress_update)
+            self.record = {
+                "dt": scene.dt, "steps": s.step, "t_end": s.t,
+                "rms_error": rms_error(s.displacements(), exact),
+                "wall_seconds": s.run_seconds, "compile_seconds": s.compile_seconds,
+                "particles": scene.n_particles, "grid_crossings": s.grid_crossings(),
+                "critical_dt": scene.critical_dt, "mode": s.mode,
+            }
+        except BaseException:
+            self.release()
+            raise
+
+    def time_again(self) -> float:
+        """Advance the same solver by the same number of steps; its stepping seconds."""
+        before = self.solver.run_seconds
+        self.solver.run(n_steps=self.record["steps"], progress=False)
+        return self.solver.run_seconds - before
+
+    def release(self):
+        if self.solver is not None:
+            self.solver.release()
+            self.solver = None
+
+
+def _divides(t_end, dt):
+    """The largest step <= dt that divides t_end into a whole number of steps."""
+    n = max(1, math.ceil(t_end / dt * (1.0 - 1e-12)))
+    return t_end / n
+
+
+def critical_dt(prob, *, elements, ppc, basis, mass, placement) -> float:
+    """The critical time step of a discretisation (raises ValueError for invalid ones)."""
+    scene = prob.scene(elements=elements, ppc=ppc, basis=basis, mass=mass, dt=prob.dt,
+                       placement=placement, allow_unstable_dt=True)
+    return float(scene.critical_dt)
+
+
+def choose_dt(run, dt0, dt_tolerance=0.1, max_halvings=4, defer_release=None):
+    """The time step rule (module docstring) for one configuration.
+
+    ``run(dt)`` simulates at ``dt`` and returns an object with ``record["rms_error"]`` and
+    ``release()``.  Returns ``(accepted_run, info)``; info holds ``dt``, ``rms_error``,
+    ``time_error_estimate``, ``time_error_separated`` and ``dt_trials`` (list of
+    ``[dt, error]``).  The accepted run is not released: the caller times it further.
+    The other runs are released, or, if ``defer_release`` is a list, appended to it for
+    the caller to release after timing: freeing a Taichi field tree makes the next launch
+    of every surviving kernel slow (~0.4 s, measured), which would spoil a timing.
+    """
+    dropped = []
+
+    def drop(r):
+        dropped.append(r)
+        if defer_release is None:
+            r.release()
+        else:
+            defer_release.append(r)
+
+    runs = [run(dt0)]
+    trials = [[dt0, runs[0].record["rms_error"]]]
+    try:
+        for k in range(max_halvings + 1):
+            dt = dt0 / 2 ** (k + 1)
+            runs.append(run(dt))
+            trials.append([dt, runs[-1].record["rms_error"]])
+            e_coarse, e_fine = trials[k][1], trials[k + 1][1]
+            diff = abs(e_coarse - e_fine)
+            if diff <= dt_tolerance * e_fine:
+                accepted, separated = k, True
+                break
+            # only the newest run can still be accepted later: free the older ones
+            drop(runs[k])
+        else:
+            accepted, separated = max_halvings + 1, False
+            diff = abs(trials[-2][1] - trials[-1][1])
+    except BaseException:
+        for r in runs:
+            r.release()
+        raise
+    for i, r in enumerate(runs):
+        if i != accepted and not any(r is d for d in dropped):
+            drop(r)
+    info = {"dt": trials[accepted][0], "rms_error": trials[accepted][1],
+            "time_error_estimate": diff, "time_error_separated": separated,
+            "dt_trials": trials}
+    return runs[accepted], info
+
+
+def dt_rule_text(dt_default, dt_tolerance=0.1, max_halvings=4) -> str:
+    """The time step rule in one paragraph, for reports."""
+    return (f"Time step per run: dt0 = min({dt_default:g} s (the problem's dt), 0.5 x critical "
+            f"dt), rounded down to divide t_end; dt is halved (at most {max_halvings} times) "
+            f"until halving it once more changes the RMS error by at most "
+            f"{100 * dt_tolerance:g} % (|e(dt) - e(dt/2)| <= {dt_tolerance:g} e(dt/2)), and the "
+            f"coarser dt of that pair is used: the Euler-Cromer time error then hides at most "
+            f"~{100 * dt_tolerance:g} % of the spatial error.  Runs marked '!' did not separate "
+            f"within {max_halvings} halvings (their error still contains time error).")
+
+
+# ---- the sweep ------------------------------------------------------------------------------
+
+def _as_tuple(value):
+    if value is None:
+        return None
+    if isinstance(value, (str, int, np.integer)):
+        return (value,)
+    return tuple(value)
+
+
+def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
+                      masses=("lumped", "consistent"), elements=(4, 8, 16, 32, 64), ppcs=None,
+                      placement="study", t_end=None, dt_tolerance=0.1, max_halvings=4,
+                      repeats=3, mode="auto", progress=print, combos=None,
+                      stress_update="study", params=None) -> dict:
+    """Sweep bases x masses x placements x elements x PPC; see the module docstring.
+
+    ``combos``, a list of (basis, mass) pairs, replaces the product bases x masses;
+    ``stress_update`` ("study" or "small") and ``params`` (physical parameters of the
+    problem, e.g. ``{"gravity": -0.981}``) are passed on to every run.
+
+    ``ppcs`` defaults to the problem's PPC; ``placement`` may be one name or several (then
+    swept too).  Invalid combinations (a basis that cannot be lumped, too few particles
+    per element, a singular mass matrix, a failed run) are skipped with a note in
+    ``skipped``.  Returns a JSON-ready document: ``runs`` (records, each with a ``pareto``
+    flag), ``skipped``, ``dt_rule`` and the settings.
+    """
+    from ..solver import SimulationError
+
+    prob = get_problem(problem, **(params or {}))
+    if stress_update not in STRESS_UPDATES:
+        raise ValueError(f"unknown stress_update {stress_update!r}: choose one of "
+                         f"{', '.join(STRESS_UPDATES)}")
+    if not prob.has_exact:
+        raise ValueError(f"{prob.name} has no exact solution: no error to measure")
+    if repeats < 1:
+        raise ValueError(f"repeats must be at least 1, got {repeats!r}")
+    if not 0 < dt_tolerance:
+        raise ValueError(f"dt_tolerance must be positive, got {dt_tolerance!r}")
+    if max_halvings < 0:
+        raise ValueError(f"max_halvings must be non-negative, got {max_halvings!r}")
+    t_end = float(prob.t_end if t_end is None else t_end)
+    if not (math.isfinite(t_end) and t_end > 0):
+        raise ValueError(f"t_end must be a positive time, got {t_end!r}")
+    if combos is None:
+        combos = [(b, m) for b in _as_tuple(bases) for m in _as_tuple(masses)]
+    combos = [(get_basis(b).name, m) for b, m in combos]
+    for _, m in combos:
+        if m not in MASS_KINDS:
+            raise ValueError(f"unknown mass {m!r}: choose one of {', '.join(MASS_KINDS)}")
+    bases = tuple(dict.fromkeys(b for b, _ in combos))
+    masses = tuple(dict.fromkeys(m for _, m in combos))
+    placements = _as_tuple(placement)
+    for p in placements:
+        if p not in PLACEMENTS:
+            raise ValueError(f"unknown placement {p!r}: choose one of {', '.join(PLACEMENTS)}")
+    elements = tuple(int(n) for n in _as_tuple(elements))
+    ppcs = (prob.ppc,) if ppcs is None else tuple(int(p) for p in _as_tuple(ppcs))
+    if not elements or not ppcs or not combos or not placements:
+        raise ValueError("give at least one basis, mass, placement, number of elements and PPC")
+    say = progress or (lambda *a, **k: None)
+
+    runs, skipped = [], []
+    started = time.perf_counter()
+    for basis, mass in combos:
+        for place in placements:
+            for ppc in ppcs:
+                for n in elements:
+                    conf = dict(elements=n, ppc=ppc, basis=basis, mass=mass, placement=place)
+                    tag = f"{basis}/{mass}/{place} {n} el x {ppc} PPC"
+                    try:
+                        crit = critical_dt(prob, **conf)
+                    except ValueError as exc:
+                        skipped.append({**conf, "reason": str(exc)})
+                        say(f"skip {tag}: {exc}")
+                        continue
+                    if not crit > 0:
+                        reason = "singular or indefinite mass matrix: no stable time step"
+                        skipped.append({**conf, "reason": reason})
+                        say(f"skip {tag}: {reason}")
+                        continue
+                    dt0 = _divides(t_end, min(prob.dt, 0.5 * crit))
+
+                    tried = []
+
+                    def run(dt, conf=conf, tried=tried):
+                        tried.append(dt)
+                        return _Run(prob, dt=dt, t_end=t_end, mode=mode,
+                                    stress_update=stress_update, **conf)
+
+                    others = []
+                    try:
+                        accepted, info = choose_dt(run, dt0, dt_tolerance, max_halvings,
+                                                   defer_release=others)
+                    except (ValueError, SimulationError) as exc:
+                        for r in others:
+                            r.release()
+                        reason = f"run failed at dt = {tried[-1]:.4g} s: {exc}"
+                        skipped.append({**conf, "reason": reason, "dt": tried[-1]})
+                        say(f"skip {tag}: {reason}")
+                        continue
+                    try:
+                        first = accepted.record["wall_seconds"]
+                        samples = []
+                        for _ in range(repeats):
+                            try:
+                                samples.append(accepted.time_again())
+                            except SimulationError:
+                                break  # beyond t_end the run failed: keep what we have
+                        rec = {"problem": prob.name, **conf, **accepted.record, **info,
+                               "wall_seconds": min(samples) if samples else first,
+                               "wall_samples": samples, "first_run_seconds": first,
+                               "dt0": dt0, "critical_dt": crit,
+                               "stress_update": stress_update}
+                    finally:
+                        accepted.release()
+                        for r in others:
+                            r.release()
+                    rec["dt"], rec["rms_error"] = info["dt"], info["rms_error"]
+                    runs.append(rec)
+                    say(f"{tag}: dt = {rec['dt']:.4g} s ({rec['steps']} steps"
+                        f"{'' if rec['time_error_separated'] else ', time error not separated'}),"
+                        f" e = {rec['rms_error']:.3e}, wall = {rec['wall_seconds']:.4f} s")
+    flags = pareto_front(runs)
+    for rec, on in zip(runs, flags):
+        rec["pareto"] = on
+    return {
+        "command": "speed-error", "problem": prob.name, "t_end": t_end,
+        "stress_update": stress_update, "params": dict(params or {}),
+        "problem_dt": prob.dt, "dt_tolerance": dt_tolerance, "max_halvings": max_halvings,
+        "repeats": repeats, "dt_rule": dt_rule_text(prob.dt, dt_tolerance, max_halvings),
+        "sweep": {"bases": list(bases), "masses": list(masses),
+                  "combos": [list(c) for c in combos], "placements": list(placements),
+                  "elements": list(elements), "ppcs": list(ppcs)},
+        "runs": runs, "skipped": skipped,
+        "sweep_seconds": time.perf_counter() - started,
+    }
+
+
+# ---- command line -----------------------------------------------------------------------------
+
+def add_parser(subparsers):
+    """Add the ``speed-error`` command's arguments to an argparse subparsers object;
+    returns its parser (``timpm.cli`` sets the function that runs it)."""
+    p = subparsers.add_parser(
+        "speed-error", help="RMS error against wall time over bases, meshes and PPC",
+        description="Sweep basis, mass, elements and particles per element; per run choose dt "
+                    "so that time error does not hide the spatial error, record RMS error and "
+                    "wall time; print a table, the Pareto front and the cheapest configuration "
+                    "per target error, with its speed-up over linear elements.")
+    p.add_argument("problem", help=f"one of: {', '.join(n for n, c in PROBLEMS.items() if c.has_exact)}")
+    p.add_argument("--bases", nargs="+", default=["linear", "bspline2", "bspline3"],
+                   help=f"bases to sweep (of: {', '.join(BASES)}); default linear bspline2 bspline3")
+    p.add_argument("--masses", nargs="+", default=["lumped", "consistent"], choices=list(MASS_KINDS),
+                   help="mass matrices to sweep (default: both)")
+    p.add_argument("--elements", type=positive_int, nargs="+", default=[4, 8, 16, 32, 64],
+                   help="numbers of elements (default: 4 8 16 32 64)")
+    p.add_argument("--ppc", type=positive_int, nargs="+", help="particles per element (default: the problem's)")
+    p.add_argument("--placement", nargs="+", default=["study"], choices=list(PLACEMENTS),
+                   help="particle placement(s) in an element (default: study)")
+    p.add_argument("--t-end", type=positive_float, help="end time [s] (default: the problem's)")
+    p.add_argument("--stress-update", default="study", choices=list(STRESS_UPDATES),
+                   help="study: sigma += (E - sigma) d_eps (2.2.4); small: sigma += E d_eps")
+    p.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
+                   help="override a physical parameter of the problem, e.g. gravity=-0.981")
+    p.add_argument("--targets", type=positive_float, nargs="+",
+                   help="target errors to answer for (default: decades within the sweep)")
+    p.add_argument("--dt-tolerance", type=positive_float, default=0.1,
+                   help="accept dt when |e(dt) - e(dt/2)| <= TOL e(dt/2) (default 0.1)")
+    p.add_argument("--max-halvings", type=int, default=4, help="most halvings of dt (default 4)")
+    p.add_argument("--repeats", type=positive_int, default=3,
+                   help="timed runs per configuration, the minimum is kept (default 3)")
+    p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel"])
+    p.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
+    p.add_argument("--json", metavar="FILE", help="write runs, answers and settings as JSON")
+    p.add_argument("--plot", metavar="FILE.png", help="write the error-against-wall-time plot")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    return p
