@@ -204,6 +204,7 @@ class Batch:
         if (t_end is None) == (n_steps is None):
             raise ValueError("give exactly one of t_end and n_steps")
         self._members()
+        runtime.ensure_pinned()  # the members share the threads: one per core
         remaining = []
         for k, s in enumerate(self.solvers):
             try:

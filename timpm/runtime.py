@@ -115,6 +115,33 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     raise _unavailable(arch, why) from failure
 
 
+def _memoize_source_positions() -> None:
+    """Taichi's frontend formats the source position of every AST node it builds (file,
+    line and the code with a ^^^ marker, wrapped by ``textwrap``): half of a kernel's
+    Python-side compile time, paid again for every call site of an inlined ``ti.func``.
+    The text depends only on the node's place in its source, so it is cached by that
+    place: the same strings, the same IR, the same offline-cache keys."""
+    from taichi.lang.ast import ast_transformer_utils as utils
+
+    ctx_cls = utils.ASTTransformerContext
+    if getattr(ctx_cls, "_timpm_memoized", False):
+        return
+    original = ctx_cls.get_pos_info
+    cache = {}
+
+    def get_pos_info(self, node):
+        key = (self.file, self.lineno_offset, self.indent, self.func.func.__name__,
+               node.lineno, node.end_lineno, node.col_offset, node.end_col_offset,
+               type(node).__name__)
+        text = cache.get(key)
+        if text is None:
+            text = cache[key] = original(self, node)
+        return text
+
+    ctx_cls.get_pos_info = get_pos_info
+    ctx_cls._timpm_memoized = True
+
+
 def _start(settings: dict) -> None:
     """``ti.init`` with ``settings``; the calling thread becomes the owner."""
     _state.pop("settings", None)
@@ -125,9 +152,19 @@ def _start(settings: dict) -> None:
     if settings["threads"]:
         kwargs["cpu_max_num_threads"] = settings["threads"]
     ti.init(**kwargs)
+    _memoize_source_positions()
     _state.update(settings=settings, owner=threading.get_ident(),
                   owner_name=threading.current_thread().name)
-    _state["pinned"] = pin_workers() if settings["pin"] and on_cpu() else []
+    _state.pop("pinned", None)  # pinned at the first parallel launch (ensure_pinned)
+
+
+def ensure_pinned() -> list:
+    """Pin Taichi's workers (:func:`pin_workers`) once per start, if the settings ask for
+    it: called before the first parallel launch (a serial run never wakes them)."""
+    if "pinned" not in _state:
+        settings = _state.get("settings") or {}
+        _state["pinned"] = pin_workers() if settings.get("pin") and on_cpu() else []
+    return _state["pinned"]
 
 
 def check_caller() -> None:

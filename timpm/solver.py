@@ -252,6 +252,8 @@ class Solver:
         """
         prog = self._program()
         total = self.steps_to(t_end, n_steps)
+        if self.mode != "serial":
+            runtime.ensure_pinned()  # the workers, one per core, before they first wake
         self.compile()
         self.record_start()
         bar = Progress(total, progress)
