@@ -171,7 +171,6 @@ class Solver:
         of the same scene (a study repeated, a parameter sweep over loads read at run time)
         costs no compilation."""
         prog = self._program()
-        prog.zero_all()
         self.state.host = None
         self.state.load_into(prog)
         self.history = {"t": [], "step": []}

@@ -80,9 +80,16 @@ class ParamBlock:
             else:
                 self.host[is_int][i] = value
 
-    def upload(self):
-        self.reals.from_numpy(self.host[False].astype(self._np_real))
+    def staged(self):
+        """The staged values as the kernels' float and integer arrays (the program's load
+        kernel copies them in)."""
         ints = self.host[True]
         if np.any(np.abs(ints) > np.iinfo(np.int32).max):
             raise OverflowError("a run-time integer exceeds the 32-bit range of the kernels")
-        self.ints.from_numpy(ints.astype(np.int32))
+        return self.host[False].astype(self._np_real), ints.astype(np.int32)
+
+    def upload(self):
+        """Copy the staged values into the fields (outside a program's load kernel)."""
+        reals, ints = self.staged()
+        self.reals.from_numpy(reals)
+        self.ints.from_numpy(ints)

@@ -114,7 +114,6 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         self._allocate(capacity)
         self._bind_kernels()
         self._active = None  # weak reference to the solver whose state the fields hold
-        self._numpy_shapes = {}  # id(field) -> the shape of its NumPy copy
         self.compiled = set()  # the kernels that ran once (compiled)
 
     # ---- fields ------------------------------------------------------------------------
@@ -288,23 +287,176 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         def clear():
             self._clear_grid()
 
-        groups = [list(g.values()) for g in (self.particle_fields, self.grid_fields, self.copies,
-                                             self.scratch_fields, self.run_fields,
-                                             self.history_fields)]
-
-        @ti.kernel
-        def zero_all():
-            for fields in ti.static(groups):
-                self._zero(fields)
-
         self.step, self.record, self.advance = step, record, advance
-        self.project, self.clear, self.zero_all = project, clear, zero_all
+        self.project, self.clear = project, clear
+        self._bind_transfers()
         if self.team:
             @ti.kernel
             def team(n_steps: ti.i32):
                 self._team_steps(n_steps)
 
             self.team_steps = team
+
+    # ---- the state in and out, one launch each -----------------------------------------
+    def state_layout(self):
+        """Where each state field goes in the host arrays of :meth:`load` / :meth:`save`:
+        ``{block: [(name, column, components), ...]}`` for the blocks ``"particles"`` and
+        ``"particle_ints"`` (one row per particle), ``"nodes"`` and ``"node_ints"`` (one
+        row per live node, C order) and ``"scalars"`` (one row)."""
+        return self._state_layout
+
+    def _bind_transfers(self):
+        blocks = {"particles": [], "particle_ints": [], "nodes": [], "node_ints": [],
+                  "scalars": []}
+        cols = dict.fromkeys(blocks, 0)
+
+        def add(block, name, fld):
+            comps = fld.n * fld.m if isinstance(fld, ti.MatrixField) else 1
+            blocks[block].append((name, cols[block], comps))
+            cols[block] += comps
+
+        for name, fld in self.particle_fields.items():
+            add("particle_ints" if fld.dtype == ti.i32 else "particles", name, fld)
+        for name in ("gv", "gu", "fixed"):
+            if name in self.grid_fields:
+                fld = self.grid_fields[name]
+                add("node_ints" if fld.dtype == ti.i32 else "nodes", name, fld)
+        for name, fld in self.run_fields.items():
+            add("scalars", name, fld)
+        if "body" in self.scratch_fields:
+            add("scalars", "body", self.scratch_fields["body"])
+        self._state_layout = {b: entries for b, entries in blocks.items()}
+        self.state_columns = {b: max(cols[b], 1) for b in blocks}
+        def shape_of(fld):  # components as (rows, columns); columns 0: a vector
+            if not isinstance(fld, ti.MatrixField):
+                return (1, -1)
+            return (fld.n, fld.m if fld.ndim == 2 else 0)
+
+        spec = {b: [(getattr(self, name), col, shape_of(getattr(self, name)))
+                    for name, col, _ in entries] for b, entries in blocks.items()}
+
+        @ti.func
+        def entry(fld: ti.template(), I):
+            # fld[I], or fld[None] for a 0-D field (I unused)
+            if ti.static(len(fld.shape) == 0):
+                return fld[None]
+            else:
+                return fld[I]
+
+        @ti.func
+        def put(fld: ti.template(), I, arr: ti.template(), row, col: ti.template(),
+                shape: ti.template()):
+            # state field at I (any index for a 0-D field) <- arr[row, col + component]
+            v = entry(fld, I)
+            if ti.static(shape[1] > 0):
+                for i, j in ti.static(ti.ndrange(shape[0], shape[1])):
+                    v[i, j] = ti.cast(arr[row, col + i * shape[1] + j], fld.dtype)
+            elif ti.static(shape[1] == 0):
+                for i in ti.static(range(shape[0])):
+                    v[i] = ti.cast(arr[row, col + i], fld.dtype)
+            else:
+                v = ti.cast(arr[row, col], fld.dtype)
+            if ti.static(len(fld.shape) == 0):
+                fld[None] = v
+            else:
+                fld[I] = v
+
+        @ti.func
+        def get(fld: ti.template(), I, arr: ti.template(), row, col: ti.template(),
+                shape: ti.template(), dtype: ti.template()):
+            v = entry(fld, I)
+            if ti.static(shape[1] > 0):
+                for i, j in ti.static(ti.ndrange(shape[0], shape[1])):
+                    arr[row, col + i * shape[1] + j] = ti.cast(v[i, j], dtype)
+            elif ti.static(shape[1] == 0):
+                for i in ti.static(range(shape[0])):
+                    arr[row, col + i] = ti.cast(v[i], dtype)
+            else:
+                arr[row, col] = ti.cast(v, dtype)
+
+        P, PI, N, NI, S = (spec[b] for b in blocks)
+        f64, i32 = ti.types.ndarray(dtype=ti.f64, ndim=2), ti.types.ndarray(dtype=ti.i32, ndim=2)
+
+        # fields whose every entry a step may read before writing it: cleared on load
+        # (particle fields are loaded whole, history and team fields written before read)
+        cleared = [f for f in [*self.grid_fields.values(), *self.copies.values(),
+                               *self.scratch_fields.values()]
+                   if f.shape and f is not self.scratch_fields.get("track_ids")
+                   and f is not self.scratch_fields.get("rank_step")]
+        params, track = self.params, self.scratch_fields.get("track_ids")
+        tracking = track is not None
+        i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
+
+        @ti.kernel
+        def load(particles: f64, particle_ints: i32, nodes: f64, node_ints: i32, scalars: f64,
+                 reals: ti.types.ndarray(ndim=1), ints: i32_1d, track_ids: i32_1d):
+            # run-time values first: the loops below read them
+            for i in range(params.reals.shape[0]):
+                params.reals[i] = reals[i]
+            for i in range(params.ints.shape[0]):
+                params.ints[i] = ints[i]
+            self._zero(cleared)
+            if ti.static(tracking):
+                for j in range(self.p.n_tracked()):
+                    track[j] = track_ids[j]
+            if ti.static(self.recording):
+                self.rec_count[None] = 0
+            for p in range(self.p.n_particles()):
+                for k in ti.static(range(len(P))):
+                    put(P[k][0], p, particles, p, P[k][1], P[k][2])
+                for k in ti.static(range(len(PI))):
+                    put(PI[k][0], p, particle_ints, p, PI[k][1], PI[k][2])
+            for f in range(self.p.node_count()):
+                I = self._node_of(f)
+                for k in ti.static(range(len(N))):
+                    put(N[k][0], I, nodes, f, N[k][1], N[k][2])
+                for k in ti.static(range(len(NI))):
+                    put(NI[k][0], I, node_ints, f, NI[k][1], NI[k][2])
+            for k in ti.static(range(len(S))):
+                put(S[k][0], 0, scalars, 0, S[k][1], S[k][2])
+
+        @ti.kernel
+        def save(particles: f64, particle_ints: i32, nodes: f64, node_ints: i32, scalars: f64):
+            for p in range(self.p.n_particles()):
+                for k in ti.static(range(len(P))):
+                    get(P[k][0], p, particles, p, P[k][1], P[k][2], ti.f64)
+                for k in ti.static(range(len(PI))):
+                    get(PI[k][0], p, particle_ints, p, PI[k][1], PI[k][2], ti.i32)
+            for f in range(self.p.node_count()):
+                I = self._node_of(f)
+                for k in ti.static(range(len(N))):
+                    get(N[k][0], I, nodes, f, N[k][1], N[k][2], ti.f64)
+                for k in ti.static(range(len(NI))):
+                    get(NI[k][0], I, node_ints, f, NI[k][1], NI[k][2], ti.i32)
+            for k in ti.static(range(len(S))):
+                get(S[k][0], 0, scalars, 0, S[k][1], S[k][2], ti.f64)
+
+        self._load, self._save = load, save
+
+    def host_arrays(self, n_particles, n_nodes):
+        """Zeroed host arrays of the state blocks for this many particles and live nodes."""
+        rows = {"particles": n_particles, "particle_ints": n_particles, "nodes": n_nodes,
+                "node_ints": n_nodes, "scalars": 1}
+        return {b: np.zeros((max(rows[b], 1), self.state_columns[b]),
+                            dtype=np.int32 if b.endswith("ints") else np.float64)
+                for b in rows}
+
+    def load(self, arrays, track_ids):
+        """Upload the run-time values (staged in ``params``), the state blocks
+        (:meth:`host_arrays`) and the tracked particles, the grid and scratch fields
+        cleared: one launch."""
+        reals, ints = self.params.staged()
+        self._load(arrays["particles"], arrays["particle_ints"], arrays["nodes"],
+                   arrays["node_ints"], arrays["scalars"], reals, ints,
+                   np.asarray(track_ids, dtype=np.int32).reshape(-1) if len(track_ids)
+                   else np.zeros(1, np.int32))
+
+    def save(self, n_particles, n_nodes):
+        """The state blocks of the live particles and nodes, from the fields: one launch."""
+        arrays = self.host_arrays(n_particles, n_nodes)
+        self._save(arrays["particles"], arrays["particle_ints"], arrays["nodes"],
+                   arrays["node_ints"], arrays["scalars"])
+        return arrays
 
     def launch(self, n: int):
         """n steps of the parallel mode: one launch for a team, else one launch per step."""
@@ -329,7 +481,6 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         if current is not None:
             current.save_to_host(self)
         self._active = None
-        self.zero_all()
         owner.load_into(self)
         self._active = weakref.ref(owner)
         return True
@@ -350,14 +501,19 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
     def write(self, fld, values, count):
         """Store ``values`` (``count`` entries along the leading axes) in the first entries
         of ``fld``, the rest zero."""
-        shape = self._numpy_shapes.get(id(fld))
-        if shape is None:
-            shape = self._numpy_shapes[id(fld)] = fld.to_numpy().shape
+        shape = _numpy_shape(fld)
         full = np.zeros(shape, dtype=_numpy_dtype(fld))
         count = tuple(count)
         full[tuple(slice(0, c) for c in count)] = np.asarray(values).reshape(
             count + shape[len(count):])
         fld.from_numpy(full)
+
+
+def _numpy_shape(fld):
+    """The shape of ``fld.to_numpy()``: Taichi gives an n x 1 matrix field as vectors."""
+    if not isinstance(fld, ti.MatrixField):
+        return tuple(fld.shape)
+    return tuple(fld.shape) + ((fld.n,) if fld.m == 1 else (fld.n, fld.m))
 
 
 def _numpy_dtype(fld):

@@ -19,7 +19,7 @@ class State:
         self.host = None  # the arrays saved while another solver holds the program
 
     def load_into(self, prog):
-        """Upload this solver's run-time values and state into ``prog`` (just cleared)."""
+        """Upload this solver's run-time values and state into ``prog``."""
         lay = self.layout
         values = dict(lay.values)
         values["node_count"] = int(np.prod(lay.nodes))
@@ -27,33 +27,38 @@ class State:
         prog.params.set("p", {k: v for k, v in values.items() if ("p", k) in prog.params.slots})
         for k, consts in enumerate(lay.material_values):
             prog.params.set(f"m{k}", consts)
-        prog.params.upload()
         if self.host is None:
-            self.write_initial(prog)
-        else:
-            for name, values in self.host.items():
-                self.write(prog, name, values)
-            self.host = None
+            self.host = self.initial(prog)
+        prog.load(self.host, self.track)  # the staged values too
+        self.host = None
 
     def save_to_host(self, prog):
         """Keep this state in host memory (another solver takes the program)."""
-        keep = {}
-        for name in self.names(prog):
-            keep[name] = self.read(prog, name)
-        self.host = keep
+        self.host = prog.save(self.layout.n_particles, int(np.prod(self.layout.nodes)))
 
-    def names(self, prog):
-        """The fields that hold this state between steps (the rest is cleared or rebuilt
-        every step)."""
-        names = list(prog.particle_fields) + list(prog.run_fields)
-        names += [n for n in ("gv", "gu") if n in prog.grid_fields]
-        if "body" in prog.scratch_fields:
-            names.append("body")
-        if "track_ids" in prog.scratch_fields:
-            names.append("track_ids")
-        if "fixed" in prog.grid_fields:
-            names.append("fixed")
-        return names
+    def initial(self, prog):
+        """The scene's initial state as the program's host arrays: positions, velocities,
+        masses, volumes, F = I, J = 1, material indices, Dirichlet nodes, elements
+        (crossings); the rest zero."""
+        scene, n, d = self.scene, self.layout.n_particles, self.features.dim
+        values = {"x": scene.positions.reshape(n, d), "v": scene.velocity.reshape(n, d),
+                  "m": scene.mass_per_particle, "vol": scene.volume, "J": np.ones(n),
+                  "F": np.broadcast_to(np.eye(d), (n, d, d)),
+                  "elem": self._element_of(scene.positions.reshape(n, d))}
+        if self.features.multi_material:
+            values["mat"] = np.asarray(scene.material_index, dtype=np.int32)
+        if self.layout.fixed_nodes:
+            fixed = np.zeros(self.layout.nodes, dtype=np.int32)
+            for i in self.layout.fixed_nodes:
+                fixed[i] = 1
+            values["fixed"] = fixed
+        arrays = prog.host_arrays(n, int(np.prod(self.layout.nodes)))
+        for block, entries in prog.state_layout().items():
+            for name, col, comps in entries:
+                if name in values:
+                    rows = arrays[block].shape[0]
+                    arrays[block][:, col:col + comps] = np.reshape(values[name], (rows, comps))
+        return arrays
 
     def extent(self, prog, name):
         """The live part of field ``name``: its leading sizes for this scene."""
@@ -82,30 +87,6 @@ class State:
             fld[None] = values.tolist() if np.ndim(values) else values.item()
         else:
             prog.write(fld, values, self.extent(prog, name))
-
-    def write_initial(self, prog):
-        """The scene's initial state: positions, velocities, masses, volumes, F = I, J = 1,
-        material indices, Dirichlet nodes, elements (crossings), tracked particles."""
-        scene, n, d = self.scene, self.layout.n_particles, self.features.dim
-        self.write(prog, "x", scene.positions.reshape(n, d))
-        self.write(prog, "v", scene.velocity.reshape(n, d))
-        self.write(prog, "m", scene.mass_per_particle)
-        self.write(prog, "vol", scene.volume)
-        if "J" in prog.particle_fields:
-            self.write(prog, "J", np.ones(n))
-        if "F" in prog.particle_fields:
-            self.write(prog, "F", np.broadcast_to(np.eye(d), (n, d, d)))
-        if "mat" in prog.particle_fields:
-            self.write(prog, "mat", np.asarray(scene.material_index, dtype=np.int32))
-        if "fixed" in prog.grid_fields:
-            fixed = np.zeros(self.layout.nodes, dtype=np.int32)
-            for i in self.layout.fixed_nodes:
-                fixed[i] = 1
-            self.write(prog, "fixed", fixed)
-        if "elem" in prog.particle_fields:
-            self.write(prog, "elem", self._element_of(scene.positions.reshape(n, d)))
-        if self.layout.n_tracked:
-            self.write(prog, "track_ids", np.asarray(self.track, dtype=np.int32))
 
     def _element_of(self, x):
         lay = self.layout
