@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from timpm.problems import get_problem
 from timpm.scenarios.mpm88 import mpm88_world
@@ -68,6 +69,7 @@ def test_taichi_mpm88_headless_agrees_with_timpm():
     assert np.abs(s.positions() + shift - r["x1"]).max() < 2e-6
 
 
+@pytest.mark.slow  # the whole harness (every strategy, both precisions, mpm88 in subprocesses)
 def test_bench_script_runs_tiny(tmp_path):
     from harness.bench import bench
 
