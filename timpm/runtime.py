@@ -2,6 +2,7 @@
 owned by the thread that started it and unusable in a child forked after it started."""
 
 import ctypes
+import functools
 import numbers
 import os
 import threading
@@ -140,6 +141,14 @@ def _memoize_source_positions() -> None:
 
     ctx_cls.get_pos_info = get_pos_info
     ctx_cls._timpm_memoized = True
+    # and the source of each function, which Taichi reads (tokenizing its file) again for
+    # every call site of an inlined ti.func
+    from taichi.lang import kernel_impl
+
+    for name in ("getsourcelines", "getsourcefile"):
+        original_lookup = getattr(kernel_impl, name, None)
+        if original_lookup is not None:
+            setattr(kernel_impl, name, functools.lru_cache(maxsize=None)(original_lookup))
 
 
 def _start(settings: dict) -> None:

@@ -264,6 +264,7 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
     say = progress or (lambda *a, **k: None)
 
     runs, skipped = [], []
+    compiled = []  # compile seconds of every run, the dt trials included
     started = time.perf_counter()
     for basis, mass in combos:
         for place in placements:
@@ -288,8 +289,10 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
 
                     def run(dt, conf=conf, tried=tried):
                         tried.append(dt)
-                        return _Run(prob, dt=dt, t_end=t_end, mode=mode,
-                                    stress_update=stress_update, **conf)
+                        r = _Run(prob, dt=dt, t_end=t_end, mode=mode,
+                                 stress_update=stress_update, **conf)
+                        compiled.append(r.record["compile_seconds"])
+                        return r
 
                     others = []
                     try:
@@ -337,6 +340,7 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
                   "elements": list(elements), "ppcs": list(ppcs)},
         "runs": runs, "skipped": skipped,
         "sweep_seconds": time.perf_counter() - started,
+        "compile_seconds": sum(compiled),
     }
 
 
