@@ -107,12 +107,21 @@ def _two_threads():
         pytest.skip("a team needs two CPU threads")
 
 
-@pytest.mark.parametrize("transfer", ["mls-mpm", "apic"])
+@pytest.mark.parametrize("transfer", ["mls-mpm", "apic", "musl", "musl-damped", "1d"])
 def test_team_mode_gives_the_parallel_run_bit_for_bit(transfer):
     """The team's threads run the same per-particle and per-node code on the same blocks
-    and grid copies as the parallel mode's private scatter: the same run, bit for bit."""
+    and grid copies as the parallel mode's private scatter: the same run, bit for bit,
+    for the affine transfers and the study's MUSL step (2D with friction walls, with
+    local damping, and the 1D string)."""
     _two_threads()
-    scene = sand_column(transfer)
+    if transfer == "1d":
+        scene = get_problem("vibrating-string").scene(elements=512, ppc=4)
+    elif transfer == "musl-damped":
+        sand = DruckerPrager(E=2e5, nu=0.3, density=1500.0, friction_angle=30.0)
+        scene = World(domain=(1.2, 0.8), cells=24, transfer="musl", damping=0.1,
+                      bodies=[Body(Box((0.0, 0.0), (0.3, 0.6)), sand, ppc=4)], courant=0.5)
+    else:
+        scene = sand_column(transfer)
     _, x, v = run(scene, "private", 60)
     team = Solver(scene, mode="team", energies=False)
     try:
@@ -126,15 +135,21 @@ def test_team_mode_gives_the_parallel_run_bit_for_bit(transfer):
         team.release()
 
 
-def test_auto_mode_picks_a_team_for_the_affine_transfer_only():
+def test_auto_mode_picks_a_team_where_the_private_scatter_runs():
     _two_threads()
-    for transfer, team in (("mls-mpm", True), ("apic", True), ("musl", False)):
+    for transfer in ("mls-mpm", "apic", "musl"):
         s = Solver(sand_column(transfer), serial_threshold=0, energies=False)
-        assert (s.mode, s.team) == ("parallel", team)
+        assert (s.mode, s.team) == ("parallel", True)
         s.release()
-    with pytest.raises(ValueError, match="mode='team' needs the private scatter .* and the "
-                                         "affine transfer"):
-        Solver(sand_column("musl"), mode="team")
+    linear = World(domain=(1.2, 0.8), cells=24, basis="linear", transfer="apic",
+                   bodies=[Body(Box((0.0, 0.0), (0.3, 0.6)),
+                                DruckerPrager(E=2e5, nu=0.3, density=1500.0,
+                                              friction_angle=30.0), ppc=4)], courant=0.5)
+    s = Solver(linear, serial_threshold=0, energies=False)
+    assert (s.mode, s.team) == ("parallel", False)  # APIC's strain remap: no team
+    s.release()
+    with pytest.raises(ValueError, match="APIC with the linear basis"):
+        Solver(linear, mode="team")
     with pytest.raises(ValueError, match="mode='team' needs the private scatter"):
         Solver(sand_column("mls-mpm"), mode="team", scatter="serial")
 

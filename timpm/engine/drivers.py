@@ -76,7 +76,10 @@ class Drivers:
         B = self.p.scatter_block()
         for q in range(self.n_copies * B):
             if q % B == 0:  # thread q // B of Taichi's static split runs its whole block
-                self._team_member(q // B, n_steps)
+                if ti.static(self.apic):
+                    self._team_member(q // B, n_steps)
+                else:
+                    self._team_member_musl(q // B, n_steps)
 
     @ti.func
     def _team_member(self, c, n_steps):
@@ -109,6 +112,59 @@ class Drivers:
             if ti.atomic_add(self.team_abort[None], 0) != 0:
                 break
             # G2P of the thread's particles (as _g2p_update): the next P2G reads only them
+            for p in range(first, end):
+                self._g2p_update_particle(p)
+            if c == 0:
+                self.step_count[None] = start + s + 1
+                self.time[None] = (start + s + 1) * self.p.dt()
+
+    @ti.func
+    def _team_member_musl(self, c, n_steps):
+        """Thread c of the team: n_steps MUSL steps (the study's, with the private scatter)
+        on its particles and its share of the nodes, four barriers a step."""
+        n_nodes = self.p.node_count()
+        nodes_per_thread = self.p.nodes_per_thread()
+        B = self.p.scatter_block()
+        first, end = c * B, ti.min((c + 1) * B, self.p.n_particles())
+        lo, hi = c * nodes_per_thread, ti.min((c + 1) * nodes_per_thread, n_nodes)
+        start = self.step_count[None]  # thread 0 changes it only after the last barrier
+        arrivals = 0
+        for s in range(n_steps):
+            self.rank_step[c] = start + s
+            # P2G of mass and forces (and momentum) into the thread's grid copy (as _p2g)
+            for p in range(first, end):
+                self._scatter_particle("p2g", p, c)
+            arrivals += self.n_copies
+            self._team_barrier(c, arrivals)
+            if (ti.atomic_add(self.err_count[None], 0) != 0
+                    or ti.atomic_add(self.team_abort[None], 0) != 0):
+                break
+            # grid: the copies summed, a = M^-1 F with damping and walls (as
+            # _grid_acceleration) on the thread's nodes
+            for f in range(lo, hi):
+                I = self._node_of(f)
+                for name in ti.static(tuple(self.copies)):
+                    ti.static(getattr(self, name))[I] = self._merged(name, I)
+                self._grid_acceleration_node(I)
+            arrivals += self.n_copies
+            self._team_barrier(c, arrivals)
+            # G2P of the velocity, P2G of the new momentum into the copy (_g2p_velocity)
+            for p in range(first, end):
+                self._scatter_particle("g2p-velocity", p, c)
+            arrivals += self.n_copies
+            self._team_barrier(c, arrivals)
+            # grid: v = P / m with the walls (as _solve_mass), u_i += v_i dt
+            for f in range(lo, hi):
+                I = self._node_of(f)
+                self.gp[I] = self._merged("gp", I)
+                self._solve_mass_node(self.gp, True, I)
+                if ti.static(self.grid_displacement):
+                    self.gu[I] += self.gp[I] * self.p.dt()
+            arrivals += self.n_copies
+            self._team_barrier(c, arrivals)
+            if ti.atomic_add(self.team_abort[None], 0) != 0:
+                break
+            # G2P of displacement, strain, stress, volume (as _g2p_update)
             for p in range(first, end):
                 self._g2p_update_particle(p)
             if c == 0:

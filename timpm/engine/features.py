@@ -232,11 +232,11 @@ def plan(scene, track=(), record_every=1, energies=True, mode="auto", serial_thr
     # team: the passes of many steps in one parallel task, each thread a fixed block of
     # particles (its own grid copy) and of nodes, the passes separated by spin barriers:
     # Taichi's pool is woken once per launch, not three times per step
-    team_ok = private and apic and not strain_remap and threads >= n_copies
+    team_ok = private and not strain_remap and threads >= n_copies
     if requested == "team" and not team_ok:
-        raise ValueError("mode='team' needs the private scatter with a thread per grid "
-                         "copy (two CPU threads or more) and the affine transfer (APIC "
-                         "with a B-spline basis, or MLS-MPM)")
+        raise ValueError("mode='team' needs the private scatter (lumped mass, standard "
+                         "projection) with a thread per grid copy (two CPU threads or more); "
+                         "APIC with the linear basis (its strain remap) has no team")
     has_u = one_d
     crossings = (dim == 1) if track_crossings is None else bool(track_crossings)
     features = FeatureSet(

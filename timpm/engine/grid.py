@@ -73,20 +73,24 @@ class GridOps:
         # grid: local damping F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F; at a
         # wall a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
         for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
-            if ti.static(self.damping):
-                self.gf[I] -= self.p.damping() * ti.math.sign(self.gp[I]) * ti.abs(self.gf[I])
-            if ti.static(self.has_walls):
-                a = ti.Vector.zero(float, self.dim)
-                if self.gm[I] > self.p.mass_tol():
-                    vn = self.gp[I] / self.gm[I]
-                    a = (self._wall(I, vn + self.p.dt() * self.gf[I] / self.gm[I]) - vn) / self.p.dt()
-                self.gf[I] = a
-            elif ti.static(not self.consistent):
-                self.gf[I] = self._lumped_solve(I, self.gf[I])  # a = F / m in the same pass
-            if ti.static(self.damping or self.has_walls):
-                self.gp[I] = ti.Vector.zero(float, self.dim)  # P2G scattered P_i
+            self._grid_acceleration_node(I)
         if ti.static(self.consistent and not self.has_walls):
             self._solve_mass(self.gf, False)
+
+    @ti.func
+    def _grid_acceleration_node(self, I):
+        if ti.static(self.damping):
+            self.gf[I] -= self.p.damping() * ti.math.sign(self.gp[I]) * ti.abs(self.gf[I])
+        if ti.static(self.has_walls):
+            a = ti.Vector.zero(float, self.dim)
+            if self.gm[I] > self.p.mass_tol():
+                vn = self.gp[I] / self.gm[I]
+                a = (self._wall(I, vn + self.p.dt() * self.gf[I] / self.gm[I]) - vn) / self.p.dt()
+            self.gf[I] = a
+        elif ti.static(not self.consistent):
+            self.gf[I] = self._lumped_solve(I, self.gf[I])  # a = F / m in the same pass
+        if ti.static(self.damping or self.has_walls):
+            self.gp[I] = ti.Vector.zero(float, self.dim)  # P2G scattered P_i
 
     @ti.func
     def _grid_velocity(self):
@@ -120,11 +124,16 @@ class GridOps:
         ``walls``: apply the wall conditions to the result (a velocity)."""
         if ti.static(not self.consistent):
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
-                rhs[I] = self._lumped_solve(I, rhs[I])
-                if ti.static(walls and self.has_walls):
-                    rhs[I] = self._wall(I, rhs[I])
+                self._solve_mass_node(rhs, walls, I)
         else:
             self._banded_substitute(rhs)
+
+    @ti.func
+    def _solve_mass_node(self, rhs: ti.template(), walls: ti.template(), I):
+        """The lumped solve of ``_solve_mass`` at node I."""
+        rhs[I] = self._lumped_solve(I, rhs[I])
+        if ti.static(walls and self.has_walls):
+            rhs[I] = self._wall(I, rhs[I])
 
     @ti.func
     def _lumped_solve(self, I, value):
