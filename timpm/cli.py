@@ -37,8 +37,9 @@ def _add_common(p):
                    help="override a physical parameter of the problem, e.g. p0=2e4")
     p.add_argument("--allow-unstable-dt", action="store_true",
                    help="run even if dt exceeds the critical time step of Eq. 2.4")
-    p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel"],
-                   help="serial: fused steps on one thread; parallel: one launch per step")
+    p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"],
+                   help="serial: fused steps on one thread; parallel: one launch per step; "
+                        "team: many steps per launch on every thread (private scatter)")
     p.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
     p.add_argument("--json", metavar="FILE", help="write the records as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="draw a plot")
@@ -80,7 +81,7 @@ def _parser():
     demo.add_argument("--t-end", type=float, help="end time [s] (default: the demo's)")
     demo.add_argument("--param", type=setting, action="append", default=[], metavar="NAME=VALUE",
                       help="override a demo parameter, e.g. aspect=1, cells=40, transfer=musl")
-    demo.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel"])
+    demo.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"])
     demo.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
     demo.add_argument("--plot", metavar="FILE.png", help="plot the demo's diagnostic")
     demo.add_argument("--json", metavar="FILE", help="write times, summary and series as JSON")

@@ -33,8 +33,8 @@ class Solver:
 
     ``track`` lists particle indices whose state is recorded every ``record_every`` steps
     together with the energies; ``mode`` is ``"parallel"``, ``"serial"`` (fused steps, one
-    thread, bit-reproducible), ``"team"`` (the affine transfer with the private scatter on
-    two CPU threads or more: the passes of many steps in one parallel task, each thread a
+    thread, bit-reproducible), ``"team"`` (the private scatter on two CPU threads or
+    more, MUSL or affine: the passes of many steps in one parallel task, each thread a
     fixed block of particles and nodes, spin barriers between the passes; the parallel
     mode's results bit for bit) or ``"auto"`` (serial up to ``serial_threshold`` particles
     and at any size where Taichi runs one CPU thread, else team where it applies, else

@@ -5,9 +5,9 @@ Mixed into :class:`~timpm.engine.program.Program`.  Every driver runs the same s
 
 - *parallel*: one launch per step, every loop of the step parallel over the CPU threads;
 - *serial* (fused): many steps in one launch, one task on one thread (``_advance_steps``);
-- *team*: many affine steps in one parallel task, each thread of Taichi's static split a
-  fixed block of particles (its own grid copy) and of nodes, spin barriers between the
-  passes (``_team_steps``).
+- *team*: many steps (MUSL or affine) in one parallel task, each thread of Taichi's static
+  split a fixed block of particles (its own grid copy) and of nodes, spin barriers between
+  the passes (``_team_steps``).
 
 A failure (a particle off the grid, a NaN, an inverted volume, a singular mass matrix,
 a team that does not meet) records its code, step and particle or node (``_fail``); the

@@ -226,12 +226,11 @@ def plan(scene, track=(), record_every=1, energies=True, mode="auto", serial_thr
     if consistent and dim != 1:
         raise ValueError("the consistent mass matrix is implemented for 1D scenes only")
     nodes = tuple(basis.n_nodes(e) for e in elements)
-    apic = transfer in ("apic", "mls-mpm")
     strain_remap = transfer == "apic" and basis.support == 2
     private = n_copies > 1
     # team: the passes of many steps in one parallel task, each thread a fixed block of
     # particles (its own grid copy) and of nodes, the passes separated by spin barriers:
-    # Taichi's pool is woken once per launch, not three times per step
+    # Taichi's pool is woken once per launch, not three to five times per step
     team_ok = private and not strain_remap and threads >= n_copies
     if requested == "team" and not team_ok:
         raise ValueError("mode='team' needs the private scatter (lumped mass, standard "

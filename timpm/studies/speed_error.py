@@ -377,7 +377,7 @@ def add_parser(subparsers):
     p.add_argument("--max-halvings", type=int, default=4, help="most halvings of dt (default 4)")
     p.add_argument("--repeats", type=positive_int, default=3,
                    help="timed runs per configuration, the minimum is kept (default 3)")
-    p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel"])
+    p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"])
     p.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
     p.add_argument("--json", metavar="FILE", help="write runs, answers and settings as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="write the error-against-wall-time plot")
