@@ -217,3 +217,32 @@ def test_workers_are_pinned_one_per_core():
         assert len({core for _, core in pinned}) == min(len(pinned), len(cores))
         for tid, core in pinned:
             assert os.sched_getaffinity(tid) == {core}
+
+
+def test_solvers_take_turns_in_one_program_and_survive_its_growth():
+    """Solvers of one feature set share a program: a run split into parts, with other
+    solvers of the same feature set run in between (their states swapped in and out) and a
+    scene too large for the program's capacity in between (the program grows: a new one),
+    ends bit for bit where the run in one go ends."""
+    string = get_problem("vibrating-string")
+    small, other = string.scene(elements=16), string.scene(elements=32)
+    whole = Solver(small, track=[5], mode="serial")
+    whole.run(n_steps=600)
+    reference = _state(whole)
+    whole.release()
+    parts = Solver(small, track=[5], mode="serial")
+    neighbour = Solver(other, mode="serial")
+    parts.run(n_steps=200)
+    neighbour.run(n_steps=100)          # parts' state saved to host, neighbour's loaded
+    parts.run(n_steps=200)
+    big = Solver(string.scene(elements=512, ppc=4), mode="serial")  # 2048 > 1024 particles
+    assert big.n_particles > 1024
+    big.run(n_steps=10)
+    parts.run(n_steps=200)
+    try:
+        assert parts.step == 600
+        _assert_same(reference, _state(parts))
+        assert neighbour.step == 100 and big.step == 10
+    finally:
+        for s in (parts, neighbour, big):
+            s.release()

@@ -213,3 +213,17 @@ def test_a_taichi_restart_gives_clear_errors_not_a_crash():
                           text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert proc.stdout.strip().endswith("OK")
+
+
+@pytest.mark.parametrize("option, value, message", [
+    ("record_every", 2.5, "record_every must be a positive integer, got 2.5"),
+    ("record_every", 0, "record_every must be a positive integer, got 0"),
+    ("check_every", "16", "check_every must be a positive integer, got '16'"),
+    ("history_chunk", True, "history_chunk must be a positive integer, got True"),
+    ("track", [1.9], "tracked particle must be an integer index, got 1.9"),
+])
+def test_solver_options_are_whole_numbers(option, value, message):
+    """Counts and indices are refused when they are not whole numbers (they used to be
+    truncated silently), before anything is compiled."""
+    with pytest.raises(ValueError, match=message.replace("(", r"\(")):
+        timpm.Solver(_scene(), **{option: value})

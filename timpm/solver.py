@@ -14,6 +14,7 @@ outside the grid, a NaN, an inverted volume or a singular mass matrix sets an er
 (code, step, particle or node) and the run stops with a :class:`SimulationError` that
 names them.
 """
+import numbers
 import time
 
 import numpy as np
@@ -64,7 +65,7 @@ class Solver:
         if history_chunk is not None:
             history_chunk = _count("history_chunk", history_chunk)
         self.features, self.layout = plan(
-            scene, track=track, record_every=record_every, energies=energies, mode=mode,
+            scene, track=track, energies=energies, mode=mode,
             serial_threshold=serial_threshold, history_chunk=history_chunk,
             track_crossings=track_crossings, grid_displacement=grid_displacement,
             small_mass=small_mass, scatter=scatter)
@@ -90,9 +91,7 @@ class Solver:
         self._compiled = False
         self._timed_steps = 0  # parallel mode: the first launch of a new program is timed
         self._first_step = 0.0
-        t0 = time.perf_counter()
         self._program()  # allocate (or reuse) the program's fields, upload this state
-        self.setup_seconds = time.perf_counter() - t0
 
     # ---- compile-time choices, as attributes -----------------------------------------------
     def __getattr__(self, name):
@@ -105,14 +104,6 @@ class Solver:
     @property
     def record_energies(self) -> bool:
         return self.features.energies
-
-    @property
-    def private_scatter(self) -> bool:
-        return self.features.private_scatter
-
-    @property
-    def node_offset(self) -> int:
-        return self.features.node_offset
 
     # ---- the program and this state ----------------------------------------------------------
     def _program(self):
@@ -536,15 +527,21 @@ class Solver:
         return a[:, 0] if self.dim == 1 else a
 
 
+def _whole(value) -> bool:
+    """An integer, or a float with an integral value (not a bool, a string, 2.5)."""
+    return (not isinstance(value, bool) and isinstance(value, numbers.Real)
+            and float(value).is_integer())
+
+
 def _count(name, value) -> int:
-    """A positive integer option (bools and non-integral numbers refused)."""
-    if isinstance(value, bool) or not float(value).is_integer() or int(value) < 1:
+    """A positive integer option (bools, strings and non-integral numbers refused)."""
+    if not _whole(value) or int(value) < 1:
         raise ValueError(f"{name} must be a positive integer, got {value!r}")
     return int(value)
 
 
 def _index(name, value) -> int:
-    if isinstance(value, bool) or not float(value).is_integer():
+    if not _whole(value):
         raise ValueError(f"{name} must be an integer index, got {value!r}")
     return int(value)
 

@@ -177,7 +177,7 @@ def _scatter_choice(scatter, mode, private_ok):
     return scatter
 
 
-def plan(scene, track=(), record_every=1, energies=True, mode="auto", serial_threshold=4096,
+def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
          history_chunk=None, track_crossings=None, grid_displacement=False,
          small_mass=1e-3, scatter="auto"):
     """The feature set and layout of ``scene`` run with the solver's options (checked)."""

@@ -47,13 +47,16 @@ class Capacity:
                 and all(n <= c for n, c in zip(layout.room, self.nodes)))
 
     def grown(self, layout) -> "Capacity":
-        """A capacity that holds ``layout``: every size too small doubles (at least)."""
-        def grow(have, need, least):
-            return have if need <= have else max(need, 2 * have, least)
-        return Capacity(grow(self.particles, layout.n_particles, 0),
-                        tuple(grow(c, n, 0) for c, n in zip(self.nodes, layout.room)),
-                        grow(self.tracked, layout.n_tracked, 0),
-                        grow(self.history, layout.history, 0))
+        """A capacity that holds ``layout``: every size too small doubles (at least),
+        but the grid axes of 2D and 3D grow to what is needed (doubling each axis of a 3D
+        grid would take eight times its memory)."""
+        def grow(have, need, factor=2):
+            return have if need <= have else max(need, factor * have)
+        axis = 2 if len(self.nodes) == 1 else 1
+        return Capacity(grow(self.particles, layout.n_particles),
+                        tuple(grow(c, n, axis) for c, n in zip(self.nodes, layout.room)),
+                        grow(self.tracked, layout.n_tracked),
+                        grow(self.history, layout.history))
 
     @staticmethod
     def first(features, layout) -> "Capacity":
@@ -550,8 +553,15 @@ def program_for(features, layout, slot: int = 0):
 
 
 def clear_programs():
-    """Free every program's fields (the solvers that used them keep nothing on the
-    device: they must be built again)."""
-    for prog in _PROGRAMS.values():
-        prog.release()
+    """Free every program's fields and forget the compiled kernels: the state a program
+    holds is saved to its solver first, and a solver used again uploads it into a new
+    program (compiled again)."""
+    from .. import runtime
+
+    for (_, _, gen), prog in _PROGRAMS.items():
+        if gen == runtime.generation():  # else Taichi freed them at its restart
+            owner = prog.active
+            if owner is not None:
+                owner.save_to_host(prog)
+            prog.release()
     _PROGRAMS.clear()
