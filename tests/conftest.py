@@ -2,12 +2,22 @@ import os
 
 import pytest
 
-import timpm
+# no banner or start-up notes from Taichi in the test processes: pytest-xdist's workers
+# would print them after pytest's summary line
+os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "false")
+os.environ.setdefault("TI_LOG_LEVEL", "warn")
+
+import timpm  # noqa: E402
 
 
 def pytest_configure(config):
-    # two threads at most: CI machines have two cores
-    timpm.init(threads=int(os.environ.get("TIMPM_THREADS", "2")))
+    # the process that runs tests starts Taichi (with pytest-xdist, each worker does; the
+    # controller only distributes the test files); two threads at most: CI machines have
+    # two cores
+    controller = getattr(config.option, "numprocesses", None) and \
+        "PYTEST_XDIST_WORKER" not in os.environ
+    if not controller:
+        timpm.init(threads=int(os.environ.get("TIMPM_THREADS", "2")))
 
 
 @pytest.fixture(scope="session")
