@@ -18,7 +18,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "timpm"
 LAYERS = (
     ("timpm.runtime", "timpm.argtypes", "timpm.progress"),
     ("timpm.scene", "timpm.world", "timpm.basis", "timpm.materials*", "timpm.model*",
-     "timpm.engine*", "timpm.errors", "timpm.checks"),
+     "timpm.engine*", "timpm.errors", "timpm.checks", "timpm.loads"),
     ("timpm.solver", "timpm.batch"),
     ("timpm.problems*", "timpm.scenarios*"),
     ("timpm.studies*",),

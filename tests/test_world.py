@@ -593,8 +593,9 @@ def test_basis_transfer_gravity_and_domain():
     with pytest.raises(ValueError, match="unknown basis 'quintic'"):
         _world(basis="quintic")
     for one_d in ("bspline2", "lagrange2"):
-        with pytest.raises(ValueError, match=f"the {one_d} basis is 1D only: 2D/3D grids take "
-                                             "linear, uniform-bspline2, uniform-bspline3"):
+        with pytest.raises(ValueError, match=f"the {one_d} basis is 1D only: a World's grid, "
+                                             "padded beyond its walls, takes linear, "
+                                             "uniform-bspline2, uniform-bspline3"):
             _world(basis=one_d)
     with pytest.raises(ValueError, match="unknown transfer 'pic': choose one of musl, apic"):
         _world(transfer="pic")
@@ -602,9 +603,8 @@ def test_basis_transfer_gravity_and_domain():
         _world(gravity=(0.0, -9.81, 0.0))
     with pytest.raises(ValueError, match="gravity must have 3 components, got 2"):
         _world(domain=(1.0, 1.0, 1.0), gravity=(0.0, -9.81))
-    with pytest.raises(ValueError, match=r"a World is 2D or 3D, got a 1-dimensional domain "
-                                         r"\(use timpm.Scene for 1D\)"):
-        _world(domain=(1.0,), bodies=[Body(Box((0.1,), (0.2,)), "rubber")])
+    with pytest.raises(ValueError, match=r"a World is 1D, 2D or 3D, got a 4-dimensional domain"):
+        _world(domain=(1.0,) * 4, bodies=[Body(Box((0.1,) * 4, (0.2,) * 4), "rubber")])
     with pytest.raises(ValueError, match="not a whole number of cells"):
         _world(domain=(1.0, 0.3))
 

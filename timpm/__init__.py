@@ -14,7 +14,8 @@ from .materials import (DruckerPrager, LinearElastic, NeoHookean, WeaklyCompress
                         get_material)
 from .solver import SimulationError, Solver
 from .batch import Batch
-from .world import Ball, Body, Box, Wall, World
+from .world import Ball, Body, Box, Points, Wall, World
+from .model import Model
 
 __version__ = "0.1.0"
 
@@ -22,5 +23,5 @@ __all__ = [
     "BASES", "Basis", "Linear", "get_basis", "init", "Constant", "Grid1D", "Material",
     "Ramp", "Scene", "Sine", "Traction", "critical_time_step", "equidistant_particles",
     "SimulationError", "Solver", "Batch", "__version__", "World", "Body", "Box", "Ball", "Wall",
-    "LinearElastic", "NeoHookean", "DruckerPrager", "WeaklyCompressibleFluid", "get_material",
+    "Points", "Model", "LinearElastic", "NeoHookean", "DruckerPrager", "WeaklyCompressibleFluid", "get_material",
 ]

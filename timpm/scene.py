@@ -1,40 +1,27 @@
-"""Scene description: the grid, the particles, the material, loads and boundaries.
+"""1D scenes: the grid, the particles, the material, loads and boundaries of the study.
 
-A :class:`Scene` is a checked, immutable description of one simulation.  Every value is
-validated when the scene is built, with an error that names the parameter, so a solver
-never starts on bad input.  The solver derives its feature set (which fields to allocate,
-which kernel code to compile) from the scene.
+A :class:`Scene` is a checked, immutable description of one 1D simulation and a builder
+of the one model of 1D to 3D (:class:`timpm.model.Model`, ``scene.model``), which the
+engine reads.  Every value is validated when the scene is built, with an error that names
+the parameter, so a solver never starts on bad input.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
-import taichi as ti
 
 from .basis import get_basis
+from .checks import positive as _positive, positive_int as _positive_int
+from .loads import Constant, Ramp, Sine, Traction
+from .materials import Hypoelastic1D
+from .model import MASS_KINDS, PROJECTIONS, Model, walls_from
 
 __all__ = [
     "Material", "Grid1D", "Traction", "Constant", "Sine", "Ramp", "Scene",
-    "equidistant_particles", "PLACEMENTS", "critical_time_step",
+    "equidistant_particles", "PLACEMENTS", "critical_time_step", "MASS_KINDS", "PROJECTIONS",
 ]
-
-
-def _positive(name: str, value) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
-    if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    return value
-
-
-def _positive_int(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
 
 
 STRESS_UPDATES = ("study", "small")
@@ -65,6 +52,10 @@ class Material:
     def wave_speed(self) -> float:
         return math.sqrt(self.E / self.density)
 
+    def law(self) -> Hypoelastic1D:
+        """The constitutive law the engine compiles: :class:`~timpm.materials.Hypoelastic1D`."""
+        return Hypoelastic1D(self.E, self.density, self.stress_update == "study")
+
 
 @dataclass(frozen=True)
 class Grid1D:
@@ -87,89 +78,6 @@ class Grid1D:
     @property
     def end(self) -> float:
         return self.origin + self.length
-
-
-# ---- time functions of a load: each evaluates in Python and inside a kernel ----------------
-
-@ti.data_oriented
-class Constant:
-    """f(t) = 1 for t >= 0 (a step load, H(t))."""
-
-    def __call__(self, t):
-        return np.ones_like(np.asarray(t, dtype=float))
-
-    #: the run-time parameter of ``at`` (none)
-    param = 0.0
-
-    @staticmethod
-    @ti.func
-    def at(t, a):
-        """f(t) in a kernel, the parameter ``a`` read at run time."""
-        return 1.0
-
-    def __repr__(self):
-        return "Constant()"
-
-
-@ti.data_oriented
-class Sine:
-    """f(t) = sin(omega t)."""
-
-    def __init__(self, omega: float):
-        self.omega = float(omega)
-
-    def __call__(self, t):
-        return np.sin(self.omega * np.asarray(t, dtype=float))
-
-    @property
-    def param(self):
-        return self.omega
-
-    @staticmethod
-    @ti.func
-    def at(t, a):
-        return ti.sin(a * t)
-
-    def __repr__(self):
-        return f"Sine(omega={self.omega!r})"
-
-
-@ti.data_oriented
-class Ramp:
-    """f(t) = min(t / duration, 1): a load brought on smoothly."""
-
-    def __init__(self, duration: float):
-        self.duration = _positive("ramp duration", duration)
-
-    def __call__(self, t):
-        return np.minimum(np.asarray(t, dtype=float) / self.duration, 1.0)
-
-    @property
-    def param(self):
-        return self.duration
-
-    @staticmethod
-    @ti.func
-    def at(t, a):
-        return ti.min(t / a, 1.0)
-
-    def __repr__(self):
-        return f"Ramp(duration={self.duration!r})"
-
-
-@dataclass(frozen=True)
-class Traction:
-    """A force ``amplitude * time_function(t)`` (per unit area) applied on one particle (3.5)."""
-
-    particle: int
-    amplitude: float
-    time_function: object = field(default_factory=Constant)
-
-    def __post_init__(self):
-        if not math.isfinite(float(self.amplitude)):
-            raise ValueError(f"traction amplitude must be finite, got {self.amplitude!r}")
-        if not callable(getattr(self.time_function, "at", None)):
-            raise ValueError("traction time_function must be Constant, Sine, Ramp or alike")
 
 
 # ---- particle placement --------------------------------------------------------------------
@@ -297,21 +205,18 @@ def discrete_critical_time_step(grid: Grid1D, material: Material, basis, positio
     return float(2.0 / np.sqrt(w2)) if w2 > 0 else float("inf")
 
 
-MASS_KINDS = ("lumped", "consistent")
-#: "standard": particles are the integration points (2.2.4); "mls": nodal velocities,
-#: density and stress reconstructed by moving least squares, forces at Gauss points (4.4)
-PROJECTIONS = ("standard", "mls")
-
-
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """One 1D MPM simulation, checked on construction.
+    """One 1D MPM simulation (the study's problems), checked on construction: a builder of
+    the one :class:`~timpm.model.Model` of 1D to 3D (``scene.model``).
 
     Positions are absolute coordinates; ``volume`` the initial particle volumes (length
     times a unit cross-section); ``fixed_nodes`` the grid nodes held at zero velocity;
-    ``gravity`` the signed acceleration along x (negative points down); ``damping`` the
-    local damping factor alpha of A.4; ``projection`` the particle-to-grid projection
-    (``PROJECTIONS``).
+    ``walls`` walls at the grid's ends: one for both (``"slip"``, ``"sticky"``, a friction
+    coefficient, a :class:`~timpm.model.Wall`) or a dict ``{"left": ..., "right": ...}``,
+    None for no wall (lumped mass, standard projection); ``gravity`` the signed
+    acceleration along x (negative points down); ``damping`` the local damping factor
+    alpha of A.4; ``projection`` the particle-to-grid projection (``PROJECTIONS``).
     """
 
     grid: Grid1D
@@ -327,72 +232,42 @@ class Scene:
     fixed_nodes: tuple = ()
     damping: float = 0.0
     projection: str = "standard"
+    walls: object = None
     allow_unstable_dt: bool = False
     name: str = "scene"
 
     def __post_init__(self):
         basis = get_basis(self.basis)
         object.__setattr__(self, "basis", basis.name)
-        x = np.array(self.positions, dtype=np.float64).ravel()
-        n = len(x)
-        if n == 0:
-            raise ValueError("a scene needs at least one particle")
-        if not np.all(np.isfinite(x)):
-            bad = int(np.flatnonzero(~np.isfinite(x))[0])
-            raise ValueError(f"particle {bad} has a non-finite position {float(x[bad])!r}")
-        lo, hi = self.grid.origin, self.grid.end
-        outside = np.flatnonzero((x < lo) | (x > hi))
-        if len(outside):
-            p = int(outside[0])
-            raise ValueError(f"particle {p} at x = {float(x[p])!r} lies outside the grid [{lo}, {hi}]"
-                             f" ({len(outside)} particle(s) outside)")
-        vol = np.array(self.volume, dtype=np.float64).ravel()
-        if vol.shape != x.shape:
-            raise ValueError(f"volume has {len(vol)} entries for {n} particles")
-        if not np.all(np.isfinite(vol) & (vol > 0)):
-            p = int(np.flatnonzero(~(np.isfinite(vol) & (vol > 0)))[0])
-            raise ValueError(f"particle volume must be positive, particle {p} has {float(vol[p])!r}")
-        v = np.zeros(n) if self.velocity is None else np.array(self.velocity, np.float64).ravel()
-        if v.shape != x.shape:
-            raise ValueError(f"velocity has {len(v)} entries for {n} particles")
-        if not np.all(np.isfinite(v)):
-            raise ValueError(f"particle {int(np.flatnonzero(~np.isfinite(v))[0])} has a "
-                             "non-finite initial velocity")
-        for arr in (x, vol, v):
-            arr.setflags(write=False)
-        object.__setattr__(self, "positions", x)
-        object.__setattr__(self, "volume", vol)
-        object.__setattr__(self, "velocity", v)
-
-        if self.grid.n_elements < basis.min_elements:
-            raise ValueError(f"the {basis.name} basis needs at least {basis.min_elements} "
-                             f"elements, the grid has {self.grid.n_elements}")
-        if self.mass not in MASS_KINDS:
-            raise ValueError(f"unknown mass {self.mass!r}: choose one of {', '.join(MASS_KINDS)}")
-        if self.mass == "lumped" and not basis.lumpable:
-            raise ValueError(f"the {basis.name} basis takes negative values, so its mass matrix "
-                             "cannot be lumped (study 5.1): use the consistent mass "
-                             "(mass='consistent', --mass consistent)")
-        if self.projection not in PROJECTIONS:
-            raise ValueError(f"unknown projection {self.projection!r}: choose one of "
-                             f"{', '.join(PROJECTIONS)}")
-        if self.projection == "mls" and (basis.name != "linear" or self.mass != "lumped"):
-            raise ValueError("the MLS projection (4.4) is implemented for the linear basis with "
-                             f"lumped mass, got the {basis.name} basis with {self.mass} mass")
+        if not isinstance(self.grid, Grid1D):
+            raise ValueError(f"a Scene's grid must be a Grid1D, got {self.grid!r}")
+        if not isinstance(self.material, Material):
+            raise ValueError(f"a Scene's material must be a timpm.Material (E, density), got "
+                             f"{self.material!r}")
+        for i in self.fixed_nodes:
+            if isinstance(i, bool) or not isinstance(i, (int, np.integer)):
+                raise ValueError(f"fixed node {i!r} must be a whole number (a node index)")
         if not math.isfinite(float(self.gravity)):
             raise ValueError(f"gravity must be finite, got {self.gravity!r}")
-        if not (0.0 <= float(self.damping) < 1.0):
-            raise ValueError(f"damping factor alpha must lie in [0, 1), got {self.damping!r}")
-        nn = basis.n_nodes(self.grid.n_elements)
-        fixed = tuple(int(i) for i in self.fixed_nodes)
-        for i in fixed:
-            if not 0 <= i < nn:
-                raise ValueError(f"fixed node {i} does not exist: the grid has nodes 0..{nn - 1}")
+        walls = None if self.walls is None else walls_from(self.walls, 1, default=None,
+                                                             open_ok=True)
+        model = Model(basis=basis, origin=(self.grid.origin,), h=self.grid.h,
+                      elements=(self.grid.n_elements,), positions=self.positions,
+                      volume=self.volume, velocity=self.velocity,
+                      materials=(self.material.law(),), dt=self.dt, transfer="musl",
+                      mass_matrix=self.mass, projection=self.projection,
+                      gravity=(float(self.gravity),), damping=self.damping, walls=walls,
+                      fixed_nodes=tuple(self.fixed_nodes), traction=self.traction,
+                      name=self.name)
+        object.__setattr__(self, "model", model)
+        x, vol = model.positions[:, 0], model.volume
+        object.__setattr__(self, "positions", x)
+        object.__setattr__(self, "volume", vol)
+        object.__setattr__(self, "velocity", model.velocity[:, 0])
+        fixed = tuple(i for (i,) in model.fixed_nodes)
         object.__setattr__(self, "fixed_nodes", fixed)
-        if self.traction is not None and not 0 <= self.traction.particle < n:
-            raise ValueError(f"traction particle {self.traction.particle} does not exist "
-                             f"({n} particles)")
-        dt = _positive("time step dt", self.dt)
+        object.__setattr__(self, "walls", model.walls)
+        dt = model.dt
         object.__setattr__(self, "dt", dt)
         if self.mass == "lumped" and basis.name == "linear":
             dt_crit = critical_time_step(self.grid.h, self.material)
@@ -420,7 +295,7 @@ class Scene:
 
     @property
     def mass_per_particle(self) -> np.ndarray:
-        return self.material.density * self.volume
+        return self.model.mass_per_particle
 
     @property
     def critical_dt(self) -> float:

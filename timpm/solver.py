@@ -30,7 +30,8 @@ __all__ = ["Solver", "SimulationError", "ERRORS", "SCATTERS", "auto_mode"]
 
 
 class Solver:
-    """Particles and grid of one :class:`Scene` (1D) or :class:`World` (2D/3D).
+    """Particles and grid of one :class:`Scene` (1D), :class:`World` (1D to 3D) or their
+    :class:`~timpm.model.Model`.
 
     ``track`` lists particle indices whose state is recorded every ``record_every`` steps
     together with the energies; ``mode`` is ``"parallel"``, ``"serial"`` (fused steps, one
@@ -71,13 +72,14 @@ class Solver:
             small_mass=small_mass, scatter=scatter)
         f, lay = self.features, self.layout
         self.scene, self.track = scene, track
+        self.model = getattr(scene, "model", scene)  # the one model of 1D to 3D
         self.basis = f.basis_class
         self.dim, self.mode, self.scatter, self.team = f.dim, f.mode, f.scatter, f.team
         self.n_copies, self.transfer = f.n_copies, f.transfer
         self.n_particles, self.n_tracked = lay.n_particles, lay.n_tracked
         self.grid_elements, self.grid_nodes = lay.elements, lay.nodes
         self.n_elements, self.n_nodes = lay.elements[0], lay.nodes[0]
-        self.h, self.inv_h, self.dt = lay.h, lay.values["inv_h"], scene.dt
+        self.h, self.inv_h, self.dt = lay.h, lay.values["inv_h"], self.model.dt
         self.origin, self.materials = lay.origin, lay.materials
         self.record_every, self.history_chunk = record_every, lay.history
         self.energy_guard = energy_guard if energies else None

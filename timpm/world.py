@@ -1,10 +1,11 @@
-"""Multi-dimensional scenes: a box-shaped domain, bodies of material, walls and gravity.
+"""Scenes of bodies in a box: a box-shaped domain in 1D, 2D or 3D, bodies of material,
+walls and gravity.
 
-A :class:`World` is the 2D/3D counterpart of :class:`timpm.scene.Scene`: a checked,
-immutable description from which the solver derives its feature set.  Bodies are shapes
-(:class:`Box`, :class:`Ball`) filled with a regular lattice of ``ppc`` particles per cell
-and axis; walls bound the domain on every side (``sticky``, ``slip`` or Coulomb
-``friction``); the grid covers the domain and a padding band as wide as the basis support
+A :class:`World` is, like :class:`timpm.scene.Scene`, a checked, immutable builder of the
+one model of 1D to 3D (:class:`timpm.model.Model`), which the engine reads.  Bodies are shapes
+(:class:`Box`, :class:`Ball`, :class:`Points`) filled with a regular lattice of ``ppc``
+particles per cell and axis; walls bound the domain (``sticky``, ``slip``, Coulomb
+``friction`` or none, per side); the grid covers the domain and a padding band as wide as the basis support
 on each side, so a particle that touches a wall still has its whole stencil on the grid.
 
 Axes: x to the right, y up, z towards the viewer; gravity points down y by default.
@@ -16,21 +17,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .basis import get_basis
+from .checks import positive as _positive, vector as _vector
 from .materials import MATERIALS, Material, get_material
-from .scene import _positive
+from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Wall, check_scheme,
+                    walls_from)
 
 __all__ = ["Box", "Ball", "Points", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WALL_KINDS",
            "SIDES", "PRESETS"]
 
-
-#: bases on uniform multi-dimensional grids
-ND_BASES = ("linear", "uniform-bspline2", "uniform-bspline3")
-#: "musl": the study's scheme (2.2.4) in any dimension; "apic": the affine transfer (Jiang
-#: et al. 2015); "mls-mpm": APIC with the force and velocity gradient from the affine
-#: moments (Hu et al. 2018), the cheapest (B-spline bases only)
-TRANSFERS = ("musl", "apic", "mls-mpm")
-WALL_KINDS = ("sticky", "slip", "friction")
-SIDES = ("left", "right", "bottom", "top", "back", "front")
 
 #: named materials with typical parameters (SI units)
 PRESETS = {
@@ -50,18 +44,6 @@ def _preset(name):
         kind, params = PRESETS[name]
         _PRESET_MATERIALS[name] = get_material(kind, **params)
     return _PRESET_MATERIALS[name]
-
-
-def _vector(name, value, dim=None):
-    try:
-        v = np.array(value, dtype=np.float64).ravel()
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a sequence of numbers, got {value!r}") from None
-    if dim is not None and len(v) != dim:
-        raise ValueError(f"{name} must have {dim} components, got {len(v)}: {value!r}")
-    if not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return v
 
 
 @dataclass(frozen=True)
@@ -131,9 +113,9 @@ class Points:
             x = np.array(self.positions, dtype=np.float64)
         except (TypeError, ValueError):
             raise ValueError("Points positions must be an (n, dim) array of numbers") from None
-        if x.ndim != 2 or x.shape[0] == 0 or x.shape[1] not in (2, 3):
-            raise ValueError(f"Points positions must be an (n, 2) or (n, 3) array, got shape "
-                             f"{x.shape}")
+        if x.ndim != 2 or x.shape[0] == 0 or x.shape[1] not in (1, 2, 3):
+            raise ValueError(f"Points positions must be an (n, dim) array, dim 1, 2 or 3, got "
+                             f"shape {x.shape}")
         if not np.all(np.isfinite(x)):
             bad = int(np.flatnonzero(~np.all(np.isfinite(x), axis=1))[0])
             raise ValueError(f"Points position {bad} is not finite: {x[bad]}")
@@ -189,43 +171,16 @@ class Body:
                              f"got {self.ppc!r}")
 
 
-@dataclass(frozen=True)
-class Wall:
-    """A wall: ``sticky`` (material touching it is held: no motion, no separation),
-    ``slip`` (no penetration, no friction) or ``friction`` (Coulomb, coefficient ``mu``);
-    slip and friction walls let the material separate."""
-
-    kind: str = "slip"
-    mu: float = 0.0
-
-    def __post_init__(self):
-        if self.kind not in WALL_KINDS:
-            raise ValueError(f"unknown wall {self.kind!r}: choose one of {', '.join(WALL_KINDS)}")
-        mu = float(self.mu)
-        if not (math.isfinite(mu) and mu >= 0.0):
-            raise ValueError(f"wall friction coefficient must be finite and >= 0, got {self.mu!r}")
-        if self.kind != "friction" and mu != 0.0:
-            raise ValueError(f"a {self.kind} wall takes no friction coefficient (got mu={mu})")
-        object.__setattr__(self, "mu", mu)
-
-
-def _wall(value, where):
-    if isinstance(value, Wall):
-        return value
-    if isinstance(value, str):
-        return Wall(value)
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return Wall("friction", value)
-    raise ValueError(f"wall {where}: give a Wall, a kind ({', '.join(WALL_KINDS)}) or a "
-                     f"friction coefficient, got {value!r}")
-
-
 @dataclass(frozen=True, eq=False)
 class World:
-    """A 2D or 3D scene: ``domain`` lengths (from the origin), ``cells`` along x.
+    """A scene in 1D, 2D or 3D: ``domain`` lengths (from the origin), ``cells`` along x; a
+    builder of the one :class:`~timpm.model.Model` of 1D to 3D (``world.model``).
 
     ``walls`` is one wall for every side, or a dict of side name (``SIDES``) to wall with
-    an optional ``"default"``.  ``dt=None`` picks ``courant`` (default 0.4) times the CFL
+    an optional ``"default"`` (None: no wall on that side, material may leave the domain
+    and the grid, which stops the run with an error); ``fixed_nodes`` grid nodes (index tuples of the padded grid,
+    ``grid_elements``) held at zero velocity.  Gravity points down y in 2D and 3D, down x
+    in 1D, unless given.  ``dt=None`` picks ``courant`` (default 0.4) times the CFL
     limit h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
     (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``
     above the limit is refused unless ``allow_unstable_dt``.
@@ -243,15 +198,15 @@ class World:
     allow_overlap: bool = False
     allow_unstable_dt: bool = False
     damping: float = 0.0
+    fixed_nodes: tuple = ()
     name: str = "world"
     _particles: dict = field(default=None, repr=False)
 
     def __post_init__(self):
         domain = _vector("domain", self.domain)
         dim = len(domain)
-        if dim not in (2, 3):
-            raise ValueError(f"a World is 2D or 3D, got a {dim}-dimensional domain "
-                             "(use timpm.Scene for 1D)")
+        if dim not in (1, 2, 3):
+            raise ValueError(f"a World is 1D, 2D or 3D, got a {dim}-dimensional domain")
         if np.any(domain <= 0):
             raise ValueError(f"domain lengths must be positive, got {tuple(domain)}")
         if isinstance(self.cells, bool) or not isinstance(self.cells, (int, np.integer)) \
@@ -264,23 +219,13 @@ class World:
                              f"h = {h:g} (domain[0] / cells) on every axis")
         basis = get_basis(self.basis)
         if basis.name not in ND_BASES:
-            raise ValueError(f"the {basis.name} basis is 1D only: 2D/3D grids take "
-                             f"{', '.join(ND_BASES)}")
-        if self.transfer not in TRANSFERS:
-            raise ValueError(f"unknown transfer {self.transfer!r}: choose one of "
-                             f"{', '.join(TRANSFERS)}")
-        if self.transfer == "mls-mpm" and basis.name == "linear":
-            raise ValueError("the mls-mpm transfer needs a B-spline basis (its D_p is constant);"
-                             " use transfer='apic' with the linear basis")
+            raise ValueError(f"the {basis.name} basis is 1D only: a World's grid, padded "
+                             f"beyond its walls, takes {', '.join(ND_BASES)} (a Scene takes "
+                             "every basis)")
+        check_scheme(dim, basis, self.transfer, damping=self.damping)
         g = np.zeros(dim) if self.gravity is None else _vector("gravity", self.gravity, dim)
         if self.gravity is None:
-            g[1] = -9.81
-        if not (0.0 <= float(self.damping) < 1.0):
-            raise ValueError(f"damping factor alpha must lie in [0, 1), got {self.damping!r}")
-        if self.damping and self.transfer != "musl":
-            raise ValueError("local damping (A.4) acts on the grid forces of the musl transfer; "
-                             f"the {self.transfer} transfer folds them into the momentum: use "
-                             "transfer='musl' or damping=0")
+            g[min(1, dim - 1)] = -9.81  # down y in 2D and 3D, down x in 1D
         bodies = tuple(self.bodies) if not isinstance(self.bodies, Body) else (self.bodies,)
         if not bodies:
             raise ValueError("a World needs at least one body")
@@ -291,9 +236,21 @@ class World:
         object.__setattr__(self, "domain", tuple(domain))
         object.__setattr__(self, "gravity", tuple(g))
         object.__setattr__(self, "basis", basis.name)
-        object.__setattr__(self, "walls", self._walls(dim))
+        object.__setattr__(self, "walls", walls_from(self.walls, dim, open_ok=True))
         object.__setattr__(self, "_particles", self._fill(dim, h, domain))
         self._check_dt(h, g, domain)
+        pad = self.padding
+        part = self._particles
+        model = Model(basis=basis.name, origin=self.origin, h=h, elements=self.grid_elements,
+                      positions=part["positions"], volume=part["volume"],
+                      velocity=part["velocity"], materials=part["materials"],
+                      material_index=part["material_index"], body_index=part["body_index"],
+                      dt=self.dt, transfer=self.transfer, gravity=tuple(g),
+                      damping=self.damping, walls=self.walls,
+                      wall_cells=tuple((pad, pad + c) for c in n),
+                      fixed_nodes=tuple(self.fixed_nodes), name=self.name)
+        object.__setattr__(self, "model", model)
+        object.__setattr__(self, "fixed_nodes", model.fixed_nodes)
 
     # ---- derived geometry ----------------------------------------------------------------
     @property
@@ -320,19 +277,6 @@ class World:
     @property
     def origin(self) -> tuple:
         return (-self.padding * self.h,) * self.dim
-
-    def _walls(self, dim):
-        sides = SIDES[:2 * dim]
-        spec = self.walls
-        if isinstance(spec, dict):
-            unknown = set(spec) - set(sides) - {"default"}
-            if unknown:
-                raise ValueError(f"unknown wall side(s) {sorted(unknown)}: the sides of a "
-                                 f"{dim}D domain are {', '.join(sides)}")
-            default = spec.get("default", "slip")
-            return tuple(_wall(spec.get(s, default), s) for s in sides)
-        wall = _wall(spec, "for every side")
-        return (wall,) * (2 * dim)
 
     def _fill(self, dim, h, domain):
         xs, vs, vols, mats, ids = [], [], [], [], []

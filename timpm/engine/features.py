@@ -1,7 +1,8 @@
 """What a scene asks of the engine: the feature set (compile time) and the layout (run time).
 
-:func:`plan` reads a 1D :class:`~timpm.scene.Scene` or a 2D/3D :class:`~timpm.world.World`
-and the solver's options and splits them in two:
+:func:`plan` reads a :class:`~timpm.model.Model` (the one model of 1D to 3D, which a
+:class:`~timpm.scene.Scene` or a :class:`~timpm.world.World` builds) and the solver's
+options and splits them in two:
 
 - a :class:`FeatureSet`, a frozen, hashable value of every compile-time choice (dimension,
   basis, transfer, mass, projection, materials, walls, loads, scatter, mode, what is
@@ -15,9 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..basis import get_basis
-from ..materials import Hypoelastic1D
-from ..scene import Scene
-from ..world import World
+from ..model import Model
 from .. import runtime
 
 __all__ = ["FeatureSet", "Layout", "plan", "MODES", "SCATTERS", "MIN_CPU_BLOCK", "auto_mode"]
@@ -52,9 +51,9 @@ class FeatureSet:
     consistent: bool             # consistent mass matrix (1D)
     mls: bool                    # MLS projection of 4.4 (1D)
     materials: tuple             # ((material class, its flags()), ...) in material-index order
-    walls: tuple | None          # wall kind per side (2D/3D), None in 1D
+    walls: tuple | None          # wall kind per side ("open": none there); None: no walls
     damping: bool                # local damping of A.4
-    traction: type | None        # time-function class of the 1D traction
+    traction: type | None        # time-function class of the particle traction (1D)
     fixed: bool                  # Dirichlet nodes
     gravity: tuple               # per axis: a non-zero gravity
     has_u: bool                  # particle displacements (1D)
@@ -157,7 +156,7 @@ class Layout:
     values: dict = field(default_factory=dict)          # the program's run-time values
     materials: list = field(default_factory=list)       # the material of each slot
     material_values: list = field(default_factory=list)  # its run-time constants
-    fixed_nodes: list = field(default_factory=list)     # Dirichlet nodes (1D)
+    fixed_nodes: list = field(default_factory=list)     # Dirichlet nodes (index tuples)
 
 
 def _scatter_choice(scatter, mode, private_ok):
@@ -180,52 +179,42 @@ def _scatter_choice(scatter, mode, private_ok):
 def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
          history_chunk=None, track_crossings=None, grid_displacement=False,
          small_mass=1e-3, scatter="auto"):
-    """The feature set and layout of ``scene`` run with the solver's options (checked)."""
-    if not isinstance(scene, (Scene, World)):
-        raise TypeError(f"Solver takes a timpm.Scene (1D) or a timpm.World (2D/3D), "
-                        f"got {type(scene).__name__}")
+    """The feature set and layout of ``scene`` (a Model, or a Scene or World that builds
+    one) run with the solver's options (checked)."""
+    model = getattr(scene, "model", scene)
+    if not isinstance(model, Model):
+        raise TypeError(f"Solver takes a timpm.Scene (1D), a timpm.World (1D to 3D) or a "
+                        f"timpm.model.Model, got {type(scene).__name__}")
     if mode not in MODES:
         raise ValueError(f"unknown mode {mode!r}: choose auto, parallel, serial or team")
-    n = scene.n_particles
+    n = model.n_particles
     for p in track:
         if not 0 <= p < n:
             raise ValueError(f"tracked particle {p} does not exist ({n} particles)")
-    basis = scene.basis_class
-    one_d = isinstance(scene, Scene)
+    basis = model.basis_class
+    dim, transfer = model.dim, model.transfer
     requested = mode
     on_cpu = runtime.on_cpu()
     threads = runtime.cpu_threads() if on_cpu else 0
     if mode == "auto":
         mode = auto_mode(n, serial_threshold, threads)
     run_mode = "parallel" if mode == "team" else mode  # a team runs the parallel kernels
-    consistent = one_d and scene.mass == "consistent"
-    mls = one_d and scene.projection == "mls"
+    consistent = model.mass_matrix == "consistent"
+    mls = model.projection == "mls"
     scatter = _scatter_choice(scatter, run_mode, not (consistent or mls))
     # private: at least two copies, so that the path is the same on a one-core machine
     n_copies = max(2, threads) if scatter == "private" and run_mode == "parallel" else 1
     if n_copies > 1 and not runtime.static_cpu_blocks():
         raise ValueError("the private scatter relies on Taichi's static split of CPU "
                          "range-for loops (make_cpu_multithreading_loop), which is off")
-    if grid_displacement and not one_d:
+    if grid_displacement and dim != 1:
         raise ValueError("grid_displacement is available for 1D scenes only")
-    if one_d:
-        dim, transfer = 1, "musl"
-        elements = (scene.grid.n_elements,)
-        origin, gravity = (scene.grid.origin,), (float(scene.gravity),)
-        materials = [Hypoelastic1D(scene.material.E, scene.material.stress_update == "study")]
-        walls, damping = None, float(scene.damping)
-        traction = scene.traction
-        fixed_nodes = [(i,) for i in scene.fixed_nodes]
-    else:
-        dim, transfer = scene.dim, scene.transfer
-        elements = scene.grid_elements
-        origin, gravity = scene.origin, tuple(float(g) for g in scene.gravity)
-        materials = list(scene.materials)
-        walls, damping = tuple(w.kind for w in scene.walls), float(scene.damping)
-        traction, fixed_nodes = None, []
-    if consistent and dim != 1:
-        raise ValueError("the consistent mass matrix is implemented for 1D scenes only")
-    nodes = tuple(basis.n_nodes(e) for e in elements)
+    elements, origin, gravity = model.elements, model.origin, model.gravity
+    materials, damping, traction = list(model.materials), model.damping, model.traction
+    walls = None if model.walls is None else tuple("open" if w is None else w.kind
+                                                     for w in model.walls)
+    fixed_nodes = list(model.fixed_nodes)
+    nodes = model.nodes
     strain_remap = transfer == "apic" and basis.support == 2
     private = n_copies > 1
     # team: the passes of many steps in one parallel task, each thread a fixed block of
@@ -236,7 +225,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         raise ValueError("mode='team' needs the private scatter (lumped mass, standard "
                          "projection) with a thread per grid copy (two CPU threads or more); "
                          "APIC with the linear basis (its strain remap) has no team")
-    has_u = one_d
+    has_u = dim == 1  # particle displacements: the 1D exact solutions compare them
     crossings = (dim == 1) if track_crossings is None else bool(track_crossings)
     features = FeatureSet(
         dim=dim, basis=basis.name, transfer=transfer, consistent=consistent, mls=mls,
@@ -252,10 +241,10 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))
         record = 16 + 32 * bool(energies) + len(track) * per_tracked
         history_chunk = min(16384, max(512, (4 << 20) // record))
-    h = scene.grid.h if one_d else scene.h
-    mass_scale = float(np.mean(scene.mass_per_particle))
+    h = model.h
+    mass_scale = float(np.mean(model.mass_per_particle))
     values = dict(
-        n_particles=n, elements=elements, nodes=nodes, h=h, inv_h=1.0 / h, dt=scene.dt,
+        n_particles=n, elements=elements, nodes=nodes, h=h, inv_h=1.0 / h, dt=model.dt,
         origin=origin, gravity=gravity, damping=damping,
         # nodes with less mass than this are empty; the consistent mass drops nodes that a
         # particle barely touches (their rows make M ill-conditioned: the small-mass problem)
@@ -264,19 +253,19 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         scatter_block=max(MIN_CPU_BLOCK, -(-n // n_copies)), n_tracked=len(track))
     if features.mls_mpm:
         D_inv = 1.0 / (basis.inertia * h ** 2)
-        values.update(D_inv=D_inv, dt_D_inv=scene.dt * D_inv)
+        values.update(D_inv=D_inv, dt_D_inv=model.dt * D_inv)
     if traction is not None:
         values.update(traction_particle=traction.particle,
                       traction_amplitude=float(traction.amplitude),
                       traction_param=float(traction.time_function.param))
     if walls is not None:
-        values.update(wall_mu=tuple(float(w.mu) for w in scene.walls), pad=scene.padding,
-                      domain_cells=tuple(e - 2 * scene.padding for e in elements))
+        values.update(wall_mu=tuple(0.0 if w is None else w.mu for w in model.walls),
+                      wall_nodes=tuple(i for pair in model.wall_nodes() for i in pair))
     # 1D: room for a stencil beyond the last node (the banded solve reads it, as zeros)
     room = (nodes[0] + basis.support,) if dim == 1 else nodes
     layout = Layout(n_particles=n, elements=tuple(elements), nodes=nodes, room=room,
                     n_tracked=len(track), history=int(history_chunk), h=h,
                     origin=tuple(origin), values=values, materials=materials,
-                    material_values=[m.constants(scene.dt) for m in materials],
+                    material_values=[m.constants(model.dt) for m in materials],
                     fixed_nodes=fixed_nodes)
     return features, layout

@@ -23,29 +23,29 @@ class GridOps:
     def _wall(self, I, v):
         """Wall conditions on the velocity of node I (sides left/right, bottom/top, ...):
         sticky v = 0; slip removes the outward normal component; friction also slows the
-        tangential velocity by mu |v_n| (Coulomb), down to rest."""
+        tangential velocity by mu |v_n| (Coulomb), down to rest.  A wall acts on the nodes
+        at and beyond it (``wall_nodes``: per side the last node on or behind the wall)."""
         for k in ti.static(range(self.dim)):
-            c = I[k] - self.node_offset - self.p.pad()  # node coordinate, cells from the lower wall
             for side in ti.static(range(2)):
-                sticky = ti.static(self.walls[2 * k + side] == "sticky")
-                friction = ti.static(self.walls[2 * k + side] == "friction")
-                hit = c <= 0 if ti.static(side == 0) else c >= self.p.domain_cells()[k]
-                if hit:
-                    vn = v[k] if ti.static(side == 0) else -v[k]  # along the inward normal
-                    if ti.static(sticky):
-                        v = ti.Vector.zero(float, self.dim)
-                    elif vn < 0.0:
-                        if ti.static(friction):
-                            vt = v
-                            vt[k] = 0.0
-                            speed = vt.norm()
-                            scale = 0.0
-                            if speed > 0.0:
-                                mu = self.p.wall_mu()[2 * k + side]
-                                scale = ti.max(0.0, 1.0 - mu * (-vn) / speed)
-                            v = vt * scale
-                        else:
-                            v[k] = 0.0
+                if ti.static(self.walls[2 * k + side] != "open"):
+                    edge = self.p.wall_nodes()[2 * k + side]
+                    hit = I[k] <= edge if ti.static(side == 0) else I[k] >= edge
+                    if hit:
+                        vn = v[k] if ti.static(side == 0) else -v[k]  # along the inward normal
+                        if ti.static(self.walls[2 * k + side] == "sticky"):
+                            v = ti.Vector.zero(float, self.dim)
+                        elif vn < 0.0:
+                            if ti.static(self.walls[2 * k + side] == "friction"):
+                                vt = v
+                                vt[k] = 0.0
+                                speed = vt.norm()
+                                scale = 0.0
+                                if speed > 0.0:
+                                    mu = self.p.wall_mu()[2 * k + side]
+                                    scale = ti.max(0.0, 1.0 - mu * (-vn) / speed)
+                                v = vt * scale
+                            else:
+                                v[k] = 0.0
         return v
 
     @ti.func
@@ -82,8 +82,8 @@ class GridOps:
         if ti.static(self.damping):
             self.gf[I] -= self.p.damping() * ti.math.sign(self.gp[I]) * ti.abs(self.gf[I])
         if ti.static(self.has_walls):
-            a = ti.Vector.zero(float, self.dim)
-            if self.gm[I] > self.p.mass_tol():
+            a = ti.Vector.zero(float, self.dim)  # Dirichlet and empty nodes: a = 0
+            if self.gm[I] > self.p.mass_tol() and not self._is_fixed(I):
                 vn = self.gp[I] / self.gm[I]
                 a = (self._wall(I, vn + self.p.dt() * self.gf[I] / self.gm[I]) - vn) / self.p.dt()
             self.gf[I] = a

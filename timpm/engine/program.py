@@ -81,7 +81,7 @@ def _param_spec(features):
     if features.traction is not None:
         spec.update(traction_particle="int", traction_amplitude="real", traction_param="real")
     if features.has_walls:
-        spec.update(wall_mu=("real", 2 * d), pad="int", domain_cells=("int", d))
+        spec.update(wall_mu=("real", 2 * d), wall_nodes=("int", 2 * d))
     groups = {"p": spec}
     for k, (cls, _) in enumerate(features.materials):
         groups[f"m{k}"] = {name: "real" for name in cls.CONSTANTS}

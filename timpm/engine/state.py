@@ -14,7 +14,8 @@ class State:
     """The particle and grid data of one scene under its feature set and layout."""
 
     def __init__(self, features, layout, scene, track):
-        self.features, self.layout, self.scene = features, layout, scene
+        self.features, self.layout = features, layout
+        self.model = getattr(scene, "model", scene)
         self.track = list(track)
         self.host = None  # the arrays saved while another solver holds the program
 
@@ -40,13 +41,13 @@ class State:
         """The scene's initial state as the program's host arrays: positions, velocities,
         masses, volumes, F = I, J = 1, material indices, Dirichlet nodes, elements
         (crossings); the rest zero."""
-        scene, n, d = self.scene, self.layout.n_particles, self.features.dim
-        values = {"x": scene.positions.reshape(n, d), "v": scene.velocity.reshape(n, d),
-                  "m": scene.mass_per_particle, "vol": scene.volume, "J": np.ones(n),
+        model, n, d = self.model, self.layout.n_particles, self.features.dim
+        values = {"x": model.positions, "v": model.velocity,
+                  "m": model.mass_per_particle, "vol": model.volume, "J": np.ones(n),
                   "F": np.broadcast_to(np.eye(d), (n, d, d)),
-                  "elem": self._element_of(scene.positions.reshape(n, d))}
+                  "elem": self._element_of(model.positions)}
         if self.features.multi_material:
-            values["mat"] = np.asarray(scene.material_index, dtype=np.int32)
+            values["mat"] = model.material_index
         if self.layout.fixed_nodes:
             fixed = np.zeros(self.layout.nodes, dtype=np.int32)
             for i in self.layout.fixed_nodes:

@@ -3,8 +3,8 @@
 Materials for multi-dimensional scenes: :class:`LinearElastic`, :class:`NeoHookean`,
 :class:`DruckerPrager` (sand, return mapping of Klar et al. 2016),
 :class:`WeaklyCompressibleFluid` (Tait equation of state) and :class:`JFluid` (mpm88's
-fluid).  :class:`Hypoelastic1D` is the study's 1D law, built by the engine from a 1D
-:class:`timpm.scene.Material`.
+fluid).  :class:`Hypoelastic1D` is the study's 1D law (a :class:`timpm.scene.Scene` makes it from
+its :class:`timpm.scene.Material`).
 """
 from .base import Material, SolidMaterial
 from .drucker_prager import DruckerPrager
@@ -18,7 +18,7 @@ __all__ = ["Material", "SolidMaterial", "LinearElastic", "NeoHookean", "DruckerP
            "WeaklyCompressibleFluid", "JFluid", "Hypoelastic1D", "MATERIALS", "get_material"]
 
 MATERIALS = {cls.name: cls for cls in (LinearElastic, NeoHookean, DruckerPrager,
-                                       WeaklyCompressibleFluid, JFluid)}
+                                       WeaklyCompressibleFluid, JFluid, Hypoelastic1D)}
 
 
 def get_material(name: str, **params) -> Material:

@@ -25,7 +25,7 @@ import math
 
 import taichi as ti
 
-from ..scene import _positive as positive
+from ..checks import positive
 
 __all__ = ["Material", "SolidMaterial"]
 
@@ -44,6 +44,8 @@ class Material:
     #: True where the stress acts on the initial volume (sigma V = sigma V0): the solver
     #: then leaves V_p alone
     initial_volume = False
+    #: the dimensions the law is written for
+    dims = (1, 2, 3)
 
     def __init__(self, density):
         self.density = positive(f"{self.name}: density", density)

@@ -19,6 +19,7 @@ class DruckerPrager(SolidMaterial):
     name = "drucker-prager"
     needs = frozenset({"F", "plastic"})
     CONSTANTS = SolidMaterial.CONSTANTS + ("alpha", "cone_2d", "cone_3d")
+    dims = (2, 3)  # the return mapping of principal strains: 2D spectral form, 3D SVD
 
     def __init__(self, E, nu, density, friction_angle):
         super().__init__(E, nu, density)

@@ -1,6 +1,9 @@
 """The study's 1D law."""
+import math
+
 import taichi as ti
 
+from ..checks import positive
 from .base import Material
 
 __all__ = ["Hypoelastic1D"]
@@ -9,18 +12,22 @@ __all__ = ["Hypoelastic1D"]
 class Hypoelastic1D(Material):
     """The study's 1D law (2.2.4): sigma += (E - sigma) d_eps (``study``), or sigma += E d_eps.
 
-    Built by the engine from a 1D :class:`timpm.scene.Material` (its density acts through
-    the particle masses)."""
+    A :class:`timpm.scene.Scene` makes it from its :class:`timpm.scene.Material`; a 1D
+    :class:`timpm.world.World` takes it as a body's material.  The density acts through
+    the particle masses."""
 
     name = "hypoelastic-1d"
     needs = frozenset({"eps"})
     CONSTANTS = ("E",)
+    dims = (1,)
 
-    def __init__(self, E, study: bool):
-        self.E, self.study = float(E), bool(study)
+    def __init__(self, E, density, study: bool = True):
+        super().__init__(density)
+        self.E, self.study = positive(f"{self.name}: Young's modulus E", E), bool(study)
+        self.wave_speed = math.sqrt(self.E / self.density)
 
     def parameters(self) -> dict:
-        return {"E": self.E, "study": self.study}
+        return {"E": self.E, "density": self.density, "study": self.study}
 
     def flags(self) -> tuple:
         return (self.study,)

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..materials import DruckerPrager, NeoHookean, WeaklyCompressibleFluid
 from ..progress import Progress
-from ..scene import _positive
+from ..checks import positive as _positive
 from ..solver import Solver
 from ..world import Ball, Body, Box, Wall, World
 

@@ -1,0 +1,166 @@
+"""The one model of 1D to 3D: Scene and World build it, the engine runs it; walls and
+Dirichlet nodes in every dimension."""
+import itertools
+
+import numpy as np
+import pytest
+
+import timpm
+from timpm import Body, Box, Grid1D, Material, Model, Scene, Solver, World, equidistant_particles
+from timpm.materials import Hypoelastic1D, LinearElastic
+
+E, RHO, V0, LENGTH = 1e6, 1e3, 0.1, 0.5
+C = (E / RHO) ** 0.5
+#: a bar of LENGTH hitting a rigid wall at V0 touches it for 2 L / c, then leaves at +V0
+T_REBOUND = 2.25 * LENGTH / C
+
+
+def _rebound_error(solver, mass):
+    """1 - (momentum after the rebound) / (m V0): 0 for the exact elastic rebound."""
+    solver.run(n_steps=int(np.ceil(T_REBOUND / solver.dt)))
+    v = solver.velocities()
+    return 1.0 - np.sum(mass * v) / (np.sum(mass) * V0)
+
+
+def _bar_world(cells, basis, transfer):
+    return World(domain=(2.0,), cells=cells, basis=basis, transfer=transfer, gravity=(0.0,),
+                 bodies=Body(Box((0.0,), (LENGTH,)), LinearElastic(E, 0.0, RHO),
+                             velocity=(-V0,), ppc=2),
+                 walls="slip", courant=0.5)
+
+
+@pytest.mark.parametrize("basis, transfer", [("linear", "musl"), ("uniform-bspline2", "apic")])
+def test_a_1d_world_bar_rebounds_from_a_slip_wall(basis, transfer):
+    # 1D world: the elastic bar's rebound converges to the exact +V0 as the grid refines
+    errors = []
+    for cells in (16, 32, 64):
+        world = _bar_world(cells, basis, transfer)
+        errors.append(_rebound_error(Solver(world, mode="serial"), world.mass_per_particle))
+    assert all(abs(b) < abs(a) for a, b in zip(errors, errors[1:])), errors
+    assert abs(errors[-1]) < 0.1, errors
+
+
+def test_a_scene_bar_rebounds_from_its_wall():
+    # the study's 1D scene with a slip wall at its left end: the same exact rebound
+    errors = []
+    for elements in (32, 64):
+        grid = Grid1D(elements, 2.0 / elements)
+        x, vol = equidistant_particles(elements // 4, 2, grid.h)
+        scene = Scene(grid, Material(E, RHO, "small"), x, vol, dt=0.5 * grid.h / C,
+                      velocity=np.full(len(x), -V0), walls={"left": "slip"})
+        assert scene.walls[1] is None and scene.walls[0].kind == "slip"
+        errors.append(_rebound_error(Solver(scene, mode="serial"), scene.mass_per_particle))
+    assert abs(errors[1]) < abs(errors[0]) < 0.2, errors
+
+
+def test_the_model_is_what_the_engine_runs():
+    # a Solver of the scene's model runs the same program and ends bit for bit the same
+    from timpm.problems import get_problem
+
+    scene = get_problem("vibrating-string").scene(elements=8)
+    assert isinstance(scene.model, Model) and scene.model.dim == 1
+    by_scene, by_model = Solver(scene, mode="serial"), Solver(scene.model, mode="serial")
+    assert by_scene.features == by_model.features
+    for s in (by_scene, by_model):
+        s.run(n_steps=50)
+    assert np.array_equal(by_scene.positions(), by_model.positions())
+    assert np.array_equal(by_scene.stresses(), by_model.stresses())
+
+
+def _drop(**world_kw):
+    body = Body(Box((0.3, 0.02), (0.6, 0.3)), LinearElastic(1e4, 0.3, 1e3), velocity=(0.5, -1.0))
+    return World(domain=(1.0, 0.5), cells=16, bodies=body, dt=2e-4, **world_kw)
+
+
+def test_a_sticky_floor_is_its_nodes_held_fixed():
+    # APIC: a sticky wall sets v_i = 0 on the nodes at and below it, as Dirichlet nodes do
+    sticky = _drop(walls={"default": "slip", "bottom": "sticky"})
+    (edge, _), = sticky.model.wall_nodes()[1:]  # the last node at or below the floor
+    nx, ny = sticky.model.nodes
+    floor = [(i, j) for i in range(nx) for j in range(edge + 1)]
+    held = _drop(walls={"default": "slip", "bottom": None}, fixed_nodes=floor)
+    assert held.walls[2] is None and held.fixed_nodes == tuple(floor)
+    slip = _drop(walls="slip")
+    runs = [Solver(w, mode="serial", energies=False) for w in (sticky, held, slip)]
+    for s in runs:
+        s.run(n_steps=400)
+    # the floor acted: a slip floor lets the body slide on, the sticky one held it
+    assert runs[2].positions()[:, 0].mean() - runs[0].positions()[:, 0].mean() > 0.01
+    assert np.array_equal(runs[0].positions(), runs[1].positions())
+    assert np.array_equal(runs[0].velocities(), runs[1].velocities())
+
+
+@pytest.mark.parametrize("transfer", ["musl", "apic"])
+def test_every_node_held_holds_every_particle(transfer):
+    # with walls too: a Dirichlet node has zero velocity and zero acceleration
+    world = _drop(transfer=transfer)
+    nodes = world.model.nodes
+    all_nodes = list(itertools.product(*(range(n) for n in nodes)))
+    held = _drop(transfer=transfer, fixed_nodes=all_nodes)
+    s = Solver(held, mode="serial", energies=False)
+    s.run(n_steps=20)
+    # no particle moves; MUSL's v_p += dt sum phi_i a_i keeps v_p (a_i = 0), APIC's
+    # v_p = sum phi_i v_i is zero
+    assert np.array_equal(s.positions(), held.positions)
+    v_kept = np.broadcast_to(np.array([0.5, -1.0]), (held.n_particles, 2))
+    assert np.array_equal(s.velocities(), v_kept if transfer == "musl" else 0 * v_kept)
+
+
+def test_the_study_law_in_a_1d_world():
+    # the study's material is a material like any other in 1D
+    law = timpm.get_material("hypoelastic-1d", E=E, density=RHO, study=False)
+    world = World(domain=(2.0,), cells=32, basis="linear", transfer="musl", gravity=(0.0,),
+                  bodies=Body(Box((0.0,), (LENGTH,)), law, velocity=(-V0,), ppc=2),
+                  walls="slip", courant=0.5)
+    assert world.dim == 1 and world.materials == (law,)
+    assert abs(_rebound_error(Solver(world, mode="serial"), world.mass_per_particle)) < 0.2
+
+
+@pytest.mark.parametrize("build, message", [
+    (lambda: World(domain=(1.0,), cells=8, bodies=Body(Box((0.0,), (0.5,)), "sand")),
+     "drucker-prager material is defined in 2D and 3D, not in 1D"),
+    (lambda: World(domain=(1.0, 1.0), cells=8,
+                   bodies=Body(Box((0.0, 0.0), (0.5, 0.5)), Hypoelastic1D(1e4, 1e3))),
+     "hypoelastic-1d material is defined in 1D, not in 2D"),
+    (lambda: World(domain=(1.0, 1.0), cells=8, bodies=Body(Box((0.0, 0.0), (0.5, 0.5)), "rubber"),
+                   fixed_nodes=[(0, 99)]),
+     "fixed node (0, 99) does not exist"),
+    (lambda: World(domain=(1.0, 1.0), cells=8, bodies=Body(Box((0.0, 0.0), (0.5, 0.5)), "rubber"),
+                   fixed_nodes=[3]),
+     "fixed node 3 must be 2 whole number(s)"),
+    (lambda: World(domain=(1.0, 1.0), cells=8, bodies=Body(Box((0.0, 0.0), (0.5, 0.5)), "rubber"),
+                   walls={"bottom": "glue"}),
+     "unknown wall 'glue'"),
+    (lambda: World(domain=(1.0,), cells=8, basis="lagrange2",
+                   bodies=Body(Box((0.0,), (0.5,)), LinearElastic(1e4, 0.0, 1e3))),
+     "the lagrange2 basis is 1D only: a World's grid"),
+    (lambda: Scene(Grid1D(8, 0.125), Material(1e4, 1e3), *equidistant_particles(8, 2, 0.125),
+                   dt=1e-4, basis="lagrange2", mass="consistent", walls="slip"),
+     "walls act on the lumped nodal velocities"),
+    (lambda: Scene(Grid1D(8, 0.125), Material(1e4, 1e3), *equidistant_particles(8, 2, 0.125),
+                   dt=1e-4, walls={"top": "slip"}),
+     "unknown wall side(s) ['top']: the sides of a 1D domain are left, right"),
+    (lambda: Scene(Grid1D(8, 0.125), Material(1e4, 1e3), *equidistant_particles(8, 2, 0.125),
+                   dt=1e-4, fixed_nodes=(0.7,)),
+     "fixed node 0.7 must be a whole number"),
+    (lambda: Model(basis="linear", origin=(0.0, 0.0), h=0.1, elements=(4, 4),
+                   positions=np.full((3, 3), 0.2), volume=np.ones(3),
+                   materials=(LinearElastic(1e4, 0.3, 1e3),), dt=1e-4),
+     "particle positions must be an (n, 2) array"),
+    (lambda: Model(basis="linear", origin=(0.0, 0.0), h=0.1, elements=(4, 4),
+                   positions=np.full((3, 2), 0.2), volume=np.ones(3), dt=1e-4,
+                   materials=(LinearElastic(1e4, 0.3, 1e3),), material_index=[0, 1, 0]),
+     "material_index must lie in 0..0"),
+    (lambda: Model(basis="linear", origin=(0.0, 0.0), h=0.1, elements=(4, 4),
+                   positions=np.full((3, 2), 0.2), volume=np.ones(3), dt=1e-4,
+                   materials=(LinearElastic(1e4, 0.3, 1e3),), mass_matrix="consistent"),
+     "the consistent mass matrix is implemented for 1D scenes with the musl transfer"),
+    (lambda: Model(basis="linear", origin=(0.0, 0.0), h=0.1, elements=(4, 4),
+                   positions=np.full((3, 2), 0.2), volume=np.ones(3), dt=1e-4,
+                   materials=(LinearElastic(1e4, 0.3, 1e3),), traction=timpm.Traction(0, 1.0)),
+     "the particle traction (3.5) acts along x in 1D models only"),
+])
+def test_bad_models_are_refused(build, message):
+    with pytest.raises(ValueError) as err:
+        build()
+    assert message in str(err.value)

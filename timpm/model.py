@@ -1,0 +1,368 @@
+"""The one model of a simulation in 1, 2 or 3 dimensions: what the engine reads.
+
+A :class:`Model` holds a uniform grid (origin, spacing, elements per axis) and a basis on
+it, the particles (positions, velocities, volumes, the material of each), the materials,
+the transfer and mass matrix, the loads (gravity, the study's particle traction) and the
+boundaries: walls on the sides of a box (sticky, slip, Coulomb friction, or none) and
+Dirichlet nodes held at rest.  Every value is checked on construction, each error naming
+what is wrong and where.
+
+Two builders make models: :class:`timpm.scene.Scene` (1D: a grid and particles placed in
+its elements, the study's problems) and :class:`timpm.world.World` (a box domain in 1D,
+2D or 3D filled with bodies).  Both take walls and Dirichlet nodes; the engine
+(:func:`timpm.engine.features.plan`) reads only the model.
+"""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .basis import get_basis
+from .checks import positive, positive_int, vector
+from .materials import Material
+
+__all__ = ["Model", "Wall", "walls_from", "check_scheme", "SIDES", "WALL_KINDS", "ND_BASES", "TRANSFERS",
+           "MASS_KINDS", "PROJECTIONS"]
+
+#: the sides of a box, two per axis: x, then y, then z
+SIDES = ("left", "right", "bottom", "top", "back", "front")
+WALL_KINDS = ("sticky", "slip", "friction")
+#: bases on uniform multi-dimensional grids (tensor products); every basis works in 1D
+ND_BASES = ("linear", "uniform-bspline2", "uniform-bspline3")
+#: "musl": the study's scheme (2.2.4) in any dimension; "apic": the affine transfer (Jiang
+#: et al. 2015); "mls-mpm": APIC with the force and velocity gradient from the affine
+#: moments (Hu et al. 2018), the cheapest (B-spline bases only)
+TRANSFERS = ("musl", "apic", "mls-mpm")
+MASS_KINDS = ("lumped", "consistent")
+#: "standard": particles are the integration points (2.2.4); "mls": nodal velocities,
+#: density and stress reconstructed by moving least squares, forces at Gauss points (4.4)
+PROJECTIONS = ("standard", "mls")
+
+
+@dataclass(frozen=True)
+class Wall:
+    """A wall: ``sticky`` (material touching it is held: no motion, no separation),
+    ``slip`` (no penetration, no friction) or ``friction`` (Coulomb, coefficient ``mu``);
+    slip and friction walls let the material separate."""
+
+    kind: str = "slip"
+    mu: float = 0.0
+
+    def __post_init__(self):
+        if self.kind not in WALL_KINDS:
+            raise ValueError(f"unknown wall {self.kind!r}: choose one of {', '.join(WALL_KINDS)}")
+        mu = float(self.mu)
+        if not (math.isfinite(mu) and mu >= 0.0):
+            raise ValueError(f"wall friction coefficient must be finite and >= 0, got {self.mu!r}")
+        if self.kind != "friction" and mu != 0.0:
+            raise ValueError(f"a {self.kind} wall takes no friction coefficient (got mu={mu})")
+        object.__setattr__(self, "mu", mu)
+
+
+def _wall(value, where, open_ok):
+    if value is None and open_ok:
+        return None
+    if isinstance(value, Wall):
+        return value
+    if isinstance(value, str):
+        return Wall(value)
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return Wall("friction", value)
+    raise ValueError(f"wall {where}: give a Wall, a kind ({', '.join(WALL_KINDS)}) or a "
+                     f"friction coefficient{', or None for no wall' if open_ok else ''}, "
+                     f"got {value!r}")
+
+
+def walls_from(spec, dim: int, default="slip", open_ok=False):
+    """One wall (or None: no wall, where ``open_ok``) per side of a ``dim``-dimensional
+    box from ``spec``: one wall for every side, or a dict of side name to wall with an
+    optional ``"default"``."""
+    sides = SIDES[:2 * dim]
+    if isinstance(spec, dict):
+        unknown = set(spec) - set(sides) - {"default"}
+        if unknown:
+            raise ValueError(f"unknown wall side(s) {sorted(unknown)}: the sides of a "
+                             f"{dim}D domain are {', '.join(sides)}")
+        default = spec.get("default", default)
+        return tuple(_wall(spec.get(s, default), s, open_ok) for s in sides)
+    wall = _wall(spec, "for every side", open_ok)
+    return (wall,) * (2 * dim)
+
+
+def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standard",
+                 damping=0.0):
+    """The basis, transfer, mass matrix, projection and damping of a ``dim``-dimensional
+    model go together (an error names the conflict)."""
+    basis = get_basis(basis)
+    if dim > 1 and basis.name not in ND_BASES:
+        raise ValueError(f"the {basis.name} basis is 1D only: 2D/3D grids take "
+                         f"{', '.join(ND_BASES)}")
+    if transfer not in TRANSFERS:
+        raise ValueError(f"unknown transfer {transfer!r}: choose one of {', '.join(TRANSFERS)}")
+    if transfer == "mls-mpm" and basis.name == "linear":
+        raise ValueError("the mls-mpm transfer needs a B-spline basis (its D_p is constant);"
+                         " use transfer='apic' with the linear basis")
+    if mass not in MASS_KINDS:
+        raise ValueError(f"unknown mass {mass!r}: choose one of {', '.join(MASS_KINDS)}")
+    if mass == "lumped" and not basis.lumpable:
+        raise ValueError(f"the {basis.name} basis takes negative values, so its mass matrix "
+                         "cannot be lumped (study 5.1): use the consistent mass "
+                         "(mass='consistent', --mass consistent)")
+    if mass == "consistent" and (dim != 1 or transfer != "musl"):
+        raise ValueError("the consistent mass matrix is implemented for 1D scenes with "
+                         f"the musl transfer, not {dim}D with {transfer}")
+    if projection not in PROJECTIONS:
+        raise ValueError(f"unknown projection {projection!r}: choose one of "
+                         f"{', '.join(PROJECTIONS)}")
+    if projection == "mls" and (basis.name != "linear" or mass != "lumped" or dim != 1
+                                or transfer != "musl"):
+        raise ValueError("the MLS projection (4.4) is implemented for the linear basis with "
+                         f"lumped mass in 1D (musl), got the {basis.name} basis with "
+                         f"{mass} mass in {dim}D")
+    given = damping
+    try:
+        damping = float(damping)
+    except (TypeError, ValueError):
+        damping = float("nan")
+    if not (0.0 <= damping < 1.0):
+        raise ValueError(f"damping factor alpha must lie in [0, 1), got {given!r}")
+    if damping and transfer != "musl":
+        raise ValueError("local damping (A.4) acts on the grid forces of the musl transfer; "
+                         f"the {transfer} transfer folds them into the momentum: use "
+                         "transfer='musl' or damping=0")
+
+
+def _index_array(name, value, n, limit):
+    a = np.asarray(value)
+    if a.shape != (n,) or not (np.issubdtype(a.dtype, np.integer) or a.dtype == bool):
+        raise ValueError(f"{name} must be {n} integers, got shape {a.shape} of {a.dtype}")
+    if n and (a.min() < 0 or a.max() >= limit):
+        raise ValueError(f"{name} must lie in 0..{limit - 1}, got {int(a.min())}..{int(a.max())}")
+    return a.astype(np.int32)
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """One simulation on a uniform grid in ``len(elements)`` dimensions (see the module).
+
+    ``positions`` (n, dim) are absolute coordinates inside the grid [origin, origin +
+    elements h]; ``volume`` the initial particle volumes; ``materials`` the material
+    objects and ``material_index`` the one of each particle (default: all the first);
+    ``walls`` one :class:`Wall` or None per side (``SIDES``), standing at ``wall_cells``
+    (per axis the lower and upper wall position in cells from the grid origin; default the
+    grid's ends); ``fixed_nodes`` grid nodes (index tuples) held at zero velocity;
+    ``gravity`` the acceleration per axis; ``traction`` the study's load on one particle
+    (1D); ``damping`` the local damping factor alpha of A.4.
+    """
+
+    basis: str
+    origin: tuple
+    h: float
+    elements: tuple
+    positions: np.ndarray
+    volume: np.ndarray
+    materials: tuple
+    dt: float
+    velocity: np.ndarray | None = None
+    material_index: np.ndarray | None = None
+    body_index: np.ndarray | None = None
+    transfer: str = "musl"
+    mass_matrix: str = "lumped"
+    projection: str = "standard"
+    gravity: tuple | None = None
+    damping: float = 0.0
+    walls: tuple | None = None
+    wall_cells: tuple | None = None
+    fixed_nodes: tuple = ()
+    traction: object = None
+    name: str = "model"
+
+    def __post_init__(self):
+        set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731
+        elements = tuple(positive_int("number of elements", e) for e in
+                         np.atleast_1d(np.asarray(self.elements, dtype=object)))
+        dim = len(elements)
+        if dim not in (1, 2, 3):
+            raise ValueError(f"a model has 1, 2 or 3 dimensions, got {dim}")
+        set_("elements", elements)
+        set_("h", positive("element size h", self.h))
+        set_("origin", tuple(vector("grid origin", self.origin, dim)))
+        basis = get_basis(self.basis)
+        set_("basis", basis.name)
+        set_("_basis", basis)
+        for k, e in enumerate(elements):
+            if e < basis.min_elements:
+                raise ValueError(f"the {basis.name} basis needs at least {basis.min_elements} "
+                                 f"elements, the grid has {e}" + (f" along axis {k}" if dim > 1
+                                                                  else ""))
+        self._check_particles(dim)
+        self._check_materials(dim)
+        self._check_scheme(dim, basis)
+        self._check_boundaries(dim, basis)
+        set_("dt", positive("time step dt", self.dt))
+
+    # ---- checks ----------------------------------------------------------------------
+    def _check_particles(self, dim):
+        set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731
+        try:
+            x = np.array(self.positions, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError("particle positions must be an array of numbers") from None
+        x = x.reshape(-1, 1) if dim == 1 else x
+        if x.ndim != 2 or x.shape[1] != dim:
+            raise ValueError(f"particle positions must be an (n, {dim}) array, got shape "
+                             f"{np.shape(self.positions)}")
+        n = len(x)
+        if n == 0:
+            raise ValueError("a scene needs at least one particle")
+        finite = np.all(np.isfinite(x), axis=1)
+        if not finite.all():
+            bad = int(np.flatnonzero(~finite)[0])
+            raise ValueError(f"particle {bad} has a non-finite position {_point(x[bad])!r}")
+        lo = np.array(self.origin)
+        hi = lo + np.array(self.elements) * self.h
+        outside = np.flatnonzero(np.any((x < lo) | (x > hi), axis=1))
+        if len(outside):
+            p = int(outside[0])
+            where = (f"[{lo[0]}, {hi[0]}]" if dim == 1 else
+                     f"[{tuple(float(v) for v in lo)}, {tuple(float(v) for v in hi)}]")
+            raise ValueError(f"particle {p} at x = {_point(x[p])!r} lies outside the grid "
+                             f"{where} ({len(outside)} particle(s) outside)")
+        vol = np.array(self.volume, dtype=np.float64).ravel()
+        if vol.shape != (n,):
+            raise ValueError(f"volume has {len(vol)} entries for {n} particles")
+        good = np.isfinite(vol) & (vol > 0)
+        if not good.all():
+            p = int(np.flatnonzero(~good)[0])
+            raise ValueError(f"particle volume must be positive, particle {p} has {float(vol[p])!r}")
+        v = np.zeros_like(x) if self.velocity is None else np.array(self.velocity, np.float64)
+        v = v.reshape(-1, 1) if dim == 1 else v
+        if v.shape != x.shape:
+            raise ValueError(f"velocity has {len(v)} entries for {n} particles"
+                             + ("" if dim == 1 else f" (shape {v.shape}, need {x.shape})"))
+        finite = np.all(np.isfinite(v), axis=1)
+        if not finite.all():
+            raise ValueError(f"particle {int(np.flatnonzero(~finite)[0])} has a "
+                             "non-finite initial velocity")
+        for key, arr in (("positions", x), ("volume", vol), ("velocity", v)):
+            arr.setflags(write=False)
+            set_(key, arr)
+
+    def _check_materials(self, dim):
+        set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731
+        mats = (self.materials,) if isinstance(self.materials, Material) else tuple(self.materials)
+        if not mats:
+            raise ValueError("a model needs at least one material")
+        for k, m in enumerate(mats):
+            if not isinstance(m, Material):
+                raise ValueError(f"materials[{k}] must be a timpm material, got {m!r}")
+            if dim not in m.dims:
+                raise ValueError(f"the {m.name} material is defined in "
+                                 f"{' and '.join(f'{d}D' for d in m.dims)}, not in {dim}D")
+        set_("materials", mats)
+        n = len(self.positions)
+        index = (np.zeros(n, np.int32) if self.material_index is None else
+                 _index_array("material_index", self.material_index, n, len(mats)))
+        bodies = (np.zeros(n, np.int32) if self.body_index is None else
+                  _index_array("body_index", self.body_index, n, np.iinfo(np.int32).max))
+        density = np.array([m.density for m in mats])[index]
+        mass = density * self.volume
+        for key, arr in (("material_index", index), ("body_index", bodies), ("_mass", mass)):
+            arr.setflags(write=False)
+            set_(key, arr)
+
+    def _check_scheme(self, dim, basis):
+        check_scheme(dim, basis, self.transfer, self.mass_matrix, self.projection,
+                     self.damping)
+        g = (0.0,) * dim if self.gravity is None else self.gravity
+        object.__setattr__(self, "gravity", tuple(float(c) for c in vector("gravity", g, dim)))
+        object.__setattr__(self, "damping", float(self.damping))
+
+    def _check_boundaries(self, dim, basis):
+        set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731
+        n = len(self.positions)
+        walls = self.walls
+        if walls is not None:
+            walls = tuple(walls)
+            if len(walls) != 2 * dim or not all(w is None or isinstance(w, Wall) for w in walls):
+                raise ValueError(f"walls must be {2 * dim} Walls or None, one per side "
+                                 f"({', '.join(SIDES[:2 * dim])}), got {self.walls!r}")
+            if all(w is None for w in walls):
+                walls = None
+        if walls is not None and (self.mass_matrix != "lumped" or self.projection != "standard"):
+            raise ValueError("walls act on the lumped nodal velocities: with the consistent "
+                             "mass or the MLS projection hold the end nodes fixed instead "
+                             "(fixed_nodes)")
+        set_("walls", walls)
+        cells = self.wall_cells
+        if cells is None:
+            cells = tuple((0.0, float(e)) for e in self.elements)
+        try:
+            cells = tuple((float(lo), float(hi)) for lo, hi in cells)
+        except (TypeError, ValueError):
+            raise ValueError(f"wall_cells must be one (lower, upper) pair per axis, got "
+                             f"{self.wall_cells!r}") from None
+        if len(cells) != dim or any(not (0 <= lo < hi <= e) for (lo, hi), e
+                                    in zip(cells, self.elements)):
+            raise ValueError(f"wall_cells must be one (lower, upper) pair per axis within the "
+                             f"grid's elements {self.elements}, got {self.wall_cells!r}")
+        set_("wall_cells", cells)
+        nodes = self.nodes
+        fixed = []
+        for i in self.fixed_nodes:
+            idx = (i,) if np.ndim(i) == 0 else tuple(i)
+            if len(idx) != dim or not all(isinstance(c, (int, np.integer))
+                                          and not isinstance(c, bool) for c in idx):
+                raise ValueError(f"fixed node {i!r} must be {dim} whole number(s) (a node index"
+                                 f"{' per axis' if dim > 1 else ''})")
+            if not all(0 <= c < nn for c, nn in zip(idx, nodes)):
+                top = nodes[0] - 1 if dim == 1 else tuple(nn - 1 for nn in nodes)
+                raise ValueError(f"fixed node {idx[0] if dim == 1 else idx} does not exist: the "
+                                 f"grid has nodes 0..{top}")
+            fixed.append(tuple(int(c) for c in idx))
+        set_("fixed_nodes", tuple(fixed))
+        if self.traction is not None:
+            if dim != 1:
+                raise ValueError("the particle traction (3.5) acts along x in 1D models only")
+            if not 0 <= self.traction.particle < n:
+                raise ValueError(f"traction particle {self.traction.particle} does not exist "
+                                 f"({n} particles)")
+
+    # ---- derived -----------------------------------------------------------------------
+    @property
+    def dim(self) -> int:
+        return len(self.elements)
+
+    @property
+    def basis_class(self):
+        return self._basis
+
+    @property
+    def nodes(self) -> tuple:
+        basis = self.basis_class
+        return tuple(basis.n_nodes(e) for e in self.elements)
+
+    @property
+    def n_particles(self) -> int:
+        return len(self.positions)
+
+    @property
+    def mass_per_particle(self) -> np.ndarray:
+        return self._mass
+
+    def wall_nodes(self) -> tuple:
+        """Per axis the last node at or below the lower wall and the first node at or
+        above the upper wall (node coordinates of the basis): the nodes a wall acts on."""
+        basis = self.basis_class
+        out = []
+        for (lo, hi), e in zip(self.wall_cells, self.elements):
+            x = basis.node_coordinates(e)
+            tol = 1e-9 * max(1.0, e)
+            out.append((int(np.flatnonzero(x <= lo + tol)[-1]) if np.any(x <= lo + tol) else -1,
+                        int(np.flatnonzero(x >= hi - tol)[0]) if np.any(x >= hi - tol)
+                        else len(x)))
+        return tuple(out)
+
+
+def _point(x):
+    return float(x[0]) if len(x) == 1 else tuple(float(c) for c in x)
