@@ -164,3 +164,30 @@ def test_bad_models_are_refused(build, message):
     with pytest.raises(ValueError) as err:
         build()
     assert message in str(err.value)
+
+
+@pytest.mark.parametrize("dim, track, every, steps", [
+    (1, [1, 5, 7], 3, 40), (1, [1, 5, 7], 1, 1), (1, list(range(20)), 7, 20),
+    (2, [0, 3], 2, 10), (2, [], 2, 10)])
+def test_the_history_read_in_one_launch_is_every_fields_own(dim, track, every, steps):
+    # read_history packs every history field into two arrays in one kernel: the same
+    # values, dtypes and shapes as each field's to_numpy
+    from timpm.problems import get_problem
+
+    if dim == 1:
+        scene = get_problem("vibrating-string").scene(elements=8)
+    else:
+        scene = _drop()
+    solver = Solver(scene, track=track, mode="serial")
+    solver.compile()
+    prog = solver._program()
+    prog.advance(steps, every)
+    n = int(prog.rec_count[None])
+    assert n == steps // every  # a record every `every` steps
+    packed = prog.read_history(n, len(track))
+    assert set(packed) == set(prog.history_fields)
+    for key, fld in prog.history_fields.items():
+        own = fld.to_numpy()[:n]
+        own = own[:, :len(track)] if fld.shape[1:] else own
+        assert packed[key].dtype == own.dtype and packed[key].shape == own.shape, key
+        assert np.array_equal(packed[key], own), key

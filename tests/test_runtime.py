@@ -250,3 +250,21 @@ def test_spawned_workers_compute_what_the_parent_does(tmp_path):
         ''')
     assert rc == 0, err
     assert "identical 2" in out
+
+
+def test_the_fast_line_wrapper_wraps_as_textwrap_does():
+    # Taichi's frontend wraps every source line it reports; the fast path for lines that
+    # fit must give TextWrapper's lines exactly (they end up in the compiled IR's notes)
+    import random
+    import textwrap
+
+    from timpm.runtime import _FittingLineWrapper
+
+    fast, reference = _FittingLineWrapper(width=80), textwrap.TextWrapper(width=80)
+    rng = random.Random(1)
+    alphabet = " \t\n\x0b\x1c\xa0ab^(),.=x_"
+    texts = ["", " ", "    x = 1   ", " " * 8 + "^" * 10 + " " * 30, "y" * 80, "y" * 81]
+    texts += ["".join(rng.choice(alphabet) for _ in range(rng.randint(0, 100)))
+              for _ in range(20000)]
+    for text in texts:
+        assert fast.wrap(text) == reference.wrap(text), repr(text)

@@ -5,6 +5,7 @@ import ctypes
 import functools
 import numbers
 import os
+import textwrap
 import threading
 
 import taichi as ti
@@ -116,6 +117,21 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     raise _unavailable(arch, why) from failure
 
 
+class _FittingLineWrapper(textwrap.TextWrapper):
+    """TextWrapper with a fast path for a line that fits (see _memoize_source_positions)."""
+
+    def wrap(self, text):
+        line = text.expandtabs(self.tabsize) if self.expand_tabs else text
+        if self.replace_whitespace:
+            line = line.translate(self.unicode_whitespace_trans)
+        if (len(line) <= self.width and line.isascii() and line.isprintable()
+                and self.drop_whitespace and not self.initial_indent
+                and not self.subsequent_indent and self.max_lines is None):
+            line = line.rstrip(" ")
+            return [line] if line else []
+        return super().wrap(text)
+
+
 def _memoize_source_positions() -> None:
     """Taichi's frontend formats the source position of every AST node it builds (file,
     line and the code with a ^^^ marker, wrapped by ``textwrap``): half of a kernel's
@@ -141,6 +157,11 @@ def _memoize_source_positions() -> None:
 
     ctx_cls.get_pos_info = get_pos_info
     ctx_cls._timpm_memoized = True
+    # the wrapping of each source line and its ^^^ marker at 80 columns: a line that fits
+    # (printable ASCII after TextWrapper's tab expansion and whitespace replacement) is one
+    # line with its trailing blanks dropped, or none when blank: what TextWrapper gives
+    if getattr(utils, "TextWrapper", None) is textwrap.TextWrapper:
+        utils.TextWrapper = _FittingLineWrapper
     # and the source of each function, which Taichi reads (tokenizing its file) again for
     # every call site of an inlined ti.func
     from taichi.lang import kernel_impl

@@ -223,8 +223,7 @@ class Solver:
         if self.recording and "record" not in prog.compiled:
             prog.record()
             prog.rec_count[None] = 0
-            for fld in prog.history_fields.values():
-                fld.to_numpy()
+            prog.read_history(0, self.n_tracked)
             prog.compiled.add("record")
         if "io" not in prog.compiled:
             int(prog.err[None]) + int(prog.err_count[None])
@@ -335,10 +334,7 @@ class Solver:
         if n == 0:
             return
         # kept as one array per drain (rows one by one would cost more than the steps)
-        chunk = {}
-        for key, fld in prog.history_fields.items():
-            a = fld.to_numpy()[:n]
-            chunk[key] = a[:, :self.n_tracked] if fld.shape[1:] else a
+        chunk = prog.read_history(n, self.n_tracked)
         for key, values in chunk.items():
             self.history.setdefault(key, []).append(values)
         prog.rec_count[None] = 0

@@ -293,6 +293,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         self.step, self.record, self.advance = step, record, advance
         self.project, self.clear = project, clear
         self._bind_transfers()
+        self._bind_history_reader()
         if self.team:
             @ti.kernel
             def team(n_steps: ti.i32):

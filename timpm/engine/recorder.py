@@ -3,9 +3,19 @@
 Mixed into :class:`~timpm.engine.program.Program`; Python drains the buffer
 (:class:`timpm.solver.Solver`).
 """
+import numpy as np
 import taichi as ti
 
 __all__ = ["Recorder"]
+
+_NUMPY = {ti.f64: np.float64, ti.f32: np.float32, ti.i32: np.int32, ti.i64: np.int64}
+
+
+def _components(fld):
+    """(rows, columns) of a field's entries: (1, -1) a scalar, (n, 0) a vector."""
+    if not isinstance(fld, ti.MatrixField):
+        return (1, -1)
+    return (fld.n, fld.m if fld.ndim == 2 else 0)
 
 
 class Recorder:
@@ -40,6 +50,72 @@ class Recorder:
             if ti.static(self.has_traction):
                 self.h_energy[slot][3] = self.ext_work[None]
         self.rec_count[None] = slot + 1
+
+    def _bind_history_reader(self):
+        """``read_history(n)``: the first n records of every history field, copied by one
+        kernel into two float64 arrays (per record; per record and tracked particle) and
+        returned in each field's dtype and ``to_numpy`` shape: one launch per drain (a
+        ``to_numpy`` per field loads a kernel per field, ~9 ms each on the first read)."""
+        fields = self.history_fields
+        if not fields:
+            return
+        layout = {1: [], 2: []}  # per record, per record and tracked particle
+        cols = {1: 0, 2: 0}
+        for name, fld in fields.items():
+            rows, columns = _components(fld)
+            size = rows * max(columns, 1)  # a scalar (columns -1) takes one column
+            axes = len(fld.shape)
+            layout[axes].append((name, fld, cols[axes], (rows, columns)))
+            cols[axes] += size
+        R = [(fld, col, shape) for _, fld, col, shape in layout[1]]
+        T = [(fld, col, shape) for _, fld, col, shape in layout[2]]
+
+        @ti.func
+        def put(out: ti.template(), r, j, col, value):
+            if ti.static(len(out.shape) == 2):
+                out[r, col] = ti.cast(value, ti.f64)
+            else:
+                out[r, j, col] = ti.cast(value, ti.f64)
+
+        @ti.func
+        def copy(value, out: ti.template(), r, j, col: ti.template(), shape: ti.template()):
+            if ti.static(shape[1] > 0):
+                for a, b in ti.static(ti.ndrange(shape[0], shape[1])):
+                    put(out, r, j, col + a * shape[1] + b, value[a, b])
+            elif ti.static(shape[1] == 0):
+                for a in ti.static(range(shape[0])):
+                    put(out, r, j, col + a, value[a])
+            else:
+                put(out, r, j, col, value)
+
+        @ti.kernel
+        def read(n: ti.i32, records: ti.types.ndarray(dtype=ti.f64, ndim=2),
+                 tracked: ti.types.ndarray(dtype=ti.f64, ndim=3)):
+            # history -> host: the records, then per tracked particle
+            for r in range(n):
+                for k in ti.static(range(len(R))):
+                    copy(R[k][0][r], records, r, 0, R[k][1], R[k][2])
+                if ti.static(len(T) > 0):
+                    for j in range(self.p.n_tracked()):
+                        for k in ti.static(range(len(T))):
+                            copy(T[k][0][r, j], tracked, r, j, T[k][1], T[k][2])
+
+        def read_history(n: int, n_tracked: int) -> dict:
+            records = np.zeros((max(n, 1), max(cols[1], 1)))
+            per_particle = np.zeros((max(n, 1), max(n_tracked, 1), max(cols[2], 1)))
+            read(n, records, per_particle)
+            out = {}
+            for axes, block in ((1, records), (2, per_particle)):
+                for name, fld, col, (rows, columns) in layout[axes]:
+                    # the shape of fld.to_numpy(): Taichi gives an n x 1 matrix as vectors
+                    entry = () if columns < 0 else (rows,) if columns <= 1 else (rows, columns)
+                    lead = (n,) if axes == 1 else (n, n_tracked)
+                    a = block[tuple(slice(0, k) for k in lead)
+                              + (slice(col, col + int(np.prod(entry))),)]
+                    out[name] = a.reshape(lead + entry).astype(_NUMPY[fld.dtype])
+            return out
+
+        self.read_history = read_history
 
     @ti.func
     def _clear_and_project(self):
