@@ -16,6 +16,7 @@ class ErrorCode(enum.IntEnum):
     SINGULAR_MASS = 4
     ENERGY_GROWTH = 5
     TEAM_BARRIER = 6
+    VOLUME_RANGE = 7
 
     @property
     def message(self) -> str:
@@ -29,6 +30,7 @@ _MESSAGES = {
     ErrorCode.SINGULAR_MASS: "the consistent mass matrix is singular",
     ErrorCode.ENERGY_GROWTH: "energy grew without a source",
     ErrorCode.TEAM_BARRIER: "the threads of a team step did not meet at a barrier",
+    ErrorCode.VOLUME_RANGE: "was crushed or torn apart: its volume left the allowed range",
 }
 
 #: code -> message, as the kernels record it

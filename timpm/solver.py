@@ -48,7 +48,10 @@ class Solver:
     With energies recorded, ``energy_guard`` stops an unstable run: kinetic + strain energy
     may not exceed ``energy_guard`` times the energy put in so far (initial kinetic and
     strain energy plus the magnitudes of the gravity and external work); ``None`` turns the
-    check off.  The kernels hold up to ``history_chunk`` records between two reads from
+    check off.  ``volume_range`` (lowest, highest) stops a run whose particle's volume
+    ratio V/V0 leaves it, naming step and particle (a crushed or torn body is no longer
+    resolved); a material without tension (fluids, sand) is bounded only below; ``None``
+    turns the check off.  The kernels hold up to ``history_chunk`` records between two reads from
     Python (default: about 4 MiB of them, 512 to 16384).
     """
 
@@ -57,7 +60,8 @@ class Solver:
                  history_chunk: int | None = None,
                  track_crossings: bool | None = None, energy_guard: float | None = 2.0,
                  grid_displacement: bool = False, small_mass: float = 1e-3,
-                 scatter: str = "auto", check_every: int = 16):
+                 scatter: str = "auto", check_every: int = 16,
+                 volume_range: tuple | None = (1e-2, 1e2)):
         runtime.ensure_init()
         self._generation = runtime.generation()  # the Taichi start that holds the fields
         track = [_index("tracked particle", p) for p in track]
@@ -69,7 +73,7 @@ class Solver:
             scene, track=track, energies=energies, mode=mode,
             serial_threshold=serial_threshold, history_chunk=history_chunk,
             track_crossings=track_crossings, grid_displacement=grid_displacement,
-            small_mass=small_mass, scatter=scatter)
+            small_mass=small_mass, scatter=scatter, volume_range=volume_range)
         f, lay = self.features, self.layout
         self.scene, self.track = scene, track
         self.model = getattr(scene, "model", scene)  # the one model of 1D to 3D
@@ -388,6 +392,13 @@ class Solver:
             hi = ", ".join(f"{o + n * self.h:g}" for o, n in zip(self.origin, self.grid_elements))
             at = f"x = ({xs}), grid from ({', '.join(f'{o:g}' for o in self.origin)}) to ({hi})"
         msg = f"{when}: particle {where} {code.message} ({at})"
+        if code == ErrorCode.VOLUME_RANGE:
+            lo, hi = (self.layout.values[k] for k in ("volume_min", "volume_max"))
+            model = self.model
+            density = model.materials[int(model.material_index[where])].density
+            ratio = float(prog.vol[where]) * density / float(prog.m[where])
+            msg += (f": V/V0 = {ratio:.3g} outside [{lo:g}, {hi:g}]; refine the grid or the "
+                    "time step, or pass volume_range=None (or a wider range) to go on")
         if code == ErrorCode.NOT_FINITE:
             msg += "; the run is unstable: check the time step and the mass matrix"
         raise SimulationError(msg, code, step, particle=where)

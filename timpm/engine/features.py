@@ -65,6 +65,7 @@ class FeatureSet:
     scatter: str                 # "atomic", "serial" or "private"
     n_copies: int                # grid copies of the private scatter (1 otherwise)
     team: bool
+    volume_guard: bool           # V / V0 checked against a range every step
     precision: str
     arch: str
 
@@ -176,9 +177,25 @@ def _scatter_choice(scatter, mode, private_ok):
     return scatter
 
 
+def _volume_range(value):
+    """``volume_range``: None (no guard) or (lowest, highest) V/V0, 0 < lowest < 1 <
+    highest (highest may be infinite)."""
+    if value is None:
+        return None
+    try:
+        lo, hi = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"volume_range must be None or (lowest, highest) V/V0, got "
+                         f"{value!r}") from None
+    if not (0.0 < lo < 1.0 < hi) or lo != lo or hi != hi:
+        raise ValueError(f"volume_range must satisfy 0 < lowest < 1 < highest (V/V0), got "
+                         f"{value!r}")
+    return lo, hi
+
+
 def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
          history_chunk=None, track_crossings=None, grid_displacement=False,
-         small_mass=1e-3, scatter="auto"):
+         small_mass=1e-3, scatter="auto", volume_range=(1e-2, 1e2)):
     """The feature set and layout of ``scene`` (a Model, or a Scene or World that builds
     one) run with the solver's options (checked)."""
     model = getattr(scene, "model", scene)
@@ -187,6 +204,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
                         f"timpm.model.Model, got {type(scene).__name__}")
     if mode not in MODES:
         raise ValueError(f"unknown mode {mode!r}: choose auto, parallel, serial or team")
+    volume_range = _volume_range(volume_range)
     n = model.n_particles
     for p in track:
         if not 0 <= p < n:
@@ -235,6 +253,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         grid_displacement=bool(grid_displacement), track_crossings=crossings,
         energies=bool(energies), tracking=len(track) > 0, mode=run_mode, scatter=scatter,
         n_copies=n_copies, team=team_ok and requested in ("team", "auto"),
+        volume_guard=volume_range is not None and not all(m.initial_volume for m in materials),
         precision=runtime.precision(), arch=runtime.arch())
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
@@ -251,6 +270,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         mass_tol=(small_mass if consistent else 1e-14) * mass_scale,
         pivot_tol=1e-14 * mass_scale,
         scatter_block=max(MIN_CPU_BLOCK, -(-n // n_copies)), n_tracked=len(track))
+    if features.volume_guard:
+        values.update(volume_min=volume_range[0], volume_max=volume_range[1])
     if features.mls_mpm:
         D_inv = 1.0 / (basis.inertia * h ** 2)
         values.update(D_inv=D_inv, dt_D_inv=model.dt * D_inv)

@@ -78,6 +78,8 @@ def _param_spec(features):
             "mass_tol": "real", "pivot_tol": "real"}
     if features.mls_mpm:
         spec.update(D_inv="real", dt_D_inv="real")
+    if features.volume_guard:
+        spec.update(volume_min="real", volume_max="real")
     if features.traction is not None:
         spec.update(traction_particle="int", traction_amplitude="real", traction_param="real")
     if features.has_walls:

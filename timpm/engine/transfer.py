@@ -30,6 +30,27 @@ class Transfer:
         return sig_new
 
     @ti.func
+    def _volume_in_range(self, p, vol):
+        """volume_min <= V_p / V0 <= volume_max, V0 = m_p / density of the particle's
+        material; a material that expands freely (no tension) has no upper bound."""
+        ok = True
+        if ti.static(not self.multi_material):
+            ok = self._ratio_in_range(self.material_units[0], p, vol)
+        else:
+            for k in ti.static(range(len(self.material_units))):
+                if self.mat[p] == k:
+                    ok = self._ratio_in_range(self.material_units[k], p, vol)
+        return ok
+
+    @ti.func
+    def _ratio_in_range(self, unit: ti.template(), p, vol):
+        ratio = vol * unit.c.density() / self.m[p]
+        ok = ratio >= self.p.volume_min()
+        if ti.static(not unit.free_expansion):
+            ok = ok and ratio <= self.p.volume_max()
+        return ok
+
+    @ti.func
     def _p2g(self):
         # P2G (2.2.4): M_ij = sum m_p phi_i phi_j (A.1) or M_ii = sum m_p phi_i (A.2);
         # F_i = sum phi_i (m_p g + f_trac(t)) - sigma_p V_p dphi_i; with the affine transfer
@@ -232,6 +253,9 @@ class Transfer:
             if ti.static(self.update_volume):
                 if not (jac > 0.0):
                     code = 3
+                elif ti.static(self.f.volume_guard):
+                    if not self._volume_in_range(p, vol_new):
+                        code = 7
             state = x_new.sum() + vp.sum() + sig_new.sum() + vol_new
             if not (ti.abs(state) < 1e300):  # NaN fails this comparison
                 code = 2

@@ -8,7 +8,9 @@ value says what the engine compiles and with which numbers:
   allocates a field only when a material of the scene needs it;
 - ``flags()``: the compile-time choices of the law (part of the feature set);
 - ``constants(dt)``: the run-time numbers its update reads, by name (``CONSTANTS``), every
-  derived constant computed here once, in double precision.
+  derived constant computed here once, in double precision; ``density`` among them (the
+  volume guard reads V0 = m_p / density);
+- ``free_expansion``: the law lets a particle expand without bound (a tension cut-off).
 
 The compiled unit is the same class built by :meth:`unit` with a getter per constant
 (``self.c.mu()``) and one ``@ti.func``::
@@ -46,6 +48,9 @@ class Material:
     initial_volume = False
     #: the dimensions the law is written for
     dims = (1, 2, 3)
+    #: True where the law lets a particle expand without bound (a tension cut-off: fluids,
+    #: sand); the solver's volume guard then bounds only its compaction
+    free_expansion = False
 
     def __init__(self, density):
         self.density = positive(f"{self.name}: density", density)

@@ -18,6 +18,7 @@ class DruckerPrager(SolidMaterial):
 
     name = "drucker-prager"
     needs = frozenset({"F", "plastic"})
+    free_expansion = True  # no tension: a particle expands stress-free
     CONSTANTS = SolidMaterial.CONSTANTS + ("alpha", "cone_2d", "cone_3d")
     dims = (2, 3)  # the return mapping of principal strains: 2D spectral form, 3D SVD
 

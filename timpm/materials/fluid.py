@@ -38,6 +38,11 @@ class WeaklyCompressibleFluid(Material):
         return {"bulk_modulus": self.bulk_modulus, "density": self.density,
                 "gamma": self.gamma, "viscosity": self.viscosity}
 
+    @property
+    def free_expansion(self) -> bool:
+        """Without tension a particle expands stress-free."""
+        return not self.tension
+
     def flags(self) -> tuple:
         # an integral exponent is compiled in: J^-gamma by multiplications, not pow()
         whole = float(self.gamma) if float(self.gamma).is_integer() else None

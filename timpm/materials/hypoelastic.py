@@ -18,7 +18,7 @@ class Hypoelastic1D(Material):
 
     name = "hypoelastic-1d"
     needs = frozenset({"eps"})
-    CONSTANTS = ("E",)
+    CONSTANTS = ("E", "density")
     dims = (1,)
 
     def __init__(self, E, density, study: bool = True):
@@ -36,7 +36,7 @@ class Hypoelastic1D(Material):
         (self.study,) = flags
 
     def constants(self, dt: float) -> dict:
-        return {"E": self.E}
+        return {"E": self.E, "density": self.density}
 
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):

@@ -18,6 +18,7 @@ class JFluid(Material):
     name = "j-fluid"
     needs = frozenset({"J"})
     initial_volume = True
+    free_expansion = True  # no tension: a particle expands stress-free
     CONSTANTS = ("density", "bulk_modulus")
 
     def __init__(self, bulk_modulus, density):
