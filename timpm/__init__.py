@@ -23,5 +23,6 @@ __all__ = [
     "BASES", "Basis", "Linear", "get_basis", "init", "Constant", "Grid1D", "Material",
     "Ramp", "Scene", "Sine", "Traction", "critical_time_step", "equidistant_particles",
     "SimulationError", "Solver", "Batch", "__version__", "World", "Body", "Box", "Ball", "Wall",
-    "Points", "Model", "LinearElastic", "NeoHookean", "DruckerPrager", "WeaklyCompressibleFluid", "get_material",
+    "Points", "Model", "LinearElastic", "NeoHookean", "DruckerPrager",
+    "WeaklyCompressibleFluid", "get_material",
 ]

@@ -21,7 +21,8 @@ from .basis import get_basis
 from .checks import positive, positive_int, vector
 from .materials import Material
 
-__all__ = ["Model", "Wall", "walls_from", "check_scheme", "SIDES", "WALL_KINDS", "ND_BASES", "TRANSFERS",
+__all__ = ["Model", "Wall", "walls_from", "check_scheme", "SIDES", "WALL_KINDS", "ND_BASES",
+           "TRANSFERS",
            "MASS_KINDS", "PROJECTIONS"]
 
 #: the sides of a box, two per axis: x, then y, then z
@@ -234,7 +235,8 @@ class Model:
         good = np.isfinite(vol) & (vol > 0)
         if not good.all():
             p = int(np.flatnonzero(~good)[0])
-            raise ValueError(f"particle volume must be positive, particle {p} has {float(vol[p])!r}")
+            raise ValueError(f"particle volume must be positive, particle {p} has "
+                             f"{float(vol[p])!r}")
         v = np.zeros_like(x) if self.velocity is None else np.array(self.velocity, np.float64)
         v = v.reshape(-1, 1) if dim == 1 else v
         if v.shape != x.shape:

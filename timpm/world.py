@@ -2,13 +2,15 @@
 walls and gravity.
 
 A :class:`World` is, like :class:`timpm.scene.Scene`, a checked, immutable builder of the
-one model of 1D to 3D (:class:`timpm.model.Model`), which the engine reads.  Bodies are shapes
-(:class:`Box`, :class:`Ball`, :class:`Points`) filled with a regular lattice of ``ppc``
-particles per cell and axis; walls bound the domain (``sticky``, ``slip``, Coulomb
-``friction`` or none, per side); the grid covers the domain and a padding band as wide as the basis support
-on each side, so a particle that touches a wall still has its whole stencil on the grid.
+one model of 1D to 3D (:class:`timpm.model.Model`), which the engine reads.  Bodies are
+shapes (:class:`Box`, :class:`Ball`, :class:`Points`) filled with a regular lattice of
+``ppc`` particles per cell and axis; walls bound the domain (``sticky``, ``slip``, Coulomb
+``friction`` or none, per side); the grid covers the domain and a padding band as wide as
+the basis support on each side, so a particle that touches a wall still has its whole
+stencil on the grid.
 
-Axes: x to the right, y up, z towards the viewer; gravity points down y by default.
+Axes: x to the right, y up, z towards the viewer; gravity points down y by default (down x
+in 1D).
 """
 
 import math
@@ -177,9 +179,9 @@ class World:
     builder of the one :class:`~timpm.model.Model` of 1D to 3D (``world.model``).
 
     ``walls`` is one wall for every side, or a dict of side name (``SIDES``) to wall with
-    an optional ``"default"`` (None: no wall on that side, material may leave the domain
-    and the grid, which stops the run with an error); ``fixed_nodes`` grid nodes (index tuples of the padded grid,
-    ``grid_elements``) held at zero velocity.  Gravity points down y in 2D and 3D, down x
+    an optional ``"default"`` (None: no wall on that side; material may leave the domain
+    and the grid, which stops the run with an error); ``fixed_nodes`` grid nodes (index
+    tuples of the padded grid, ``world.model.nodes``) held at zero velocity.  Gravity points down y in 2D and 3D, down x
     in 1D, unless given.  ``dt=None`` picks ``courant`` (default 0.4) times the CFL
     limit h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
     (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``

@@ -187,7 +187,7 @@ def _volume_range(value):
     except (TypeError, ValueError):
         raise ValueError(f"volume_range must be None or (lowest, highest) V/V0, got "
                          f"{value!r}") from None
-    if not (0.0 < lo < 1.0 < hi) or lo != lo or hi != hi:
+    if not (0.0 < lo < 1.0 < hi):  # NaN fails it too
         raise ValueError(f"volume_range must satisfy 0 < lowest < 1 < highest (V/V0), got "
                          f"{value!r}")
     return lo, hi
