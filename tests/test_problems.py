@@ -89,9 +89,11 @@ def test_oedometer_static_strains():
 def test_every_problem_builds_a_valid_scene(name):
     p = get_problem(name)
     scene = p.scene(elements=4, ppc=2, dt=1e-5)
-    assert scene.n_particles == 8
-    assert scene.volume.sum() == pytest.approx(p.domain_length())
-    assert scene.grid.end >= p.domain_length()
+    model = scene.model
+    assert scene.n_particles == 8 ** model.dim
+    assert scene.volume.sum() == pytest.approx(p.domain_length() ** model.dim)
+    for k in range(model.dim):
+        assert model.origin[k] + model.elements[k] * model.h >= p.domain_length()
 
 
 def test_unknown_problem_and_parameter_are_refused():

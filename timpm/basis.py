@@ -38,6 +38,11 @@ class Basis:
     min_elements = 1
     #: fewest particles per element its quadrature needs (mass and stiffness of full rank)
     min_ppc = 1
+    #: tensor products of it span 2D and 3D grids
+    nd = False
+    #: node j stands at x = (j - offset) h, uniformly spaced: the node positions the affine
+    #: transfers (APIC, MLS-MPM) take for x_i - x_p
+    uniform_nodes = False
 
     @classmethod
     def n_nodes(cls, n_elements: int) -> int:
@@ -60,6 +65,8 @@ class Linear(Basis):
 
     name = "linear"
     support = 2
+    nd = True
+    uniform_nodes = True
 
     @classmethod
     def n_nodes(cls, n_elements: int) -> int:
@@ -150,10 +157,14 @@ class _ClampedBSpline(Basis):
     """B-splines of ``degree`` on an open (clamped) knot vector 0 (x p+1), 1, ..., n-1, n (x p+1).
 
     Partition of unity holds up to the boundary and only the first (last) function is
-    non-zero at the left (right) end, so a Dirichlet condition fixes one coefficient.
+    non-zero at the left (right) end, so a Dirichlet condition fixes one coefficient.  In
+    2D and 3D their tensor products; a wall at a grid end acts on the one node layer there.
+    The control points stand at the Greville abscissae, not uniformly spaced near the
+    ends: the affine transfers do not take them.
     """
 
     degree = 2
+    nd = True
 
     @classmethod
     def n_nodes(cls, n_elements: int) -> int:
@@ -192,6 +203,8 @@ class _UniformBSpline(Basis):
     """
 
     degree = 2
+    nd = True
+    uniform_nodes = True
 
     @classmethod
     def offset(cls):

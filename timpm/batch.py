@@ -44,6 +44,9 @@ class Batch:
             if s.mode != "serial":
                 raise ValueError(f"batch member {k} runs in {s.mode} mode: a Batch takes fused "
                                  "serial solvers, Solver(..., mode='serial')")
+            if s.features.body_force:
+                raise ValueError(f"batch member {k} has a body force b(X, t), evaluated in "
+                                 "Python before every step: run it alone (Solver.run)")
             try:
                 s._require()
             except RuntimeError as err:
@@ -87,6 +90,9 @@ class Batch:
             raise Released("Taichi was restarted (timpm.init with other settings) after "
                            "this batch was built, which freed its fields")
         for k, s in enumerate(self.solvers):
+            if s.features.body_force:
+                raise ValueError(f"batch member {k} has a body force b(X, t), evaluated in "
+                                 "Python before every step: run it alone (Solver.run)")
             try:
                 s._require()
             except RuntimeError as err:

@@ -25,14 +25,18 @@ def _add_common(p):
     p.add_argument("--mass", default="lumped", choices=["lumped", "consistent"])
     p.add_argument("--dt", type=float, help="time step [s] (default: the problem's)")
     p.add_argument("--t-end", type=float, help="end time [s] (default: the problem's)")
-    p.add_argument("--placement", default="study", choices=list(PLACEMENTS),
-                   help="particle positions in an element (study: (k+1)/(ppc+1))")
+    p.add_argument("--placement", choices=list(PLACEMENTS),
+                   help="particle positions in an element (default: the problem's; the "
+                        "study's problems: study, (k+1)/(ppc+1); mms-*: gauss)")
     p.add_argument("--stress-update", default="study", choices=list(STRESS_UPDATES),
                    help="study: sigma += (E - sigma) d_eps (2.2.4); small: sigma += E d_eps")
     p.add_argument("--damping", type=float, help="local damping factor alpha (A.4)")
     p.add_argument("--projection", default="standard", choices=list(PROJECTIONS),
                    help="mls: velocity, density and stress reconstructed by moving least "
                         "squares, forces at Gauss points (4.4)")
+    p.add_argument("--transfer", default="musl", choices=["musl", "apic", "mls-mpm"],
+                   help="musl: the study's scheme (2.2.4); apic, mls-mpm: the affine "
+                        "transfers (linear and uniform-bsplineN bases)")
     p.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
                    help="override a physical parameter of the problem, e.g. p0=2e4")
     p.add_argument("--allow-unstable-dt", action="store_true",
@@ -118,12 +122,13 @@ def _options(args):
     return dict(ppc=args.ppc, basis=args.basis, mass=args.mass, dt=args.dt, t_end=args.t_end,
                 placement=args.placement, stress_update=args.stress_update,
                 damping=args.damping, allow_unstable_dt=args.allow_unstable_dt,
-                projection=args.projection,
+                projection=args.projection, transfer=args.transfer,
                 mode=args.mode, params=dict(args.param))
 
 
 def _table(records, rates=None):
-    head = (f"{'elements':>8} {'ppc':>4} {'e_RMS':>12} {'ratio':>7} {'log2':>6} "
+    l2 = " " + f"{'e_L2':>12}" if "l2_error" in records[0] else ""
+    head = (f"{'elements':>8} {'ppc':>4} {'e_RMS':>12}{l2} {'ratio':>7} {'log2':>6} "
             f"{'crossings':>9} {'steps':>7} {'wall [s]':>9} {'compile [s]':>11}")
     lines = [head]
     for i, r in enumerate(records):
@@ -131,10 +136,16 @@ def _table(records, rates=None):
         if rates and i > 0:
             ratio, log2 = f"{rates[i - 1]['ratio']:7.3f}", f"{rates[i - 1]['rate']:6.3f}"
         err = f"{r['rms_error']:12.4e}" if r["rms_error"] is not None else f"{'-':>12}"
+        if "l2_error" in r:
+            err += f" {r['l2_error']:12.4e}"
         lines.append(f"{r['elements']:>8} {r['ppc']:>4} {err} {ratio:>7} {log2:>6} "
-                     f"{r['grid_crossings']:>9} {r['steps']:>7} {r['wall_seconds']:9.3f} "
+                     f"{_or_dash(r['grid_crossings']):>9} {r['steps']:>7} {r['wall_seconds']:9.3f} "
                      f"{r['compile_seconds']:11.3f}")
     return "\n".join(lines)
+
+
+def _or_dash(value):
+    return "-" if value is None else value
 
 
 def _demo(args):

@@ -1,5 +1,6 @@
-"""Loads of a model: time functions (each evaluates in Python and inside a kernel) and the
-study's traction on one particle (3.5)."""
+"""Loads of a model: time functions (each evaluates in Python and inside a kernel), the
+study's traction on one particle (3.5) and body forces b(X, t) given as Python functions."""
+import inspect
 import math
 from dataclasses import dataclass, field
 
@@ -8,7 +9,8 @@ import taichi as ti
 
 from .checks import positive
 
-__all__ = ["Constant", "Sine", "Ramp", "Traction", "TIME_FUNCTIONS"]
+__all__ = ["Constant", "Sine", "Ramp", "Traction", "BodyForce", "field_function",
+           "TIME_FUNCTIONS"]
 
 
 @ti.data_oriented
@@ -94,3 +96,83 @@ class Traction:
 
 #: the time functions a load may take
 TIME_FUNCTIONS = (Constant, Sine, Ramp)
+
+
+def _arity(fn, what):
+    """The positional parameters ``fn`` takes (an error names ``what`` if it is no function)."""
+    if not callable(fn):
+        raise ValueError(f"{what} must be a function, got {fn!r}")
+    try:
+        params = inspect.signature(fn).parameters.values()
+    except (TypeError, ValueError):  # a builtin or ufunc without a signature: trust it
+        return None
+    if any(p.kind == p.VAR_POSITIONAL for p in params):
+        return None
+    return sum(p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) for p in params)
+
+
+def field_function(fn, X, what, *args, signature=True):
+    """``fn(X, *args)`` for the (n, dim) points X as an (n, dim) float array, checked: a
+    function of the points (and ``args``), vectorised over them, finite everywhere.  In
+    1D a result of shape (n,) is taken as (n, 1).  The error names ``what``, the first
+    bad point and the value there (``signature=False``: the parameters were checked
+    already)."""
+    n, dim = X.shape
+    want = 1 + len(args)
+    arity = _arity(fn, what) if signature else None
+    if arity is not None and arity != want:
+        names = "(X" + ", t" * len(args) + ")"
+        raise ValueError(f"{what} must take {want} argument(s) {names}: the points as an "
+                         f"(n, {dim}) array{' and the time' if args else ''}; "
+                         f"{getattr(fn, '__name__', fn)!s} takes {arity}")
+    try:
+        out = fn(X.copy(), *args)
+    except Exception as err:
+        raise ValueError(f"{what} failed on the (n, {dim}) array of points: "
+                         f"{type(err).__name__}: {err}") from err
+    try:
+        out = np.array(out, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must return numbers, got {type(out).__name__}") from None
+    if dim == 1 and out.shape == (n,):
+        out = out.reshape(n, 1)
+    if out.shape != (n, dim):
+        raise ValueError(f"{what} must return an (n, {dim}) array for n = {n} points "
+                         f"(one value per point and axis, vectorised), got shape {out.shape}")
+    finite = np.all(np.isfinite(out), axis=1)
+    if not finite.all():
+        p = int(np.flatnonzero(~finite)[0])
+        at = ", ".join(f"{c:g}" for c in X[p])
+        raise ValueError(f"{what} is not finite at point {p} (X = ({at})"
+                         + (f", t = {args[0]:g}" if args else "") + f"): {out[p].tolist()}")
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class BodyForce:
+    """A body force per unit mass b(X, t) (an acceleration, m/s^2) given as a Python
+    function ``fn(X, t)`` of the particles' reference positions X (an (n, dim) array) and
+    the time, vectorised: it returns the (n, dim) values of all particles at once (n
+    values in 1D).  The solver calls it once per step, at the step's start time, and
+    uploads the values (one call per step, none per particle).  ``frame="current"`` passes
+    the particles' current positions x instead of X (read back every step).  Its work
+    enters the recorded external work.  A model evaluates it at t = 0 when built: a wrong
+    signature, shape or a non-finite value is an error naming the point."""
+
+    fn: object
+    frame: str = "reference"
+
+    def __post_init__(self):
+        if self.frame not in ("reference", "current"):
+            raise ValueError(f"body force frame must be 'reference' or 'current', got "
+                             f"{self.frame!r}")
+        arity = _arity(self.fn, "the body force")
+        if arity is not None and arity != 2:
+            raise ValueError(f"the body force must take two arguments (X, t): the (n, dim) "
+                             f"positions and the time; {getattr(self.fn, '__name__', self.fn)!s}"
+                             f" takes {arity}")
+
+    def __call__(self, X, t):
+        """b at points X (n, dim) and time t, checked: an (n, dim) float array."""
+        return field_function(self.fn, np.asarray(X, dtype=np.float64), "the body force",
+                              float(t), signature=False)

@@ -19,6 +19,7 @@ import numpy as np
 
 from .basis import get_basis
 from .checks import positive, positive_int, vector
+from .loads import BodyForce, field_function
 from .materials import Material
 
 __all__ = ["Model", "Wall", "walls_from", "check_scheme", "SIDES", "WALL_KINDS", "ND_BASES",
@@ -27,9 +28,10 @@ __all__ = ["Model", "Wall", "walls_from", "check_scheme", "SIDES", "WALL_KINDS",
 
 #: the sides of a box, two per axis: x, then y, then z
 SIDES = ("left", "right", "bottom", "top", "back", "front")
-WALL_KINDS = ("sticky", "slip", "friction")
-#: bases on uniform multi-dimensional grids (tensor products); every basis works in 1D
-ND_BASES = ("linear", "uniform-bspline2", "uniform-bspline3")
+WALL_KINDS = ("sticky", "slip", "friction", "roller")
+#: bases on multi-dimensional grids (tensor products; B-splines of any degree N as
+#: bsplineN, clamped, or uniform-bsplineN, padded); every basis works in 1D
+ND_BASES = ("linear", "bspline2", "bspline3", "uniform-bspline2", "uniform-bspline3")
 #: "musl": the study's scheme (2.2.4) in any dimension; "apic": the affine transfer (Jiang
 #: et al. 2015); "mls-mpm": APIC with the force and velocity gradient from the affine
 #: moments (Hu et al. 2018), the cheapest (B-spline bases only)
@@ -43,8 +45,10 @@ PROJECTIONS = ("standard", "mls")
 @dataclass(frozen=True)
 class Wall:
     """A wall: ``sticky`` (material touching it is held: no motion, no separation),
-    ``slip`` (no penetration, no friction) or ``friction`` (Coulomb, coefficient ``mu``);
-    slip and friction walls let the material separate."""
+    ``slip`` (no penetration, no friction), ``friction`` (Coulomb, coefficient ``mu``) or
+    ``roller`` (no normal motion either way, no friction: the symmetry plane and the
+    bilateral u_n = 0 of a Dirichlet side); slip and friction walls let the material
+    separate."""
 
     kind: str = "slip"
     mu: float = 0.0
@@ -95,11 +99,16 @@ def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standar
     """The basis, transfer, mass matrix, projection and damping of a ``dim``-dimensional
     model go together (an error names the conflict)."""
     basis = get_basis(basis)
-    if dim > 1 and basis.name not in ND_BASES:
+    if dim > 1 and not basis.nd:
         raise ValueError(f"the {basis.name} basis is 1D only: 2D/3D grids take "
                          f"{', '.join(ND_BASES)}")
     if transfer not in TRANSFERS:
         raise ValueError(f"unknown transfer {transfer!r}: choose one of {', '.join(TRANSFERS)}")
+    if transfer != "musl" and not basis.uniform_nodes:
+        raise ValueError(f"the {transfer} transfer takes node positions x_i spaced uniformly "
+                         f"(linear, uniform-bsplineN); the {basis.name} basis' nodes are not "
+                         "(control points at the Greville abscissae, or mid-element nodes): "
+                         "use transfer='musl'")
     if transfer == "mls-mpm" and basis.name == "linear":
         raise ValueError("the mls-mpm transfer needs a B-spline basis (its D_p is constant);"
                          " use transfer='apic' with the linear basis")
@@ -152,8 +161,10 @@ class Model:
     ``walls`` one :class:`Wall` or None per side (``SIDES``), standing at ``wall_cells``
     (per axis the lower and upper wall position in cells from the grid origin; default the
     grid's ends); ``fixed_nodes`` grid nodes (index tuples) held at zero velocity;
-    ``gravity`` the acceleration per axis; ``traction`` the study's load on one particle
-    (1D); ``damping`` the local damping factor alpha of A.4.
+    ``gravity`` the acceleration per axis; ``body_force`` a :class:`~timpm.loads.BodyForce`
+    b(X, t) per unit mass (a Python function, vectorised); ``traction`` the study's load
+    on one particle (1D); ``damping`` the local damping factor alpha of A.4.
+    ``velocity`` is an (n, dim) array or a function v0(X) of the (n, dim) positions.
     """
 
     basis: str
@@ -176,6 +187,7 @@ class Model:
     wall_cells: tuple | None = None
     fixed_nodes: tuple = ()
     traction: object = None
+    body_force: object = None
     name: str = "model"
 
     def __post_init__(self):
@@ -237,7 +249,11 @@ class Model:
             p = int(np.flatnonzero(~good)[0])
             raise ValueError(f"particle volume must be positive, particle {p} has "
                              f"{float(vol[p])!r}")
-        v = np.zeros_like(x) if self.velocity is None else np.array(self.velocity, np.float64)
+        if callable(self.velocity):
+            v = field_function(self.velocity, x, "the initial velocity v0(X)")
+        else:
+            v = np.zeros_like(x) if self.velocity is None else np.array(self.velocity,
+                                                                         np.float64)
         v = v.reshape(-1, 1) if dim == 1 else v
         if v.shape != x.shape:
             raise ValueError(f"velocity has {len(v)} entries for {n} particles"
@@ -323,6 +339,11 @@ class Model:
                                  f"grid has nodes 0..{top}")
             fixed.append(tuple(int(c) for c in idx))
         set_("fixed_nodes", tuple(fixed))
+        if self.body_force is not None:
+            if not isinstance(self.body_force, BodyForce):
+                raise ValueError(f"body_force must be a timpm.loads.BodyForce (a function "
+                                 f"b(X, t) wrapped), got {self.body_force!r}")
+            self.body_force(self.positions, 0.0)  # signature, shape, finite: checked now
         if self.traction is not None:
             if dim != 1:
                 raise ValueError("the particle traction (3.5) acts along x in 1D models only")

@@ -216,7 +216,9 @@ class Scene:
     coefficient, a :class:`~timpm.model.Wall`) or a dict ``{"left": ..., "right": ...}``,
     None for no wall (lumped mass, standard projection); ``gravity`` the signed
     acceleration along x (negative points down); ``damping`` the local damping factor
-    alpha of A.4; ``projection`` the particle-to-grid projection (``PROJECTIONS``).
+    alpha of A.4; ``projection`` the particle-to-grid projection (``PROJECTIONS``);
+    ``transfer`` the particle-grid transfer (the study's ``"musl"``, or the affine
+    ``"apic"`` and ``"mls-mpm"`` with uniformly spaced nodes).
     """
 
     grid: Grid1D
@@ -235,6 +237,7 @@ class Scene:
     walls: object = None
     allow_unstable_dt: bool = False
     name: str = "scene"
+    transfer: str = "musl"
 
     def __post_init__(self):
         basis = get_basis(self.basis)
@@ -254,7 +257,7 @@ class Scene:
         model = Model(basis=basis, origin=(self.grid.origin,), h=self.grid.h,
                       elements=(self.grid.n_elements,), positions=self.positions,
                       volume=self.volume, velocity=self.velocity,
-                      materials=(self.material.law(),), dt=self.dt, transfer="musl",
+                      materials=(self.material.law(),), dt=self.dt, transfer=self.transfer,
                       mass_matrix=self.mass, projection=self.projection,
                       gravity=(float(self.gravity),), damping=self.damping, walls=walls,
                       fixed_nodes=tuple(self.fixed_nodes), traction=self.traction,

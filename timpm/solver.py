@@ -253,10 +253,15 @@ class Solver:
         self.record_start()
         bar = Progress(total, progress)
         done = 0
+        loads = self.features.body_force  # b(X, t) evaluated in Python before every step
+        first_step = self.step if loads else 0
         start = time.perf_counter()
         while done < total:
+            if loads:
+                self._upload_loads(prog, first_step + done)
             if self.mode == "serial":
-                chunk = self.fused_chunk(min(total - done, bar.suggested_chunk(done)))
+                chunk = 1 if loads else self.fused_chunk(min(total - done,
+                                                             bar.suggested_chunk(done)))
                 done += int(prog.advance(chunk, self.record_every))
                 self.drain()
                 self.check()
@@ -281,6 +286,8 @@ class Solver:
                 # check_every steps (a failed particle is skipped by later steps, the first
                 # failure is kept)
                 chunk = min(total - done, self.check_every, bar.suggested_chunk(done))
+                if loads:
+                    chunk = 1
                 if self.recording:
                     chunk = min(chunk, self.record_every - self.step % self.record_every)
                 prog.launch(chunk)
@@ -292,6 +299,16 @@ class Solver:
         self.record_end()
         self.run_seconds += time.perf_counter() - start
         return self
+
+    def _upload_loads(self, prog, step):
+        """The body force b(X, t) of every particle at the start of step ``step`` (t =
+        step dt, the time the kernels keep), evaluated in Python in one vectorised call."""
+        force = self.model.body_force
+        if force.frame == "reference":
+            X = self.model.positions
+        else:
+            X = self.read("x").reshape(self.n_particles, self.dim)
+        prog.set_body_force(np.ascontiguousarray(force(X, step * self.dt)))
 
     def steps_to(self, t_end, n_steps) -> int:
         """Steps a run to ``t_end`` (or of ``n_steps``) takes from here."""
@@ -420,7 +437,10 @@ class Solver:
         return self._component(self.read("x"))
 
     def displacements(self) -> np.ndarray:
-        return self._component(self.read("u"))
+        """u_p: accumulated in 1D (the study's u), x_p - X_p in 2D and 3D."""
+        if self.has_u:
+            return self._component(self.read("u"))
+        return self.positions() - self.model.positions
 
     def velocities(self) -> np.ndarray:
         return self._component(self.read("v"))

@@ -7,7 +7,8 @@ shapes (:class:`Box`, :class:`Ball`, :class:`Points`) filled with a regular latt
 ``ppc`` particles per cell and axis; walls bound the domain (``sticky``, ``slip``, Coulomb
 ``friction`` or none, per side); the grid covers the domain and a padding band as wide as
 the basis support on each side, so a particle that touches a wall still has its whole
-stencil on the grid.
+stencil on the grid (the clamped B-splines ``bsplineN`` need none: their grid ends at the
+walls).
 
 Axes: x to the right, y up, z towards the viewer; gravity points down y by default (down x
 in 1D).
@@ -220,10 +221,9 @@ class World:
             raise ValueError(f"domain {tuple(domain)} is not a whole number of cells of size "
                              f"h = {h:g} (domain[0] / cells) on every axis")
         basis = get_basis(self.basis)
-        if basis.name not in ND_BASES:
-            raise ValueError(f"the {basis.name} basis is 1D only: a World's grid, padded "
-                             f"beyond its walls, takes {', '.join(ND_BASES)} (a Scene takes "
-                             "every basis)")
+        if not basis.nd:
+            raise ValueError(f"the {basis.name} basis is 1D only: a World's grid takes "
+                             f"{', '.join(ND_BASES)} (a Scene takes every basis)")
         check_scheme(dim, basis, self.transfer, damping=self.damping)
         g = np.zeros(dim) if self.gravity is None else _vector("gravity", self.gravity, dim)
         if self.gravity is None:
@@ -269,8 +269,11 @@ class World:
 
     @property
     def padding(self) -> int:
-        """Cells of grid beyond each wall: the basis support."""
-        return self.basis_class.support
+        """Cells of grid beyond each wall: the basis support; none for the clamped
+        B-splines, whose grid ends at the walls (their partition of unity holds up to the
+        boundary, and the wall acts on the one node layer there)."""
+        basis = self.basis_class
+        return basis.support if basis.uniform_nodes else 0
 
     @property
     def grid_elements(self) -> tuple:

@@ -54,6 +54,7 @@ class FeatureSet:
     walls: tuple | None          # wall kind per side ("open": none there); None: no walls
     damping: bool                # local damping of A.4
     traction: type | None        # time-function class of the particle traction (1D)
+    body_force: bool             # a body force b(X, t) per particle, uploaded every step
     fixed: bool                  # Dirichlet nodes
     gravity: tuple               # per axis: a non-zero gravity
     has_u: bool                  # particle displacements (1D)
@@ -249,6 +250,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         dim=dim, basis=basis.name, transfer=transfer, consistent=consistent, mls=mls,
         materials=tuple((type(m), m.flags()) for m in materials), walls=walls,
         damping=damping > 0.0, traction=None if traction is None else type(traction.time_function),
+        body_force=model.body_force is not None,
         fixed=bool(fixed_nodes), gravity=tuple(g != 0.0 for g in gravity), has_u=has_u,
         grid_displacement=bool(grid_displacement), track_crossings=crossings,
         energies=bool(energies), tracking=len(track) > 0, mode=run_mode, scatter=scatter,

@@ -22,8 +22,8 @@ class GridOps:
     @ti.func
     def _wall(self, I, v):
         """Wall conditions on the velocity of node I (sides left/right, bottom/top, ...):
-        sticky v = 0; slip removes the outward normal component; friction also slows the
-        tangential velocity by mu |v_n| (Coulomb), down to rest.  A wall acts on the nodes
+        sticky v = 0; roller v_n = 0; slip removes the outward normal component; friction
+        also slows the tangential velocity by mu |v_n| (Coulomb), down to rest.  A wall acts on the nodes
         at and beyond it (``wall_nodes``: per side the last node on or behind the wall)."""
         for k in ti.static(range(self.dim)):
             for side in ti.static(range(2)):
@@ -34,6 +34,8 @@ class GridOps:
                         vn = v[k] if ti.static(side == 0) else -v[k]  # along the inward normal
                         if ti.static(self.walls[2 * k + side] == "sticky"):
                             v = ti.Vector.zero(float, self.dim)
+                        elif ti.static(self.walls[2 * k + side] == "roller"):
+                            v[k] = 0.0
                         elif vn < 0.0:
                             if ti.static(self.walls[2 * k + side] == "friction"):
                                 vt = v

@@ -61,11 +61,15 @@ class Capacity:
     @staticmethod
     def first(features, layout) -> "Capacity":
         """The first capacity of a feature set: room for a 1D study's meshes (1024
-        particles, 256 nodes); the scene's own sizes in 2D and 3D."""
+        particles, 256 nodes), for a 2D or 3D convergence study's (16384 particles and
+        72^2 nodes, 32768 particles and 40^3 nodes: a few MiB), or the scene's own sizes
+        where larger: each larger capacity compiles the program again."""
         if features.dim == 1:
             return Capacity(max(1024, layout.n_particles), (max(256, layout.room[0]),),
                             max(8, layout.n_tracked), max(1024, layout.history))
-        return Capacity(layout.n_particles, tuple(layout.room), max(8, layout.n_tracked),
+        particles, axis = (16384, 72) if features.dim == 2 else (32768, 40)
+        return Capacity(max(particles, layout.n_particles),
+                        tuple(max(axis, n) for n in layout.room), max(8, layout.n_tracked),
                         layout.history)
 
 
@@ -107,6 +111,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         self.run_sums, self.n_copies = f.run_sums, f.n_copies
         self.walls, self.has_walls = f.walls, f.has_walls
         self.has_traction, self.traction_fn = f.traction is not None, f.traction
+        self.body_force = f.body_force
+        self.external_work = self.has_traction or self.body_force
         self.has_u, self.grid_displacement = f.has_u, f.grid_displacement
         self.track_crossings, self.tracking = f.track_crossings, f.tracking
         self.recording, self.record_energies = f.recording, f.energies
@@ -146,6 +152,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
             particle["J"] = ti.field(real)  # volume ratio by its linearised rate (JFluid)
         if "plastic" in self.needs:
             particle["plastic"] = ti.field(real)  # accumulated plastic strain
+        if self.body_force:
+            particle["b"] = ti.Vector.field(d, real)  # body force per unit mass b(X, t)
         if self.apic:
             # affine velocity C_p of the APIC transfers (B_p = C_p D_p for the linear basis)
             particle["C"] = ti.Matrix.field(d, d, real)
@@ -200,7 +208,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
                "crossings": ti.field(ti.i64), "err": ti.field(ti.i32),
                "err_count": ti.field(ti.i32), "err_step": ti.field(ti.i64),
                "err_where": ti.field(ti.i32), "neg_pivots": ti.field(ti.i64)}
-        if self.has_traction and self.record_energies:
+        if self.external_work and self.record_energies:
             run["ext_work"] = ti.field(real)
         fb.place(*run.values())
         self.run_fields = run
@@ -296,6 +304,15 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         self.project, self.clear = project, clear
         self._bind_transfers()
         self._bind_history_reader()
+        if self.body_force:
+            @ti.kernel
+            def set_body_force(values: ti.types.ndarray(dtype=ti.f64, ndim=2)):
+                # b_p = b(X_p, t) of this step, evaluated in Python (one call, all particles)
+                for p in range(self.p.n_particles()):
+                    for k in ti.static(range(self.dim)):
+                        self.b[p][k] = values[p, k]
+
+            self.set_body_force = set_body_force
         if self.team:
             @ti.kernel
             def team(n_steps: ti.i32):

@@ -47,7 +47,7 @@ class Recorder:
                             pot -= self.m[p] * self.p.gravity()[k] * self.x[p][k]
                 e = ti.Vector([0.5 * self.m[p] * self.v[p].norm_sqr(), self.work[p], pot, 0.0])
                 self.accumulate(self.h_energy[slot], e)
-            if ti.static(self.has_traction):
+            if ti.static(self.external_work):
                 self.h_energy[slot][3] = self.ext_work[None]
         self.rec_count[None] = slot + 1
 

@@ -53,8 +53,9 @@ class Transfer:
     @ti.func
     def _p2g(self):
         # P2G (2.2.4): M_ij = sum m_p phi_i phi_j (A.1) or M_ii = sum m_p phi_i (A.2);
-        # F_i = sum phi_i (m_p g + f_trac(t)) - sigma_p V_p dphi_i; with the affine transfer
-        # (APIC) P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i in the same pass
+        # F_i = sum phi_i (m_p (g + b_p(t)) + f_trac(t)) - sigma_p V_p dphi_i; with the
+        # affine transfer (APIC) P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i in
+        # the same pass
         self._scatter_particles("p2g")
         if ti.static(self.private_scatter and not self.apic):
             self._merge_copies(ti.static(tuple(self.copies)))  # the affine grid pass sums them
@@ -74,6 +75,8 @@ class Transfer:
             if ti.static(self.has_traction):
                 if p == self.p.traction_particle():
                     fp[0] += self.p.traction_amplitude() * self.traction_fn.at(self.time[None], self.p.traction_param())
+            if ti.static(self.body_force):
+                fp += mp * self.b[p]
             stress_volume = self.sigma[p] * self.vol[p]
             affine = ti.Matrix.zero(float, self.dim, self.dim)
             if ti.static(self.mls_mpm):
@@ -238,6 +241,8 @@ class Transfer:
                     if p == self.p.traction_particle():
                         self.accumulate(self.ext_work[None], self.p.traction_amplitude() *
                                        self.traction_fn.at(self.time[None], self.p.traction_param()) * du[0])
+                if ti.static(self.body_force):
+                    self.accumulate(self.ext_work[None], self.m[p] * self.b[p].dot(du))
             if ti.static(self.has_u):
                 self.accumulate(self.u[p], du)
             x_new = self.x[p] + du

@@ -1,15 +1,17 @@
 """The study's benchmark problems, each a scene builder with its exact solution."""
 from .base import Problem
+from .mms import MMS1D, MMS2D, MMS3D, ManufacturedSolution
 from .oedometer import Oedometer
 from .soil_column import LargeColumn, SoilColumn
 from .vibrating_bar import VibratingBar
 from .vibrating_string import VibratingString
 
 PROBLEMS = {cls.name: cls for cls in (VibratingString, SoilColumn, VibratingBar, Oedometer,
-                                      LargeColumn)}
+                                      LargeColumn, MMS1D, MMS2D, MMS3D)}
 
 __all__ = ["Problem", "VibratingString", "SoilColumn", "LargeColumn", "VibratingBar",
-           "Oedometer", "PROBLEMS", "get_problem"]
+           "Oedometer", "ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D", "PROBLEMS",
+           "get_problem"]
 
 
 def get_problem(name, **params) -> Problem:

@@ -25,6 +25,8 @@ class Problem:
     ppc = 2
     dt = 1e-3
     t_end = 1.0
+    #: particle positions in an element (``timpm.scene.PLACEMENTS``)
+    placement = "study"
     has_exact = True
     #: the body's end at x = L is free: the grid reaches beyond it so that the end may
     #: move out without leaving the grid, and away from the boundary-fitted basis there
@@ -60,13 +62,14 @@ class Problem:
         return equidistant_particles(elements, ppc, h, placement=placement)
 
     def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
-              placement="study", stress_update="study", allow_unstable_dt=False,
-              damping=None, projection="standard") -> Scene:
+              placement=None, stress_update="study", allow_unstable_dt=False,
+              damping=None, projection="standard", transfer="musl") -> Scene:
         """The problem's scene with ``elements`` elements over the body and ``ppc``
         particles per element placed by ``placement``; unset values take the defaults."""
         elements = self.elements if elements is None else elements
         ppc = self.ppc if ppc is None else ppc
         dt = self.dt if dt is None else dt
+        placement = self.placement if placement is None else placement
         basis_cls = get_basis(basis)
         if isinstance(ppc, (int, np.integer)) and 0 < ppc < basis_cls.min_ppc:
             raise ValueError(f"the {basis_cls.name} basis needs at least {basis_cls.min_ppc} "
@@ -79,7 +82,7 @@ class Problem:
             extras["damping"] = damping
         return Scene(grid=grid, material=material, positions=x, volume=vol, dt=dt,
                      basis=basis_cls.name, mass=mass, allow_unstable_dt=allow_unstable_dt,
-                     projection=projection, name=self.name, **extras)
+                     projection=projection, transfer=transfer, name=self.name, **extras)
 
     def conditions(self, x0, basis, grid) -> dict:
         """Initial velocity, boundary conditions and loads as Scene keyword arguments."""

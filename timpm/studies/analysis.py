@@ -5,9 +5,11 @@ __all__ = ["rms_error", "observed_rates", "energy_drift"]
 
 
 def rms_error(u_numerical, u_exact) -> float:
-    """The study's RMS error (3.2): sqrt(sum_p (u_h(x_p) - u(x_p))^2 / n_p)."""
+    """The study's RMS error (3.2): sqrt(sum_p |u_h(x_p) - u(x_p)|^2 / n_p), one value
+    (1D) or one vector (n_p, dim) per particle."""
     d = np.asarray(u_numerical, dtype=float) - np.asarray(u_exact, dtype=float)
-    return float(np.sqrt(np.mean(d ** 2)))
+    d = d.reshape(len(d), -1)
+    return float(np.sqrt(np.mean(np.sum(d ** 2, axis=1))))
 
 
 def observed_rates(elements, errors):

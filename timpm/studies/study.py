@@ -30,24 +30,26 @@ def _default_record_every(steps: int) -> int:
 
 
 def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="linear",
-                mass="lumped", dt=None, t_end=None, placement="study", stress_update="study",
+                mass="lumped", dt=None, t_end=None, placement=None, stress_update="study",
                 damping=None, allow_unstable_dt=False, mode="auto", record_every=None,
                 progress=None, params=None, energies=True, projection="standard",
-                series=True, reuse=True) -> RunResult:
+                series=True, reuse=True, transfer="musl") -> RunResult:
     """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
 
-    Unset numerical values take the problem's defaults; ``params`` overrides physical
+    Unset numerical values take the problem's defaults (``placement`` too: the study's
+    problems place particles as the study does, the manufactured solutions at Gauss points); ``params`` overrides physical
     parameters (e.g. ``{"p0": 5e4}``).  The record holds at least problem, elements, ppc,
     basis, mass, dt, t_end, steps, rms_error, wall_seconds (stepping only; compilation is
     ``compile_seconds``) and grid_crossings.  ``series=False`` records no time series of
     the monitored particle (the study's figures need it, its tables do not);
+    ``transfer`` is the particle-grid transfer (``"musl"``, ``"apic"``, ``"mls-mpm"``);
     ``reuse=True`` keeps the scene for a later run with the same arguments (see
     :func:`clear_solvers`).  Solvers of one feature set share their compiled program, so
     a run after the first of its kind compiles nothing.
     """
     run = _plan(problem, elements, ppc, basis, mass, dt, t_end, placement, stress_update,
                 damping, allow_unstable_dt, record_every, params, energies, projection, series,
-                reuse=reuse)
+                transfer, reuse=reuse)
     t_build = time.perf_counter()
     solver = Solver(run.scene, track=run.track, record_every=run.every, energies=energies,
                     mode=mode)
@@ -86,17 +88,18 @@ class _Run:
 
     def __init__(self, problem, elements, ppc, basis, mass, dt, t_end, placement,
                  stress_update, damping, allow_unstable_dt, record_every, params, energies,
-                 projection, series):
+                 projection, series, transfer):
         self.prob = prob = get_problem(problem, **(params or {}))
         self.elements = prob.elements if elements is None else elements
         self.ppc = prob.ppc if ppc is None else ppc
         self.t_end = prob.t_end if t_end is None else float(t_end)
+        placement = prob.placement if placement is None else placement
         self.placement, self.stress_update, self.projection = placement, stress_update, projection
         self.energies, self.series = bool(energies), bool(series)
         self.scene = prob.scene(elements=self.elements, ppc=self.ppc, basis=basis, mass=mass,
                                 dt=dt, placement=placement, stress_update=stress_update,
                                 allow_unstable_dt=allow_unstable_dt, damping=damping,
-                                projection=projection)
+                                projection=projection, transfer=transfer)
         self.x0 = self.scene.positions.copy()
         self.monitor = prob.monitored_particle(self.x0)
         self.track = [self.monitor] if series else []
@@ -109,19 +112,25 @@ class _Run:
         scene = self.scene
         if state is None:
             state = {"t": solver.t, "u": solver.displacements(), "step": solver.step,
-                     "grid_crossings": solver.grid_crossings()}
+                     "grid_crossings": solver.grid_crossings() if solver.track_crossings
+                     else None}
         t, u = state["t"], state["u"]
         exact = prob.displacement(x0, t, stress_update=stress_update) if prob.has_exact else None
         series = {}
         if self.series:
+            # the monitored particle's time series (in 2D and 3D: its x component)
             rec = solver.tracked()
-            series = {"t": rec["t"], "particle": monitor, "x0": float(x0[monitor]),
-                      "u": rec["u"][:, 0], "v": rec["v"][:, 0], "stress": rec["stress"][:, 0]}
+            first = (lambda a: a[:, 0]) if x0.ndim == 1 else (lambda a: a[:, 0, 0])
+            u_monitor = rec["u"] if x0.ndim == 1 else rec["x"] - x0[monitor]
+            stress = rec["stress"][:, 0] if x0.ndim == 1 else rec["stress"][:, 0, 0, 0]
+            series = {"t": rec["t"], "particle": monitor,
+                      "x0": float(np.ravel(x0[monitor])[0]), "u": first(u_monitor),
+                      "v": first(rec["v"]), "stress": stress}
             if prob.has_exact:
-                series["u_exact"] = np.array([prob.displacement(x0[monitor:monitor + 1], s,
-                                                                stress_update=stress_update)[0]
-                                              for s in series["t"]])
-                series["v_exact"] = np.array([prob.velocity(x0[monitor:monitor + 1], s)[0]
+                at = x0[monitor:monitor + 1]
+                series["u_exact"] = np.array([np.ravel(prob.displacement(
+                    at, s, stress_update=stress_update))[0] for s in series["t"]])
+                series["v_exact"] = np.array([np.ravel(prob.velocity(at, s))[0]
                                               for s in series["t"]])
         en = solver.energies() if self.energies else None
         record = {
@@ -131,7 +140,8 @@ class _Run:
             "wall_seconds": solver.run_seconds, "compile_seconds": solver.compile_seconds,
             "build_seconds": build_seconds, "grid_crossings": state["grid_crossings"],
             "particles": scene.n_particles, "placement": self.placement,
-            "stress_update": stress_update, "projection": self.projection, "mode": solver.mode,
+            "stress_update": stress_update, "projection": self.projection,
+            "transfer": solver.transfer, "mode": solver.mode,
             "critical_dt": scene.critical_dt, "monitored_particle": monitor,
             # damping dissipates energy by design: no conservation measure then
             "energy_drift": energy_drift(en) if en is not None and scene.damping == 0 else None,
@@ -181,15 +191,15 @@ def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=F
 
 
 def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", dt=None,
-                t_end=None, placement="study", stress_update="study", damping=None,
+                t_end=None, placement=None, stress_update="study", damping=None,
                 allow_unstable_dt=False, record_every=None, progress=None, params=None,
                 energies=True, projection="standard", series=True, mode="serial",
-                reuse=True):
+                reuse=True, transfer="musl"):
     if mode != "serial":
         raise ValueError("a batch runs fused serial solvers: mode must be 'serial'")
     runs = [_plan(problem, n, ppc, basis, mass, dt, t_end, placement, stress_update, damping,
                   allow_unstable_dt, record_every, params, energies, projection, series,
-                  reuse=reuse)
+                  transfer, reuse=reuse)
             for n in elements]
     if len({r.t_end for r in runs}) != 1:
         raise ValueError("the runs of a batch share t_end")
