@@ -106,6 +106,41 @@ def test_every_node_held_holds_every_particle(transfer):
     assert np.array_equal(s.velocities(), v_kept if transfer == "musl" else 0 * v_kept)
 
 
+@pytest.mark.parametrize("transfer", ["musl", "apic"])
+def test_every_node_moving_carries_every_particle_along(transfer):
+    # every node prescribed at v f(t), f = sin(omega t): each particle moves by the
+    # exact integral of the node velocity up to Euler-Cromer's O(dt) in the phase
+    world = _drop(transfer=transfer, gravity=(0.0, 0.0))
+    nodes = list(itertools.product(*(range(n) for n in world.model.nodes)))
+    v, omega = np.array([0.2, -0.1]), 5.0
+    moving = _drop(transfer=transfer, gravity=(0.0, 0.0), fixed_time=timpm.Sine(omega),
+                   fixed_nodes={i: v for i in nodes})
+    s = Solver(moving, mode="serial", energies=False)
+    s.run(n_steps=200)
+    t, dt = s.t, moving.dt
+    shift = v * (1 - np.cos(omega * t)) / omega
+    assert np.allclose(s.positions() - moving.positions, shift, rtol=0, atol=2 * omega * dt * np.abs(v).max())
+    # APIC: v_p = sum phi_i v_i; MUSL: v_p += dt sum phi_i a_i keeps the initial velocity
+    # and adds v (f(t) - f(0))
+    v_initial = np.array([0.5, -1.0]) if transfer == "musl" else 0.0
+    assert np.allclose(s.velocities(), v_initial + v * np.sin(omega * t), rtol=0, atol=1e-12)
+    # an impulsive start (f = 1): the particles move at v from the first step on
+    step = _drop(transfer=transfer, gravity=(0.0, 0.0), fixed_nodes={i: v for i in nodes})
+    s = Solver(step, mode="serial", energies=False)
+    s.run(n_steps=10)
+    assert np.allclose(s.positions() - step.positions, 10 * step.dt * v, rtol=1e-12)
+
+
+def test_a_bar_follows_its_moving_ends():
+    # 1D: both end nodes prescribed at 0.1 sin(3 t); a stiff bar follows them rigidly
+    x, vol = equidistant_particles(8, 2, 0.125)
+    scene = Scene(Grid1D(8, 0.125), Material(1e6, 1.0), x, vol, dt=1e-5,
+                  fixed_nodes={0: 0.1, 8: 0.1}, fixed_time=timpm.Sine(3.0))
+    s = Solver(scene, mode="serial")
+    s.run(0.2)
+    assert np.allclose(s.displacements(), 0.1 * (1 - np.cos(3 * 0.2)) / 3, rtol=1e-4)
+
+
 def test_the_study_law_in_a_1d_world():
     # the study's material is a material like any other in 1D
     law = timpm.get_material("hypoelastic-1d", E=E, density=RHO, study=False)
@@ -143,6 +178,21 @@ def test_the_study_law_in_a_1d_world():
     (lambda: Scene(Grid1D(8, 0.125), Material(1e4, 1e3), *equidistant_particles(8, 2, 0.125),
                    dt=1e-4, fixed_nodes=(0.7,)),
      "fixed node 0.7 must be a whole number"),
+    (lambda: Scene(Grid1D(8, 0.125), Material(1e4, 1e3), *equidistant_particles(8, 2, 0.125),
+                   dt=1e-4, fixed_nodes={0: [0.1, 0.2]}),
+     "prescribed velocity of fixed node 0 must have 1 components"),
+    (lambda: Scene(Grid1D(8, 0.125), Material(1e4, 1e3), *equidistant_particles(8, 2, 0.125),
+                   dt=1e-4, fixed_nodes={0: float("nan")}),
+     "prescribed velocity of fixed node 0 must be finite"),
+    (lambda: Scene(Grid1D(8, 0.125), Material(1e4, 1e3), *equidistant_particles(8, 2, 0.125),
+                   dt=1e-5, basis="bspline2", mass="consistent", fixed_nodes={0: 0.1}),
+     "prescribed non-zero node velocities are implemented for the lumped mass"),
+    (lambda: Scene(Grid1D(8, 0.125), Material(1e4, 1e3), *equidistant_particles(8, 2, 0.125),
+                   dt=1e-4, fixed_nodes={0: 0.1}, fixed_time=3.0),
+     "fixed_time must be a time function"),
+    (lambda: Scene(Grid1D(8, 0.125), Material(1e4, 1e3), *equidistant_particles(8, 2, 0.125),
+                   dt=1e-4, fixed_nodes=(0, 0)),
+     "a fixed node is given twice"),
     (lambda: Model(basis="linear", origin=(0.0, 0.0), h=0.1, elements=(4, 4),
                    positions=np.full((3, 3), 0.2), volume=np.ones(3),
                    materials=(LinearElastic(1e4, 0.3, 1e3),), dt=1e-4),

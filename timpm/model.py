@@ -19,7 +19,7 @@ import numpy as np
 
 from .basis import get_basis
 from .checks import positive, positive_int, vector
-from .loads import BodyForce, field_function
+from .loads import BodyForce, Constant, field_function
 from .materials import Material
 
 __all__ = ["Model", "Wall", "walls_from", "check_scheme", "SIDES", "WALL_KINDS", "ND_BASES",
@@ -160,7 +160,10 @@ class Model:
     objects and ``material_index`` the one of each particle (default: all the first);
     ``walls`` one :class:`Wall` or None per side (``SIDES``), standing at ``wall_cells``
     (per axis the lower and upper wall position in cells from the grid origin; default the
-    grid's ends); ``fixed_nodes`` grid nodes (index tuples) held at zero velocity;
+    grid's ends); ``fixed_nodes`` grid nodes (index tuples) held at zero velocity, or a
+    dict of node to prescribed velocity v (a number in 1D, a vector): the node moves at
+    v f(t), f the time function ``fixed_time`` (default :class:`~timpm.loads.Constant`;
+    lumped mass, standard projection);
     ``gravity`` the acceleration per axis; ``body_force`` a :class:`~timpm.loads.BodyForce`
     b(X, t) per unit mass (a Python function, vectorised); ``traction`` the study's load
     on one particle (1D); ``damping`` the local damping factor alpha of A.4.
@@ -188,6 +191,7 @@ class Model:
     fixed_nodes: tuple = ()
     traction: object = None
     body_force: object = None
+    fixed_time: object = None
     name: str = "model"
 
     def __post_init__(self):
@@ -326,8 +330,19 @@ class Model:
                              f"grid's elements {self.elements}, got {self.wall_cells!r}")
         set_("wall_cells", cells)
         nodes = self.nodes
-        fixed = []
-        for i in self.fixed_nodes:
+        fixed, velocities = [], []
+        given = self.fixed_nodes
+        if isinstance(given, dict):
+            entries = list(given.items())
+        else:
+            try:
+                entries = [(i, None) for i in given]
+            except TypeError:
+                raise ValueError(f"fixed_nodes must be node indices or a dict of node to "
+                                 f"prescribed velocity, got {given!r}") from None
+        for i, velocity in entries:
+            velocities.append(np.zeros(dim) if velocity is None else
+                              vector(f"prescribed velocity of fixed node {i!r}", velocity, dim))
             idx = (i,) if np.ndim(i) == 0 else tuple(i)
             if len(idx) != dim or not all(isinstance(c, (int, np.integer))
                                           and not isinstance(c, bool) for c in idx):
@@ -338,7 +353,22 @@ class Model:
                 raise ValueError(f"fixed node {idx[0] if dim == 1 else idx} does not exist: the "
                                  f"grid has nodes 0..{top}")
             fixed.append(tuple(int(c) for c in idx))
+        if len(set(fixed)) != len(fixed):
+            raise ValueError("a fixed node is given twice in fixed_nodes")
         set_("fixed_nodes", tuple(fixed))
+        velocities = np.array(velocities, dtype=np.float64).reshape(len(fixed), dim)
+        velocities.setflags(write=False)
+        set_("fixed_velocity", velocities)
+        if self.fixed_time is None:
+            set_("fixed_time", Constant())
+        elif not callable(getattr(self.fixed_time, "at", None)):
+            raise ValueError(f"fixed_time must be a time function (Constant, Sine, Ramp), got "
+                             f"{self.fixed_time!r}")
+        if self.prescribes_motion and (self.mass_matrix != "lumped"
+                                       or self.projection != "standard"):
+            raise ValueError("prescribed non-zero node velocities are implemented for the "
+                             "lumped mass and the standard projection: hold the nodes at "
+                             "zero (a list of nodes) or use mass='lumped'")
         if self.body_force is not None:
             if not isinstance(self.body_force, BodyForce):
                 raise ValueError(f"body_force must be a timpm.loads.BodyForce (a function "
@@ -352,6 +382,11 @@ class Model:
                                  f"({n} particles)")
 
     # ---- derived -----------------------------------------------------------------------
+    @property
+    def prescribes_motion(self) -> bool:
+        """Some fixed node has a non-zero prescribed velocity."""
+        return bool(np.any(self.fixed_velocity != 0.0))
+
     @property
     def dim(self) -> int:
         return len(self.elements)

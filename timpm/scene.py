@@ -211,7 +211,8 @@ class Scene:
     the one :class:`~timpm.model.Model` of 1D to 3D (``scene.model``).
 
     Positions are absolute coordinates; ``volume`` the initial particle volumes (length
-    times a unit cross-section); ``fixed_nodes`` the grid nodes held at zero velocity;
+    times a unit cross-section); ``fixed_nodes`` the grid nodes held at zero velocity, or
+    a dict of node to prescribed velocity (times the time function ``fixed_time``);
     ``walls`` walls at the grid's ends: one for both (``"slip"``, ``"sticky"``, a friction
     coefficient, a :class:`~timpm.model.Wall`) or a dict ``{"left": ..., "right": ...}``,
     None for no wall (lumped mass, standard projection); ``gravity`` the signed
@@ -238,6 +239,7 @@ class Scene:
     allow_unstable_dt: bool = False
     name: str = "scene"
     transfer: str = "musl"
+    fixed_time: object = None
 
     def __post_init__(self):
         basis = get_basis(self.basis)
@@ -247,9 +249,11 @@ class Scene:
         if not isinstance(self.material, Material):
             raise ValueError(f"a Scene's material must be a timpm.Material (E, density), got "
                              f"{self.material!r}")
-        for i in self.fixed_nodes:
+        for i in self.fixed_nodes:  # node indices, or the keys of {node: velocity}
             if isinstance(i, bool) or not isinstance(i, (int, np.integer)):
                 raise ValueError(f"fixed node {i!r} must be a whole number (a node index)")
+        fixed_nodes = (dict(self.fixed_nodes) if isinstance(self.fixed_nodes, dict)
+                       else tuple(self.fixed_nodes))
         if not math.isfinite(float(self.gravity)):
             raise ValueError(f"gravity must be finite, got {self.gravity!r}")
         walls = None if self.walls is None else walls_from(self.walls, 1, default=None,
@@ -260,8 +264,8 @@ class Scene:
                       materials=(self.material.law(),), dt=self.dt, transfer=self.transfer,
                       mass_matrix=self.mass, projection=self.projection,
                       gravity=(float(self.gravity),), damping=self.damping, walls=walls,
-                      fixed_nodes=tuple(self.fixed_nodes), traction=self.traction,
-                      name=self.name)
+                      fixed_nodes=fixed_nodes, fixed_time=self.fixed_time,
+                      traction=self.traction, name=self.name)
         object.__setattr__(self, "model", model)
         x, vol = model.positions[:, 0], model.volume
         object.__setattr__(self, "positions", x)

@@ -48,7 +48,8 @@ class Solver:
     With energies recorded, ``energy_guard`` stops an unstable run: kinetic + strain energy
     may not exceed ``energy_guard`` times the energy put in so far (initial kinetic and
     strain energy plus the magnitudes of the gravity and external work); ``None`` turns the
-    check off.  ``volume_range`` (lowest, highest) stops a run whose particle's volume
+    check off (it is off where nodes move at prescribed velocities: their work is not
+    recorded).  ``volume_range`` (lowest, highest) stops a run whose particle's volume
     ratio V/V0 leaves it, naming step and particle (a crushed or torn body is no longer
     resolved); a material without tension (fluids, sand) is bounded only below; ``None``
     turns the check off.  The kernels hold up to ``history_chunk`` records between two reads from
@@ -86,7 +87,9 @@ class Solver:
         self.h, self.inv_h, self.dt = lay.h, lay.values["inv_h"], self.model.dt
         self.origin, self.materials = lay.origin, lay.materials
         self.record_every, self.history_chunk = record_every, lay.history
-        self.energy_guard = energy_guard if energies else None
+        # prescribed node motion does work the records do not count: no energy balance
+        self.energy_guard = (energy_guard if energies and self.features.prescribed is None
+                             else None)
         self._slot = 0
         self.state = State(self.features, self.layout, scene, track)
         self._released = False

@@ -182,7 +182,8 @@ class World:
     ``walls`` is one wall for every side, or a dict of side name (``SIDES``) to wall with
     an optional ``"default"`` (None: no wall on that side; material may leave the domain
     and the grid, which stops the run with an error); ``fixed_nodes`` grid nodes (index
-    tuples of the padded grid, ``world.model.nodes``) held at zero velocity.  Gravity points down y in 2D and 3D, down x
+    tuples of the padded grid, ``world.model.nodes``) held at zero velocity, or a dict of
+    node to prescribed velocity (times the time function ``fixed_time``).  Gravity points down y in 2D and 3D, down x
     in 1D, unless given.  ``dt=None`` picks ``courant`` (default 0.4) times the CFL
     limit h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
     (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``
@@ -202,6 +203,7 @@ class World:
     allow_unstable_dt: bool = False
     damping: float = 0.0
     fixed_nodes: tuple = ()
+    fixed_time: object = None
     name: str = "world"
     _particles: dict = field(default=None, repr=False)
 
@@ -250,7 +252,9 @@ class World:
                       dt=self.dt, transfer=self.transfer, gravity=tuple(g),
                       damping=self.damping, walls=self.walls,
                       wall_cells=tuple((pad, pad + c) for c in n),
-                      fixed_nodes=tuple(self.fixed_nodes), name=self.name)
+                      fixed_nodes=(dict(self.fixed_nodes) if isinstance(self.fixed_nodes, dict)
+                                   else tuple(self.fixed_nodes)),
+                      fixed_time=self.fixed_time, name=self.name)
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "fixed_nodes", model.fixed_nodes)
 

@@ -56,6 +56,7 @@ class FeatureSet:
     traction: type | None        # time-function class of the particle traction (1D)
     body_force: bool             # a body force b(X, t) per particle, uploaded every step
     fixed: bool                  # Dirichlet nodes
+    prescribed: type | None      # time-function class of non-zero prescribed node velocities
     gravity: tuple               # per axis: a non-zero gravity
     has_u: bool                  # particle displacements (1D)
     grid_displacement: bool      # nodal displacements u_i += v_i dt
@@ -159,6 +160,7 @@ class Layout:
     materials: list = field(default_factory=list)       # the material of each slot
     material_values: list = field(default_factory=list)  # its run-time constants
     fixed_nodes: list = field(default_factory=list)     # Dirichlet nodes (index tuples)
+    fixed_velocity: object = None                       # their prescribed velocities
 
 
 def _scatter_choice(scatter, mode, private_ok):
@@ -251,7 +253,9 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         materials=tuple((type(m), m.flags()) for m in materials), walls=walls,
         damping=damping > 0.0, traction=None if traction is None else type(traction.time_function),
         body_force=model.body_force is not None,
-        fixed=bool(fixed_nodes), gravity=tuple(g != 0.0 for g in gravity), has_u=has_u,
+        fixed=bool(fixed_nodes),
+        prescribed=type(model.fixed_time) if model.prescribes_motion else None,
+        gravity=tuple(g != 0.0 for g in gravity), has_u=has_u,
         grid_displacement=bool(grid_displacement), track_crossings=crossings,
         energies=bool(energies), tracking=len(track) > 0, mode=run_mode, scatter=scatter,
         n_copies=n_copies, team=team_ok and requested in ("team", "auto"),
@@ -281,6 +285,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         values.update(traction_particle=traction.particle,
                       traction_amplitude=float(traction.amplitude),
                       traction_param=float(traction.time_function.param))
+    if model.prescribes_motion:
+        values.update(prescribed_param=float(model.fixed_time.param))
     if walls is not None:
         values.update(wall_mu=tuple(0.0 if w is None else w.mu for w in model.walls),
                       wall_nodes=tuple(i for pair in model.wall_nodes() for i in pair))
@@ -290,5 +296,5 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
                     n_tracked=len(track), history=int(history_chunk), h=h,
                     origin=tuple(origin), values=values, materials=materials,
                     material_values=[m.constants(model.dt) for m in materials],
-                    fixed_nodes=fixed_nodes)
+                    fixed_nodes=fixed_nodes, fixed_velocity=model.fixed_velocity)
     return features, layout

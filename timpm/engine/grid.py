@@ -1,4 +1,5 @@
-"""The grid phases: clearing, boundary conditions (Dirichlet nodes, walls), nodal solves.
+"""The grid phases: clearing, boundary conditions (Dirichlet nodes held or moving at a
+prescribed velocity v_i f(t), walls), nodal solves.
 
 Mixed into :class:`~timpm.engine.program.Program`.
 """
@@ -18,6 +19,14 @@ class GridOps:
         if ti.static(self.f.fixed):
             fixed = self.fixed[I]
         return fixed
+
+    @ti.func
+    def _prescribed_velocity(self, I, step_end: ti.template()):
+        """v_i f(t) of Dirichlet node I at the step's start (t_n) or end (t_n + dt)."""
+        t = self.time[None]
+        if ti.static(step_end):
+            t += self.p.dt()
+        return self.fixed_v[I] * self.prescribed_fn.at(t, self.p.prescribed_param())
 
     @ti.func
     def _wall(self, I, v):
@@ -91,6 +100,10 @@ class GridOps:
             self.gf[I] = a
         elif ti.static(not self.consistent):
             self.gf[I] = self._lumped_solve(I, self.gf[I])  # a = F / m in the same pass
+        if ti.static(self.prescribed):
+            if self._is_fixed(I):  # a Dirichlet node: a = (v(t_n + dt) - v(t_n)) / dt
+                self.gf[I] = (self._prescribed_velocity(I, True)
+                              - self._prescribed_velocity(I, False)) / self.p.dt()
         if ti.static(self.damping or self.has_walls):
             self.gp[I] = ti.Vector.zero(float, self.dim)  # P2G scattered P_i
 
@@ -112,6 +125,9 @@ class GridOps:
                 v = P / m
                 if ti.static(self.has_walls):
                     v = self._wall(I, v)
+            if ti.static(self.prescribed):
+                if self._is_fixed(I):
+                    v = self._prescribed_velocity(I, True)
             self.gv[I] = v
             if ti.static(self.strain_remap):
                 self.gm[I] = m  # P cleared for the remap
@@ -136,6 +152,9 @@ class GridOps:
         rhs[I] = self._lumped_solve(I, rhs[I])
         if ti.static(walls and self.has_walls):
             rhs[I] = self._wall(I, rhs[I])
+        if ti.static(walls and self.prescribed):  # a velocity: Dirichlet nodes at v(t_n + dt)
+            if self._is_fixed(I):
+                rhs[I] = self._prescribed_velocity(I, True)
 
     @ti.func
     def _lumped_solve(self, I, value):

@@ -86,6 +86,8 @@ def _param_spec(features):
         spec.update(volume_min="real", volume_max="real")
     if features.traction is not None:
         spec.update(traction_particle="int", traction_amplitude="real", traction_param="real")
+    if features.prescribed is not None:
+        spec.update(prescribed_param="real")
     if features.has_walls:
         spec.update(wall_mu=("real", 2 * d), wall_nodes=("int", 2 * d))
     groups = {"p": spec}
@@ -112,6 +114,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         self.walls, self.has_walls = f.walls, f.has_walls
         self.has_traction, self.traction_fn = f.traction is not None, f.traction
         self.body_force = f.body_force
+        self.prescribed, self.prescribed_fn = f.prescribed is not None, f.prescribed
         self.external_work = self.has_traction or self.body_force
         self.has_u, self.grid_displacement = f.has_u, f.grid_displacement
         self.track_crossings, self.tracking = f.track_crossings, f.tracking
@@ -174,6 +177,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
             grid["gv"] = ti.Vector.field(d, real)  # velocity of the last grid update
         if self.f.fixed:
             grid["fixed"] = ti.field(ti.i32)
+        if self.prescribed:
+            grid["fixed_v"] = ti.Vector.field(d, real)  # prescribed velocity (times f(t))
         if self.grid_displacement:
             grid["gu"] = ti.Vector.field(d, real)
         fb.dense(ti.axes(*range(d)), cap.nodes).place(*grid.values())
@@ -340,7 +345,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
 
         for name, fld in self.particle_fields.items():
             add("particle_ints" if fld.dtype == ti.i32 else "particles", name, fld)
-        for name in ("gv", "gu", "fixed"):
+        for name in ("gv", "gu", "fixed", "fixed_v"):
             if name in self.grid_fields:
                 fld = self.grid_fields[name]
                 add("node_ints" if fld.dtype == ti.i32 else "nodes", name, fld)

@@ -50,9 +50,12 @@ class State:
             values["mat"] = model.material_index
         if self.layout.fixed_nodes:
             fixed = np.zeros(self.layout.nodes, dtype=np.int32)
-            for i in self.layout.fixed_nodes:
+            velocity = np.zeros(tuple(self.layout.nodes) + (d,))
+            for i, v in zip(self.layout.fixed_nodes, self.layout.fixed_velocity):
                 fixed[i] = 1
+                velocity[i] = v
             values["fixed"] = fixed
+            values["fixed_v"] = velocity
         arrays = prog.host_arrays(n, int(np.prod(self.layout.nodes)))
         for block, entries in prog.state_layout().items():
             for name, col, comps in entries:
