@@ -2,6 +2,7 @@
 engine redesign and compared bit for bit after it.
 
     python tests/golden/golden.py record [--precision f64|f32]   # writes golden_<prec>.npz
+    python tests/golden/golden.py update --only CASE... --keys ARRAY...   # an intended change
     python tests/golden/golden.py check  [--precision f64|f32]   # exit 1 on any difference
 
 Each case builds its scene through the public API only (problems, World, Solver), runs a
@@ -240,11 +241,38 @@ def compute(names, precision, strict):
     return out
 
 
+def _update(path, ref, got, keys):
+    """Replace the arrays named ``keys`` of the computed cases, and only where every other
+    array of the golden file is still bit for bit (an intended change of one output)."""
+    if not keys:
+        print("update needs --keys: the arrays the change replaces")
+        return 2
+    changed, other = [], []
+    for key, value in got.items():
+        if key not in ref.files or not np.array_equal(value, ref[key], equal_nan=True):
+            (changed if key.split("/", 1)[1] in keys else other).append(key)
+    if other:
+        for key in other:
+            print("DIFF (not updated)", key)
+        print(f"{len(other)} arrays outside --keys differ: nothing written")
+        return 1
+    arrays = {k: ref[k] for k in ref.files}
+    arrays.update({k: got[k] for k in changed})
+    np.savez_compressed(path, **arrays)
+    for key in changed:
+        print("updated", key)
+    print(f"{len(changed)} arrays updated in {path}; every other array bit for bit")
+    return 0
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("action", choices=("record", "check"))
+    ap.add_argument("action", choices=("record", "check", "update"))
     ap.add_argument("--precision", default="f64", choices=("f64", "f32"))
     ap.add_argument("--only", nargs="*", default=None, help="case names (default: all)")
+    ap.add_argument("--keys", nargs="*", default=(),
+                    help="update: the arrays (e.g. energy_strain) an intended change of the "
+                         "method replaces; every other array must still be bit for bit")
     ap.add_argument("--fast-math", action="store_true",
                     help="Taichi's default fast math (golden_<prec>_fast.npz): compile-time "
                          "constants folded by reassociation, so values moved to run time "
@@ -262,6 +290,8 @@ def main(argv=None):
         print(f"recorded {len(got)} arrays of {len(names)} cases in {path}")
         return 0
     ref = np.load(path)
+    if args.action == "update":
+        return _update(path, ref, got, set(args.keys))
     bad, worst = [], {}
     cases = {k.split("/")[0] for k in got}
     expected = {k for k in ref.files if k.split("/")[0] in cases}

@@ -121,6 +121,9 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         self.recording, self.record_energies = f.recording, f.energies
         self.needs, self.multi_material = f.needs, f.multi_material
         self.update_volume = f.update_volume
+        # the strain energy: W(F) V0 of a hyperelastic law, else the work sigma : d_eps V
+        # integrated along the path (a field only where some material needs it)
+        self.path_work = f.energies and not all(cls.energy_function for cls, _ in f.materials)
         self.bandwidth, self.node_offset = f.bandwidth, f.node_offset
         # rows of the run sums: the grid fields each scattering phase adds to
         self.scatter_rows = {"p2g": ("gm", "gf") + (("gp",) if self.damping else ()),
@@ -162,7 +165,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
             particle["C"] = ti.Matrix.field(d, d, real)
         if self.multi_material:
             particle["mat"] = ti.field(ti.i32)
-        if self.record_energies:
+        if self.path_work:
             particle["work"] = ti.field(real)  # strain energy, integrated along the path
         if self.track_crossings:
             particle["elem"] = ti.Vector.field(d, ti.i32)

@@ -45,11 +45,34 @@ class Recorder:
                             pot -= self.m[p] * self.p.gravity()[k] * self.u[p][k]
                         else:
                             pot -= self.m[p] * self.p.gravity()[k] * self.x[p][k]
-                e = ti.Vector([0.5 * self.m[p] * self.v[p].norm_sqr(), self.work[p], pot, 0.0])
+                e = ti.Vector([0.5 * self.m[p] * self.v[p].norm_sqr(), self._strain_energy(p),
+                               pot, 0.0])
                 self.accumulate(self.h_energy[slot], e)
             if ti.static(self.external_work):
                 self.h_energy[slot][3] = self.ext_work[None]
         self.rec_count[None] = slot + 1
+
+    @ti.func
+    def _strain_energy(self, p):
+        """Particle p's strain energy: W(F_p) V0_p of a hyperelastic material, else its
+        path work."""
+        energy = 0.0
+        if ti.static(not self.multi_material):
+            energy = self._unit_strain_energy(self.material_units[0], p)
+        else:
+            for k in ti.static(range(len(self.material_units))):
+                if self.mat[p] == k:
+                    energy = self._unit_strain_energy(self.material_units[k], p)
+        return energy
+
+    @ti.func
+    def _unit_strain_energy(self, unit: ti.template(), p):
+        energy = 0.0
+        if ti.static(unit.energy_function):
+            energy = unit.energy(self, p)
+        else:
+            energy = self.work[p]
+        return energy
 
     def _bind_history_reader(self):
         """``read_history(n)``: the first n records of every history field, copied by one

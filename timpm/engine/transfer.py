@@ -233,10 +233,11 @@ class Transfer:
                 self.vol[p] = vol_new  # the materials read the new volume
             sig_new = self._material_update(p, grad_du, sig_old)
             self.sigma[p] = sig_new
-            if ti.static(self.record_energies):
+            if ti.static(self.path_work):
                 # strain energy: trapezoidal path integral of sigma : d_eps V
                 self.accumulate(self.work[p],
                                0.5 * ((sig_old * vol_old + sig_new * vol_new) * deps).sum())
+            if ti.static(self.record_energies):
                 if ti.static(self.has_traction):
                     if p == self.p.traction_particle():
                         self.accumulate(self.ext_work[None], self.p.traction_amplitude() *

@@ -10,7 +10,10 @@ value says what the engine compiles and with which numbers:
 - ``constants(dt)``: the run-time numbers its update reads, by name (``CONSTANTS``), every
   derived constant computed here once, in double precision; ``density`` among them (the
   volume guard reads V0 = m_p / density);
-- ``free_expansion``: the law lets a particle expand without bound (a tension cut-off).
+- ``free_expansion``: the law lets a particle expand without bound (a tension cut-off);
+- ``energy_function``: the law has a stored energy W(F) (hyperelastic); its unit then
+  gives ``energy(s, p)`` = W(F_p) V0_p, which the records report as the strain energy
+  (otherwise the work sigma : d_eps V integrated along the path, which holds dissipation).
 
 The compiled unit is the same class built by :meth:`unit` with a getter per constant
 (``self.c.mu()``) and one ``@ti.func``::
@@ -51,6 +54,8 @@ class Material:
     #: True where the law lets a particle expand without bound (a tension cut-off: fluids,
     #: sand); the solver's volume guard then bounds only its compaction
     free_expansion = False
+    #: the law has a stored energy W(F): ``energy(s, p)`` gives W(F_p) V0_p
+    energy_function = False
 
     def __init__(self, density):
         self.density = positive(f"{self.name}: density", density)
@@ -81,6 +86,11 @@ class Material:
 
     def set_flags(self, flags: tuple):
         """Set the compile-time attributes of a unit from ``flags()``."""
+
+    @ti.func
+    def _initial_volume(self, s: ti.template(), p):
+        """V0_p = m_p / density."""
+        return s.m[p] / self.c.density()
 
     @ti.func
     def _initial_over_current_volume(self, s: ti.template(), p):
