@@ -133,7 +133,7 @@ def test_mms_runs_from_the_command_line(tmp_path, capsys):
     from timpm.cli import main
 
     out = tmp_path / "mms.json"
-    assert main(["run", "mms-1d", "--basis", "bspline2", "--elements", "8", "--json",
+    assert main(["run", "mms-1d", "--basis", "bspline3", "--elements", "8", "--json",
                  str(out)]) == 0
     import json
 
@@ -176,7 +176,7 @@ def test_a_body_force_is_evaluated_at_each_steps_start_time():
         return np.tile([2.0 * t, 0.0], (len(X), 1))
 
     model = dataclasses.replace(_block(gravity=(0.0, 0.0)).model, body_force=BodyForce(force))
-    solver = Solver(model, mode="serial", energies=False)
+    solver = Solver(model, mode="serial")
     calls.clear()
     solver.run(n_steps=5)
     dt = model.dt
@@ -235,7 +235,7 @@ def test_a_roller_wall_holds_the_normal_velocity_both_ways():
     assert roller[touched, 1].min() > 0.1  # and lets the block slide along it (sticky: 0)
 
 
-@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("dim", [2, pytest.param(3, marks=pytest.mark.slow)])
 def test_clamped_bsplines_span_2d_and_3d_grids_without_padding(dim):
     world = World(domain=(1.0,) * dim, cells=4, basis="bspline3", transfer="musl",
                   walls="sticky", bodies=[Body(Box((0.0,) * dim, (1.0,) * dim),

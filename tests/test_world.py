@@ -467,11 +467,19 @@ def test_fluid_scene_has_no_deformation_gradient(dim):
         s.release()
 
 
-def test_recorded_energies_cost_one_value_per_particle():
+def test_recorded_energies_cost_one_value_per_particle_without_an_energy_function():
+    # a hyperelastic law reports W(F) V0: nothing to keep; sand's work is integrated along
+    # each particle's path: one value per particle
     s = _build([Body(_box(), NeoHookean(**SOFT))], energies=True)
     try:
+        assert "work" not in s.memory()["particle_fields"]
+        assert s.memory()["particle_bytes"] == _bytes(2, F=True, C=True)
+    finally:
+        s.release()
+    s = _build([Body(_box(), "sand")], energies=True)
+    try:
         assert "work" in s.memory()["particle_fields"]
-        assert s.memory()["particle_bytes"] == _bytes(2, F=True, C=True, work=True)
+        assert s.memory()["particle_bytes"] == _bytes(2, F=True, plastic=True, C=True, work=True)
     finally:
         s.release()
 
@@ -592,11 +600,13 @@ def test_walls():
 def test_basis_transfer_gravity_and_domain():
     with pytest.raises(ValueError, match="unknown basis 'quintic'"):
         _world(basis="quintic")
-    for one_d in ("bspline2", "lagrange2"):
-        with pytest.raises(ValueError, match=f"the {one_d} basis is 1D only: a World's grid, "
-                                             "padded beyond its walls, takes linear, "
-                                             "uniform-bspline2, uniform-bspline3"):
-            _world(basis=one_d)
+    with pytest.raises(ValueError, match="the lagrange2 basis is 1D only: a World's grid "
+                                         "takes linear, bspline2, bspline3, uniform-bspline2, "
+                                         "uniform-bspline3"):
+        _world(basis="lagrange2")
+    with pytest.raises(ValueError, match="the apic transfer takes node positions x_i spaced "
+                                         "uniformly"):
+        _world(basis="bspline2")  # the World's default transfer is apic
     with pytest.raises(ValueError, match="unknown transfer 'pic': choose one of musl, apic"):
         _world(transfer="pic")
     with pytest.raises(ValueError, match="gravity must have 2 components, got 3"):

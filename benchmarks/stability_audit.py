@@ -1,0 +1,150 @@
+"""Stability audit: every basis x mass x placement x transfer at 0.5x and 0.9x its critical
+time step, energy drift per row.
+
+1D: the vibrating string (16 elements, 4 particles per element, t to 1e5 steps), critical
+step 2 / w_max of the particle discretisation (``Scene.critical_dt``; Eq. 2.4 for linear
+elements with lumped mass).  2D: the manufactured solution's square without its body force
+(a Neo-Hookean square vibrating freely between roller walls, G = 1e-3, 16 x 16 cells, 2
+particles per cell and axis, 1e4 steps), critical step the CFL limit h / c_p.  A row
+*gains* energy when its total energy at the end exceeds the start by more than 1e-3 of the
+energy in motion.  Writes a Markdown table (stdout) and, with ``--json``, the records::
+
+    python benchmarks/stability_audit.py --json docs/stability_audit.json
+"""
+import argparse
+import dataclasses
+import json
+import sys
+import time
+
+import numpy as np
+
+PLACEMENTS = ("study", "centered", "gauss")
+ROWS_1D = [("linear", "lumped", "musl"), ("linear", "lumped", "apic"),
+           ("linear", "consistent", "musl"), ("bspline2", "lumped", "musl"),
+           ("bspline2", "consistent", "musl"), ("bspline3", "lumped", "musl"),
+           ("bspline3", "consistent", "musl"), ("lagrange2", "consistent", "musl"),
+           ("uniform-bspline2", "lumped", "musl"), ("uniform-bspline2", "lumped", "apic")]
+ROWS_2D = [("linear", "musl"), ("linear", "apic"), ("bspline2", "musl"), ("bspline3", "musl"),
+           ("uniform-bspline2", "musl"), ("uniform-bspline2", "apic"),
+           ("uniform-bspline2", "mls-mpm"), ("uniform-bspline3", "apic")]
+FACTORS = (0.5, 0.9)
+GAIN = 1e-3
+
+
+def _drift(energies):
+    total = energies["total"]
+    scale = float(np.max(energies["kinetic"] + np.abs(energies["strain"])))
+    return (float(np.max(np.abs(total - total[0])) / scale),
+            float((total[-1] - total[0]) / scale))
+
+
+def audit_1d(steps, progress):
+    from timpm import Solver
+    from timpm.problems import get_problem
+
+    problem = get_problem("vibrating-string")
+    rows = []
+    for basis, mass, transfer in ROWS_1D:
+        for placement in PLACEMENTS:
+            base = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
+                                 placement=placement, transfer=transfer, dt=1e-9)
+            critical = base.critical_dt
+            for factor in FACTORS:
+                scene = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
+                                      placement=placement, transfer=transfer,
+                                      dt=factor * critical)
+                solver = Solver(scene, mode="serial", energy_guard=None,
+                                record_every=max(1, steps // 1000), volume_range=None)
+                row = dict(dim=1, basis=basis, mass=mass, transfer=transfer,
+                           placement=placement, factor=factor, critical_dt=critical,
+                           steps=steps)
+                _run(solver, steps, row)
+                rows.append(row)
+                progress(row)
+    return rows
+
+
+def audit_2d(steps, progress):
+    from timpm import Solver
+    from timpm.problems import get_problem
+
+    problem = get_problem("mms-2d", G=1e-3)
+    rows = []
+    for basis, transfer in ROWS_2D:
+        for placement in PLACEMENTS:
+            scene = problem.scene(elements=16, basis=basis, transfer=transfer,
+                                  placement=placement)
+            model = dataclasses.replace(scene.model, body_force=None)
+            critical = model.h / problem.material_law.wave_speed
+            for factor in FACTORS:
+                solver = Solver(dataclasses.replace(model, dt=factor * critical),
+                                energy_guard=None, record_every=max(1, steps // 1000),
+                                volume_range=None)
+                row = dict(dim=2, basis=basis, mass="lumped", transfer=transfer,
+                           placement=placement, factor=factor, critical_dt=critical,
+                           steps=steps)
+                _run(solver, steps, row)
+                rows.append(row)
+                progress(row)
+    return rows
+
+
+def _run(solver, steps, row):
+    from timpm import SimulationError
+
+    t0 = time.perf_counter()
+    try:
+        solver.run(n_steps=steps)
+        row["drift"], row["change"] = _drift(solver.energies())
+        row["status"] = "gains" if row["change"] > GAIN else "ok"
+    except SimulationError as err:
+        row.update(drift=None, change=None, status=f"stopped: {str(err)[:60]}")
+    row["seconds"] = time.perf_counter() - t0
+    solver.release()
+
+
+def table(rows) -> str:
+    lines = ["| dim | basis | mass | transfer | placement | dt / critical | drift | "
+             "end - start | verdict |", "|---|---|---|---|---|---:|---:|---:|---|"]
+    for r in rows:
+        drift = "-" if r["drift"] is None else f"{r['drift']:.2e}"
+        change = "-" if r["change"] is None else f"{r['change']:+.2e}"
+        lines.append(f"| {r['dim']}D | {r['basis']} | {r['mass']} | {r['transfer']} | "
+                     f"{r['placement']} | {r['factor']} | {drift} | {change} | {r['status']} |")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--steps-1d", type=int, default=100_000)
+    ap.add_argument("--steps-2d", type=int, default=10_000)
+    ap.add_argument("--only", choices=("1d", "2d"))
+    ap.add_argument("--json")
+    args = ap.parse_args(argv)
+
+    def progress(r):
+        print(f"{r['dim']}D {r['basis']:17s} {r['mass']:10s} {r['transfer']:7s} "
+              f"{r['placement']:8s} {r['factor']}: {r['status']} "
+              f"({r['change'] if r['change'] is not None else '-'})", file=sys.stderr,
+              flush=True)
+
+    rows = []
+    if args.only in (None, "1d"):
+        rows += audit_1d(args.steps_1d, progress)
+    if args.only in (None, "2d"):
+        rows += audit_2d(args.steps_2d, progress)
+    print(table(rows))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"date": time.strftime("%Y-%m-%d"), "gain_threshold": GAIN,
+                       "command": "python benchmarks/stability_audit.py "
+                                  + " ".join(argv or sys.argv[1:]), "rows": rows}, fh,
+                      indent=1)
+    gains = sum(r["status"] != "ok" for r in rows)
+    print(f"\n{gains} of {len(rows)} rows gain energy or stop", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
