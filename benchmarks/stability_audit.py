@@ -115,6 +115,32 @@ def table(rows) -> str:
     return "\n".join(lines)
 
 
+def grouped_table(rows) -> str:
+    """One line per scheme, one column per placement and dt / critical: the change of total
+    energy over the run in units of the energy in motion (+: gained), or the step at which
+    the run stopped."""
+    columns = [(p, f) for p in PLACEMENTS for f in FACTORS]
+    head = "| dim | basis, mass, transfer | " + " | ".join(f"{p} {f}" for p, f in columns) + " |"
+    lines = [head, "|---|---|" + "---:|" * len(columns)]
+    groups = {}
+    for r in rows:
+        groups.setdefault((r["dim"], r["basis"], r["mass"], r["transfer"]), {})[
+            r["placement"], r["factor"]] = r
+    for (dim, basis, mass, transfer), cells in groups.items():
+        out = []
+        for key in columns:
+            r = cells.get(key)
+            if r is None:
+                out.append("")
+            elif r["change"] is None:
+                out.append("stop " + r["status"].split("step ")[1].split(" ")[0])
+            else:
+                mark = "**" if r["status"] == "gains" else ""
+                out.append(f"{mark}{r['change']:+.3f}{mark}")
+        lines.append(f"| {dim}D | {basis}, {mass}, {transfer} | " + " | ".join(out) + " |")
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps-1d", type=int, default=100_000)
@@ -135,6 +161,8 @@ def main(argv=None):
     if args.only in (None, "2d"):
         rows += audit_2d(args.steps_2d, progress)
     print(table(rows))
+    print()
+    print(grouped_table(rows))
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"date": time.strftime("%Y-%m-%d"), "gain_threshold": GAIN,

@@ -105,3 +105,24 @@ def test_unknown_problem_and_parameter_are_refused():
         get_problem("vibrating-string", L=0.0)
     with pytest.raises(ValueError, match="parameter H must be positive"):
         get_problem("soil-column", H=-1.0)
+
+
+@pytest.mark.slow
+def test_the_2d_soil_column_converges_to_the_1d_series():
+    # plane strain, nu = 0, slip walls: the 1D series is the exact u_y and u_x stays 0
+    from timpm.studies.study import convergence
+
+    doc = convergence("soil-column-2d", elements=(8, 16, 32, 64), basis="bspline2", dt=1e-4,
+                      t_end=0.2, series=False, energies=False)
+    errors = [r["rms_error"] for r in doc["runs"]]
+    assert all(b < a for a, b in zip(errors, errors[1:])), errors
+    assert min(r["rate"] for r in doc["rates"]) > 1.4, doc["rates"]
+
+
+def test_the_2d_soil_column_is_checked():
+    with pytest.raises(ValueError, match="width must be a positive number of cells"):
+        get_problem("soil-column-2d", width=0)
+    with pytest.raises(ValueError, match="the top load p0 acts in 1D only"):
+        get_problem("soil-column-2d", p0=1e3)
+    with pytest.raises(ValueError, match="needs at least 3 elements, the grid has 2 along axis 0"):
+        get_problem("soil-column-2d", width=2).scene(elements=8, basis="bspline3")

@@ -2,15 +2,16 @@
 from .base import Problem
 from .mms import MMS1D, MMS2D, MMS3D, ManufacturedSolution
 from .oedometer import Oedometer
-from .soil_column import LargeColumn, SoilColumn
+from .soil_column import LargeColumn, SoilColumn, SoilColumn2D
 from .vibrating_bar import VibratingBar
 from .vibrating_string import VibratingString
 
 PROBLEMS = {cls.name: cls for cls in (VibratingString, SoilColumn, VibratingBar, Oedometer,
-                                      LargeColumn, MMS1D, MMS2D, MMS3D)}
+                                      LargeColumn, SoilColumn2D, MMS1D, MMS2D, MMS3D)}
 
 __all__ = ["Problem", "VibratingString", "SoilColumn", "LargeColumn", "VibratingBar",
-           "Oedometer", "ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D", "PROBLEMS",
+           "SoilColumn2D", "Oedometer", "ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D",
+           "PROBLEMS",
            "get_problem"]
 
 

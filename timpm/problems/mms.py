@@ -31,10 +31,10 @@ from ..basis import get_basis
 from ..loads import BodyForce
 from ..materials import NeoHookean
 from ..model import Model, Wall
-from ..scene import PLACEMENTS, Material, discrete_critical_time_step
+from ..scene import PLACEMENTS, Material, discrete_critical_time_step, equidistant_particles
 from .base import Problem, check_positive
 
-__all__ = ["ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D"]
+__all__ = ["ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D", "ProblemScene", "lattice"]
 
 #: phase of each component's time factor
 PHASES = (0.0, math.pi, math.pi)
@@ -142,11 +142,7 @@ class ManufacturedSolution(Problem):
         if placement not in PLACEMENTS:
             raise ValueError(f"unknown placement {placement!r}: choose one of "
                              f"{', '.join(PLACEMENTS)}")
-        x1, vol1 = self.particles(n, ppc, placement)  # along one axis
-        axes = np.meshgrid(*([x1] * self.dim), indexing="ij")
-        X = np.stack([a.ravel() for a in axes], axis=1)
-        vols = np.meshgrid(*([vol1] * self.dim), indexing="ij")
-        volume = np.prod(np.stack([v.ravel() for v in vols], axis=1), axis=1)
+        X, volume = lattice((n,) * self.dim, ppc, h, placement)
         dt = self.courant * h / self.c if dt is None else dt
         boundary = {}
         if self.dim == 1:
@@ -184,6 +180,17 @@ class ManufacturedSolution(Problem):
         """The particle nearest the body's centre (X = 1/2 on every axis)."""
         X = self._points(x0)
         return int(np.argmin(np.sum((X - 0.5) ** 2, axis=1)))
+
+
+def lattice(cells, ppc, h, placement):
+    """Positions (n, dim) and volumes of ``ppc`` particles per cell and axis, placed by
+    ``placement`` (``timpm.scene.PLACEMENTS``) in ``cells[k]`` cells of size h from 0
+    along axis k: tensor products of the 1D placement."""
+    xs, vs = zip(*(equidistant_particles(c, ppc, h, placement=placement) for c in cells))
+    X = np.stack([a.ravel() for a in np.meshgrid(*xs, indexing="ij")], axis=1)
+    volume = np.prod(np.stack([v.ravel() for v in np.meshgrid(*vs, indexing="ij")], axis=1),
+                     axis=1)
+    return X, volume
 
 
 class ProblemScene:

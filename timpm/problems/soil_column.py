@@ -106,3 +106,81 @@ class LargeColumn(SoilColumn):
 
     def velocity(self, x0, t):
         return self.displacement(x0, t)
+
+
+@dataclass(frozen=True)
+class SoilColumn2D(SoilColumn):
+    """The soil column of 3.4 in plane strain: ``width`` cells wide between slip walls, a
+    sticky floor, gravity along -y, linear elastic with nu = 0, so that no lateral stress
+    arises and the 1D series is the exact u_y (u_x = 0).  Particles per cell and axis as
+    in 1D (``placement``); the grid reaches beyond the free top."""
+
+    width: int = 4
+
+    name = "soil-column-2d"
+    title = "Soil column under self-weight, plane strain (3.4 in 2D)"
+    section = "3.4"
+    elements = 40
+
+    def __post_init__(self):
+        super().__post_init__()
+        if isinstance(self.width, bool) or not isinstance(self.width, (int, np.integer)) \
+                or self.width < 1:
+            raise ValueError(f"{self.name}: width must be a positive number of cells, got "
+                             f"{self.width!r}")
+        if self.p0 != 0.0:
+            raise ValueError(f"{self.name}: the top load p0 acts in 1D only (soil-column)")
+
+    def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
+              placement=None, stress_update="study", allow_unstable_dt=False,
+              damping=None, projection="standard", transfer="musl"):
+        from ..basis import get_basis
+        from ..materials import LinearElastic
+        from ..model import Model, Wall
+        from .mms import ProblemScene, lattice
+
+        if stress_update != "study":
+            raise ValueError(f"{self.name} is linear elastic (nu = 0): it takes no "
+                             f"stress_update (got {stress_update!r})")
+        basis_cls = get_basis(basis)
+        elements = self.elements if elements is None else elements
+        ppc = self.ppc if ppc is None else ppc
+        placement = self.placement if placement is None else placement
+        dt = self.dt if dt is None else dt
+        self.grid(elements, basis_cls)  # checks the count
+        n, h = int(elements), self.H / elements
+        # padding: the uniform splines' stencils reach beyond the walls; every basis needs
+        # room above the free top
+        side = basis_cls.support if basis_cls.uniform_nodes and basis_cls.name != "linear" else 0
+        top = max(side, max(1, basis_cls.support - 1))
+        X, volume = lattice((self.width, n), ppc, h, placement)
+        model = Model(basis=basis_cls.name, origin=(-side * h, -side * h), h=h,
+                      elements=(self.width + 2 * side, n + side + top),
+                      positions=X, volume=volume,
+                      materials=(LinearElastic(self.E, 0.0, self.density),), dt=dt,
+                      transfer=transfer, mass_matrix=mass, projection=projection,
+                      gravity=(0.0, self.gravity), damping=0.0 if damping is None else damping,
+                      walls=(Wall("slip"), Wall("slip"), Wall("sticky"), None),
+                      wall_cells=((side, side + self.width), (side, side + n + top)),
+                      name=self.name)
+        critical = h / np.sqrt(self.E / self.density)
+        if dt > critical and not allow_unstable_dt:
+            raise ValueError(f"time step dt = {dt:g} s exceeds the critical time step "
+                             f"{critical:g} s (h / c) of {self.name} on {n} elements")
+        return ProblemScene(model, critical)
+
+    def displacement(self, x0, t, stress_update="study"):
+        X = np.asarray(x0, dtype=float).reshape(-1, 2)
+        u = np.zeros_like(X)
+        u[:, 1] = super().displacement(X[:, 1], t)
+        return u
+
+    def velocity(self, x0, t):
+        X = np.asarray(x0, dtype=float).reshape(-1, 2)
+        v = np.zeros_like(X)
+        v[:, 1] = super().velocity(X[:, 1], t)
+        return v
+
+    def monitored_particle(self, x0):
+        X = np.asarray(x0, dtype=float).reshape(-1, 2)
+        return int(np.argmin((X[:, 0] - X[:, 0].mean()) ** 2 + (X[:, 1] - 0.5 * self.H) ** 2))
