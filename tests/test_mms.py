@@ -255,3 +255,52 @@ def test_affine_transfers_refuse_clamped_bsplines(transfer):
     with pytest.raises(ValueError, match="Greville"):
         World(domain=(1.0, 1.0), cells=4, basis="bspline2", transfer=transfer,
               bodies=[Body(Box((0.2, 0.2), (0.6, 0.6)), NeoHookean(1e4, 0.3, 1e3))])
+
+
+# ---- surface tractions ---------------------------------------------------------------------
+def _pulled(tractions, transfer="apic", domain=(1.0, 1.0)):
+    dim = len(domain)
+    return World(domain=domain, cells=16, gravity=(0.0,) * dim, walls={"default": None},
+                 transfer=transfer, tractions=tractions,
+                 bodies=[Body(Box((0.25,) * dim, (0.75,) + (0.5,) * (dim - 1)),
+                              NeoHookean(1e5, 0.3, 1e3))])
+
+
+@pytest.mark.parametrize("transfer", ["musl", "apic"])
+def test_a_surface_traction_is_its_resultant_force_on_the_momentum(transfer):
+    from timpm.loads import Sine, SurfaceTraction
+
+    traction, omega = np.array([1e3, 500.0]), 40.0
+    world = _pulled([SurfaceTraction(0, "right", traction, Sine(omega))], transfer)
+    force = world.model.particle_force
+    assert np.allclose(force.sum(axis=0), traction * 0.25, rtol=1e-12)  # the face's length
+    assert np.count_nonzero(force[:, 0]) == 2 * 4  # the column of particles on that face
+    solver = Solver(world, mode="serial")
+    solver.run(n_steps=50)
+    dt = world.dt
+    impulse = traction * 0.25 * dt * np.sin(omega * dt * np.arange(50)).sum()
+    momentum = (world.mass_per_particle[:, None] * solver.velocities()).sum(axis=0)
+    assert np.allclose(momentum, impulse, rtol=1e-10)
+    assert solver.energies()["external_work"][-1] > 0
+
+
+@pytest.mark.parametrize("tractions, message", [
+    ([(0, "up", (1.0, 0.0))], "unknown side 'up'"),
+    ([(3, "top", (1.0, 0.0))], "body 3 does not exist"),
+    ([(0, "top", (1.0, 0.0, 0.0))], "must have 2 components"),
+])
+def test_bad_surface_tractions_are_refused(tractions, message):
+    from timpm.loads import SurfaceTraction
+
+    with pytest.raises(ValueError, match=message):
+        _pulled([SurfaceTraction(*t) for t in tractions])
+
+
+def test_surface_tractions_share_one_time_function_and_need_faces():
+    from timpm.loads import Ramp, Sine, SurfaceTraction
+
+    with pytest.raises(ValueError, match="share one time function"):
+        _pulled([SurfaceTraction(0, "top", (0.0, 1.0), Sine(3.0)),
+                 SurfaceTraction(0, "left", (1.0, 0.0), Ramp(0.1))])
+    with pytest.raises(ValueError, match="surface tractions act on faces of 2D and 3D"):
+        _pulled([SurfaceTraction(0, "right", (1.0,))], domain=(1.0,))

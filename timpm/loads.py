@@ -9,8 +9,8 @@ import taichi as ti
 
 from .checks import positive
 
-__all__ = ["Constant", "Sine", "Ramp", "Traction", "BodyForce", "field_function",
-           "TIME_FUNCTIONS"]
+__all__ = ["Constant", "Sine", "Ramp", "Traction", "BodyForce", "SurfaceTraction",
+           "field_function", "TIME_FUNCTIONS"]
 
 
 @ti.data_oriented
@@ -176,3 +176,26 @@ class BodyForce:
         """b at points X (n, dim) and time t, checked: an (n, dim) float array."""
         return field_function(self.fn, np.asarray(X, dtype=np.float64), "the body force",
                               float(t), signature=False)
+
+
+@dataclass(frozen=True)
+class SurfaceTraction:
+    """A traction (force per unit area, a vector) ``traction * time_function(t)`` on the
+    ``side`` face (``"left"``, ``"right"``, ``"bottom"``, ``"top"``, ``"back"``,
+    ``"front"``) of body ``body`` of a :class:`timpm.world.World` in 2D or 3D.  The
+    particles within half a particle spacing of the body's extreme on that side carry it:
+    each the force traction * V_p / dx, dx = h / ppc the spacing normal to the face, so
+    that the forces sum to traction times the face's area (length in 2D, per unit depth)."""
+
+    body: int
+    side: str
+    traction: tuple
+    time_function: object = field(default_factory=Constant)
+
+    def __post_init__(self):
+        from .checks import vector
+
+        object.__setattr__(self, "traction", tuple(vector("surface traction", self.traction)))
+        if not callable(getattr(self.time_function, "at", None)):
+            raise ValueError("surface traction time_function must be Constant, Sine, Ramp or "
+                             "alike")

@@ -168,6 +168,9 @@ class Model:
     b(X, t) per unit mass (a Python function, vectorised); ``traction`` the study's load
     on one particle (1D); ``damping`` the local damping factor alpha of A.4.
     ``velocity`` is an (n, dim) array or a function v0(X) of the (n, dim) positions.
+    ``particle_force`` an (n, dim) array of forces on the particles (the surface tractions
+    a World spreads over a face's particles), times the time function
+    ``particle_force_time`` (default Constant).
     """
 
     basis: str
@@ -192,6 +195,8 @@ class Model:
     traction: object = None
     body_force: object = None
     fixed_time: object = None
+    particle_force: object = None
+    particle_force_time: object = None
     name: str = "model"
 
     def __post_init__(self):
@@ -374,6 +379,21 @@ class Model:
                 raise ValueError(f"body_force must be a timpm.loads.BodyForce (a function "
                                  f"b(X, t) wrapped), got {self.body_force!r}")
             self.body_force(self.positions, 0.0)  # signature, shape, finite: checked now
+        if self.particle_force is not None:
+            try:
+                f = np.array(self.particle_force, dtype=np.float64).reshape(n, dim)
+            except (TypeError, ValueError):
+                raise ValueError(f"particle_force must be an ({n}, {dim}) array of forces, "
+                                 f"got shape {np.shape(self.particle_force)}") from None
+            if not np.all(np.isfinite(f)):
+                raise ValueError("particle_force must be finite")
+            f.setflags(write=False)
+            set_("particle_force", f if np.any(f != 0.0) else None)
+        if self.particle_force_time is None:
+            set_("particle_force_time", Constant())
+        elif not callable(getattr(self.particle_force_time, "at", None)):
+            raise ValueError(f"particle_force_time must be a time function (Constant, Sine, "
+                             f"Ramp), got {self.particle_force_time!r}")
         if self.traction is not None:
             if dim != 1:
                 raise ValueError("the particle traction (3.5) acts along x in 1D models only")

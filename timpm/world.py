@@ -183,7 +183,9 @@ class World:
     an optional ``"default"`` (None: no wall on that side; material may leave the domain
     and the grid, which stops the run with an error); ``fixed_nodes`` grid nodes (index
     tuples of the padded grid, ``world.model.nodes``) held at zero velocity, or a dict of
-    node to prescribed velocity (times the time function ``fixed_time``).  Gravity points down y in 2D and 3D, down x
+    node to prescribed velocity (times the time function ``fixed_time``).  ``tractions``
+    lists :class:`~timpm.loads.SurfaceTraction` loads on the faces of bodies (2D, 3D; one
+    time function for all).  Gravity points down y in 2D and 3D, down x
     in 1D, unless given.  ``dt=None`` picks ``courant`` (default 0.4) times the CFL
     limit h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
     (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``
@@ -204,6 +206,7 @@ class World:
     damping: float = 0.0
     fixed_nodes: tuple = ()
     fixed_time: object = None
+    tractions: tuple = ()
     name: str = "world"
     _particles: dict = field(default=None, repr=False)
 
@@ -243,6 +246,7 @@ class World:
         object.__setattr__(self, "walls", walls_from(self.walls, dim, open_ok=True))
         object.__setattr__(self, "_particles", self._fill(dim, h, domain))
         self._check_dt(h, g, domain)
+        forces, force_time = self._surface_forces(dim, h)
         pad = self.padding
         part = self._particles
         model = Model(basis=basis.name, origin=self.origin, h=h, elements=self.grid_elements,
@@ -254,7 +258,8 @@ class World:
                       wall_cells=tuple((pad, pad + c) for c in n),
                       fixed_nodes=(dict(self.fixed_nodes) if isinstance(self.fixed_nodes, dict)
                                    else tuple(self.fixed_nodes)),
-                      fixed_time=self.fixed_time, name=self.name)
+                      fixed_time=self.fixed_time, particle_force=forces,
+                      particle_force_time=force_time, name=self.name)
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "fixed_nodes", model.fixed_nodes)
 
@@ -337,6 +342,51 @@ class World:
         for key in ("positions", "velocity", "volume", "mass", "material_index", "body_index"):
             out[key].setflags(write=False)
         return out
+
+    def _surface_forces(self, dim, h):
+        """The particle forces of the surface tractions ((n, dim) or None) and their one
+        time function: each particle within half a particle spacing of the body's extreme
+        on the loaded side carries traction * V_p / dx, dx = h / ppc."""
+        from .loads import SurfaceTraction
+
+        tractions = tuple(self.tractions)
+        if not tractions:
+            return None, None
+        if dim == 1:
+            raise ValueError("surface tractions act on faces of 2D and 3D bodies; in 1D use "
+                             "a Scene's traction (timpm.Traction)")
+        x, bodies = self.positions, self.body_index
+        forces = np.zeros_like(x)
+        for k, load in enumerate(tractions):
+            if not isinstance(load, SurfaceTraction):
+                raise ValueError(f"tractions[{k}] must be a timpm.loads.SurfaceTraction, got "
+                                 f"{load!r}")
+            if not (isinstance(load.body, (int, np.integer)) and 0 <= load.body < len(self.bodies)):
+                raise ValueError(f"tractions[{k}]: body {load.body!r} does not exist "
+                                 f"({len(self.bodies)} bodies)")
+            if load.side not in SIDES[:2 * dim]:
+                raise ValueError(f"tractions[{k}]: unknown side {load.side!r}: the sides of a "
+                                 f"{dim}D body are {', '.join(SIDES[:2 * dim])}")
+            if len(load.traction) != dim:
+                raise ValueError(f"tractions[{k}]: the traction must have {dim} components, "
+                                 f"got {load.traction}")
+            body = self.bodies[load.body]
+            if isinstance(body.shape, Points):
+                raise ValueError(f"tractions[{k}]: body {load.body} is a point cloud, without "
+                                 "faces or a particle spacing")
+            axis, upper = divmod(SIDES.index(load.side), 2)
+            mine = bodies == load.body
+            coord = x[:, axis]
+            extreme = coord[mine].max() if upper else coord[mine].min()
+            dx = h / body.ppc
+            face = mine & (np.abs(coord - extreme) < 0.5 * dx)
+            forces[face] += np.outer(self.volume[face] / dx, load.traction)
+        times = {type(t.time_function) for t in tractions}
+        params = {t.time_function.param for t in tractions}
+        if len(times) > 1 or len(params) > 1:
+            raise ValueError("the surface tractions of a World share one time function; got "
+                             f"{[t.time_function for t in tractions]}")
+        return forces, tractions[0].time_function
 
     def _check_dt(self, h, g, domain):
         c = max(m.wave_speed for m in self.materials)

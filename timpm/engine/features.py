@@ -55,6 +55,7 @@ class FeatureSet:
     damping: bool                # local damping of A.4
     traction: type | None        # time-function class of the particle traction (1D)
     body_force: bool             # a body force b(X, t) per particle, uploaded every step
+    surface_force: type | None   # time-function class of the particle forces (tractions)
     fixed: bool                  # Dirichlet nodes
     prescribed: type | None      # time-function class of non-zero prescribed node velocities
     gravity: tuple               # per axis: a non-zero gravity
@@ -253,6 +254,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         materials=tuple((type(m), m.flags()) for m in materials), walls=walls,
         damping=damping > 0.0, traction=None if traction is None else type(traction.time_function),
         body_force=model.body_force is not None,
+        surface_force=(None if model.particle_force is None
+                       else type(model.particle_force_time)),
         fixed=bool(fixed_nodes),
         prescribed=type(model.fixed_time) if model.prescribes_motion else None,
         gravity=tuple(g != 0.0 for g in gravity), has_u=has_u,
@@ -285,6 +288,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         values.update(traction_particle=traction.particle,
                       traction_amplitude=float(traction.amplitude),
                       traction_param=float(traction.time_function.param))
+    if model.particle_force is not None:
+        values.update(surface_param=float(model.particle_force_time.param))
     if model.prescribes_motion:
         values.update(prescribed_param=float(model.fixed_time.param))
     if walls is not None:

@@ -88,6 +88,8 @@ def _param_spec(features):
         spec.update(traction_particle="int", traction_amplitude="real", traction_param="real")
     if features.prescribed is not None:
         spec.update(prescribed_param="real")
+    if features.surface_force is not None:
+        spec.update(surface_param="real")
     if features.has_walls:
         spec.update(wall_mu=("real", 2 * d), wall_nodes=("int", 2 * d))
     groups = {"p": spec}
@@ -115,7 +117,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         self.has_traction, self.traction_fn = f.traction is not None, f.traction
         self.body_force = f.body_force
         self.prescribed, self.prescribed_fn = f.prescribed is not None, f.prescribed
-        self.external_work = self.has_traction or self.body_force
+        self.surface_force, self.surface_fn = f.surface_force is not None, f.surface_force
+        self.external_work = self.has_traction or self.body_force or self.surface_force
         self.has_u, self.grid_displacement = f.has_u, f.grid_displacement
         self.track_crossings, self.tracking = f.track_crossings, f.tracking
         self.recording, self.record_energies = f.recording, f.energies
@@ -160,6 +163,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
             particle["plastic"] = ti.field(real)  # accumulated plastic strain
         if self.body_force:
             particle["b"] = ti.Vector.field(d, real)  # body force per unit mass b(X, t)
+        if self.surface_force:
+            particle["f_ext"] = ti.Vector.field(d, real)  # force (of tractions) times f(t)
         if self.apic:
             # affine velocity C_p of the APIC transfers (B_p = C_p D_p for the linear basis)
             particle["C"] = ti.Matrix.field(d, d, real)

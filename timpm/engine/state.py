@@ -48,6 +48,8 @@ class State:
                   "elem": self._element_of(model.positions)}
         if self.features.multi_material:
             values["mat"] = model.material_index
+        if model.particle_force is not None:
+            values["f_ext"] = model.particle_force
         if self.layout.fixed_nodes:
             fixed = np.zeros(self.layout.nodes, dtype=np.int32)
             velocity = np.zeros(tuple(self.layout.nodes) + (d,))

@@ -77,6 +77,8 @@ class Transfer:
                     fp[0] += self.p.traction_amplitude() * self.traction_fn.at(self.time[None], self.p.traction_param())
             if ti.static(self.body_force):
                 fp += mp * self.b[p]
+            if ti.static(self.surface_force):
+                fp += self.f_ext[p] * self.surface_fn.at(self.time[None], self.p.surface_param())
             stress_volume = self.sigma[p] * self.vol[p]
             affine = ti.Matrix.zero(float, self.dim, self.dim)
             if ti.static(self.mls_mpm):
@@ -244,6 +246,9 @@ class Transfer:
                                        self.traction_fn.at(self.time[None], self.p.traction_param()) * du[0])
                 if ti.static(self.body_force):
                     self.accumulate(self.ext_work[None], self.m[p] * self.b[p].dot(du))
+                if ti.static(self.surface_force):
+                    f_t = self.surface_fn.at(self.time[None], self.p.surface_param())
+                    self.accumulate(self.ext_work[None], f_t * self.f_ext[p].dot(du))
             if ti.static(self.has_u):
                 self.accumulate(self.u[p], du)
             x_new = self.x[p] + du
