@@ -119,7 +119,8 @@ def test_every_node_moving_carries_every_particle_along(transfer):
     s.run(n_steps=200)
     t, dt = s.t, moving.dt
     shift = v * (1 - np.cos(omega * t)) / omega
-    assert np.allclose(s.positions() - moving.positions, shift, rtol=0, atol=2 * omega * dt * np.abs(v).max())
+    assert np.allclose(s.positions() - moving.positions, shift, rtol=0,
+                       atol=2 * omega * dt * np.abs(v).max())
     # APIC: v_p = sum phi_i v_i; MUSL: v_p += dt sum phi_i a_i keeps the initial velocity
     # and adds v (f(t) - f(0))
     v_initial = np.array([0.5, -1.0]) if transfer == "musl" else 0.0

@@ -90,9 +90,6 @@ class Batch:
             raise Released("Taichi was restarted (timpm.init with other settings) after "
                            "this batch was built, which freed its fields")
         for k, s in enumerate(self.solvers):
-            if s.features.body_force:
-                raise ValueError(f"batch member {k} has a body force b(X, t), evaluated in "
-                                 "Python before every step: run it alone (Solver.run)")
             try:
                 s._require()
             except RuntimeError as err:

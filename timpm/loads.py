@@ -1,5 +1,6 @@
 """Loads of a model: time functions (each evaluates in Python and inside a kernel), the
-study's traction on one particle (3.5) and body forces b(X, t) given as Python functions."""
+study's traction on one particle (3.5), body forces b(X, t) given as Python functions and
+surface tractions on the faces of 2D and 3D bodies."""
 import inspect
 import math
 from dataclasses import dataclass, field
@@ -98,17 +99,20 @@ class Traction:
 TIME_FUNCTIONS = (Constant, Sine, Ramp)
 
 
-def _arity(fn, what):
-    """The positional parameters ``fn`` takes (an error names ``what`` if it is no function)."""
+def _takes(fn, what, want):
+    """None if ``fn`` can be called with ``want`` positional arguments (or its signature is
+    unknown), else the number it takes; an error names ``what`` if it is no function."""
     if not callable(fn):
         raise ValueError(f"{what} must be a function, got {fn!r}")
     try:
-        params = inspect.signature(fn).parameters.values()
+        params = list(inspect.signature(fn).parameters.values())
     except (TypeError, ValueError):  # a builtin or ufunc without a signature: trust it
         return None
     if any(p.kind == p.VAR_POSITIONAL for p in params):
         return None
-    return sum(p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) for p in params)
+    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    required = sum(p.default is p.empty for p in positional)
+    return None if required <= want <= len(positional) else required
 
 
 def field_function(fn, X, what, *args, signature=True):
@@ -119,8 +123,8 @@ def field_function(fn, X, what, *args, signature=True):
     already)."""
     n, dim = X.shape
     want = 1 + len(args)
-    arity = _arity(fn, what) if signature else None
-    if arity is not None and arity != want:
+    arity = _takes(fn, what, want) if signature else None
+    if arity is not None:
         names = "(X" + ", t" * len(args) + ")"
         raise ValueError(f"{what} must take {want} argument(s) {names}: the points as an "
                          f"(n, {dim}) array{' and the time' if args else ''}; "
@@ -166,8 +170,8 @@ class BodyForce:
         if self.frame not in ("reference", "current"):
             raise ValueError(f"body force frame must be 'reference' or 'current', got "
                              f"{self.frame!r}")
-        arity = _arity(self.fn, "the body force")
-        if arity is not None and arity != 2:
+        arity = _takes(self.fn, "the body force", 2)
+        if arity is not None:
             raise ValueError(f"the body force must take two arguments (X, t): the (n, dim) "
                              f"positions and the time; {getattr(self.fn, '__name__', self.fn)!s}"
                              f" takes {arity}")

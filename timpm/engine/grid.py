@@ -32,8 +32,9 @@ class GridOps:
     def _wall(self, I, v):
         """Wall conditions on the velocity of node I (sides left/right, bottom/top, ...):
         sticky v = 0; roller v_n = 0; slip removes the outward normal component; friction
-        also slows the tangential velocity by mu |v_n| (Coulomb), down to rest.  A wall acts on the nodes
-        at and beyond it (``wall_nodes``: per side the last node on or behind the wall)."""
+        also slows the tangential velocity by mu |v_n| (Coulomb), down to rest.  A wall
+        acts on the nodes at and beyond it (``wall_nodes``: per side the last node on or
+        behind the wall)."""
         for k in ti.static(range(self.dim)):
             for side in ti.static(range(2)):
                 if ti.static(self.walls[2 * k + side] != "open"):

@@ -14,9 +14,9 @@ diagonal too, so rho u_tt = div P + rho b gives the body force per unit mass
 
 (``body_force``; tests check it against finite differences of u and P).  The normal
 displacement vanishes on every side and the shear traction there is zero: the sides are
-roller walls (u_n = 0 both ways, no friction; in 1D the end nodes are held).  E = 1e7 Pa, rho = 1000 kg/m^3, nu = 0 in 1D
-and 0.3 in 2D and 3D, 2 particles per cell and axis, dt = 0.2 h / c, one period t_end =
-0.02 s.  G = 1e-4 is nearly linear; G = 0.05 stretches the body by 16 %, which the
+roller walls (u_n = 0 both ways, no friction; in 1D the end nodes are held).  E = 1e7 Pa,
+rho = 1000 kg/m^3, nu = 0 in 1D and 0.3 in 2D and 3D, 2 particles per cell and axis (at
+the Gauss points), dt = 0.2 h / c, one period t_end = 0.02 s.  G = 1e-4 is nearly linear; G = 0.05 stretches the body by 16 %, which the
 linear basis' grid-crossing error does not survive (Sinaie et al. 2017).
 
 Errors: the study's RMS displacement error sqrt(sum_p |u_p - u(X_p)|^2 / n_p) and the

@@ -37,8 +37,8 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
 
     Unset numerical values take the problem's defaults (``placement`` too: the study's
-    problems place particles as the study does, the manufactured solutions at Gauss points); ``params`` overrides physical
-    parameters (e.g. ``{"p0": 5e4}``).  The record holds at least problem, elements, ppc,
+    problems place particles as the study does, the manufactured solutions at Gauss
+    points); ``params`` overrides physical parameters (e.g. ``{"p0": 5e4}``).  The record holds at least problem, elements, ppc,
     basis, mass, dt, t_end, steps, rms_error, wall_seconds (stepping only; compilation is
     ``compile_seconds``) and grid_crossings.  ``series=False`` records no time series of
     the monitored particle (the study's figures need it, its tables do not);
