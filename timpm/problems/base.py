@@ -61,19 +61,25 @@ class Problem:
         h = self.domain_length() / elements
         return equidistant_particles(elements, ppc, h, placement=placement)
 
-    def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
-              placement=None, stress_update="study", allow_unstable_dt=False,
-              damping=None, projection="standard", transfer="musl") -> Scene:
-        """The problem's scene with ``elements`` elements over the body and ``ppc``
-        particles per element placed by ``placement``; unset values take the defaults."""
+    def numerics(self, elements, ppc, placement, basis):
+        """Elements, particles per element, placement (the problem's defaults where None)
+        and the basis class, the particle count checked against the basis' quadrature."""
         elements = self.elements if elements is None else elements
         ppc = self.ppc if ppc is None else ppc
-        dt = self.dt if dt is None else dt
         placement = self.placement if placement is None else placement
         basis_cls = get_basis(basis)
         if isinstance(ppc, (int, np.integer)) and 0 < ppc < basis_cls.min_ppc:
             raise ValueError(f"the {basis_cls.name} basis needs at least {basis_cls.min_ppc} "
                              f"particles per element for its quadrature, got ppc = {ppc}")
+        return elements, ppc, placement, basis_cls
+
+    def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
+              placement=None, stress_update="study", allow_unstable_dt=False,
+              damping=None, projection="standard", transfer="musl") -> Scene:
+        """The problem's scene with ``elements`` elements over the body and ``ppc``
+        particles per element placed by ``placement``; unset values take the defaults."""
+        elements, ppc, placement, basis_cls = self.numerics(elements, ppc, placement, basis)
+        dt = self.dt if dt is None else dt
         grid = self.grid(elements, basis_cls)
         x, vol = self.particles(elements, ppc, placement)
         material = replace(self.material, stress_update=stress_update)

@@ -27,7 +27,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..basis import get_basis
 from ..loads import BodyForce
 from ..materials import NeoHookean
 from ..model import Model, Wall
@@ -130,13 +129,7 @@ class ManufacturedSolution(Problem):
         if stress_update != "study":
             raise ValueError(f"{self.name} is a Neo-Hookean solid: it takes no stress_update "
                              f"(got {stress_update!r})")
-        elements = self.elements if elements is None else elements
-        ppc = self.ppc if ppc is None else ppc
-        placement = self.placement if placement is None else placement
-        basis_cls = get_basis(basis)
-        if isinstance(ppc, (int, np.integer)) and 0 < ppc < basis_cls.min_ppc:
-            raise ValueError(f"the {basis_cls.name} basis needs at least {basis_cls.min_ppc} "
-                             f"particles per element for its quadrature, got ppc = {ppc}")
+        elements, ppc, placement, basis_cls = self.numerics(elements, ppc, placement, basis)
         grid = self.grid(elements, basis_cls)  # checks the count
         n, h = grid.n_elements, grid.h
         if placement not in PLACEMENTS:

@@ -134,7 +134,6 @@ class SoilColumn2D(SoilColumn):
     def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
               damping=None, projection="standard", transfer="musl"):
-        from ..basis import get_basis
         from ..materials import LinearElastic
         from ..model import Model, Wall
         from .mms import ProblemScene, lattice
@@ -142,10 +141,7 @@ class SoilColumn2D(SoilColumn):
         if stress_update != "study":
             raise ValueError(f"{self.name} is linear elastic (nu = 0): it takes no "
                              f"stress_update (got {stress_update!r})")
-        basis_cls = get_basis(basis)
-        elements = self.elements if elements is None else elements
-        ppc = self.ppc if ppc is None else ppc
-        placement = self.placement if placement is None else placement
+        elements, ppc, placement, basis_cls = self.numerics(elements, ppc, placement, basis)
         dt = self.dt if dt is None else dt
         self.grid(elements, basis_cls)  # checks the count
         n, h = int(elements), self.H / elements
