@@ -228,7 +228,7 @@ def main(argv=None):
         for name, cls in PROBLEMS.items():
             p = cls()
             print(f"{name:18s} {p.title}; defaults: {p.elements} elements, {p.ppc} PPC, "
-                  f"dt = {p.dt:g} s, t_end = {p.t_end:g} s")
+                  f"dt = {p.dt_rule}, t_end = {p.t_end:g} s")
         print("bases:", ", ".join(BASES))
         print("demos: column-collapse, disks, dam-break (timpm demo NAME --out FILE.gif)")
         return 0

@@ -61,6 +61,11 @@ class Problem:
         h = self.domain_length() / elements
         return equidistant_particles(elements, ppc, h, placement=placement)
 
+    @property
+    def dt_rule(self) -> str:
+        """The default time step, as ``timpm list`` shows it."""
+        return f"{self.dt:g} s"
+
     def numerics(self, elements, ppc, placement, basis):
         """Elements, particles per element, placement (the problem's defaults where None)
         and the basis class, the particle count checked against the basis' quadrature."""

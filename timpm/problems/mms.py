@@ -61,6 +61,10 @@ class ManufacturedSolution(Problem):
         if not (-1.0 < nu < 0.5):
             raise ValueError(f"{self.name}: parameter nu must lie in (-1, 0.5), got {nu!r}")
 
+    @property
+    def dt_rule(self) -> str:
+        return f"{self.courant:g} h / c"
+
     # ---- the solution ------------------------------------------------------------------
     @property
     def poisson(self) -> float:
