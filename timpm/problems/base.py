@@ -6,7 +6,7 @@ import numpy as np
 from ..basis import get_basis
 from ..scene import Grid1D, Material, Scene, equidistant_particles
 
-__all__ = ["Problem"]
+__all__ = ["Problem", "ProblemScene", "lattice"]
 
 
 @dataclass(frozen=True)
@@ -130,3 +130,26 @@ def check_positive(problem, *names):
         value = getattr(problem, name)
         if isinstance(value, bool) or not np.isfinite(value) or value <= 0:
             raise ValueError(f"{problem.name}: parameter {name} must be positive, got {value!r}")
+
+
+def lattice(cells, ppc, h, placement):
+    """Positions (n, dim) and volumes of ``ppc`` particles per cell and axis, placed by
+    ``placement`` (``timpm.scene.PLACEMENTS``) in ``cells[k]`` cells of size h from 0
+    along axis k: tensor products of the 1D placement."""
+    xs, vs = zip(*(equidistant_particles(c, ppc, h, placement=placement) for c in cells))
+    X = np.stack([a.ravel() for a in np.meshgrid(*xs, indexing="ij")], axis=1)
+    volume = np.prod(np.stack([v.ravel() for v in np.meshgrid(*vs, indexing="ij")], axis=1),
+                     axis=1)
+    return X, volume
+
+
+class ProblemScene:
+    """A problem's model with what a study reports of it (``positions`` are (n,) in 1D)."""
+
+    def __init__(self, model, critical_dt):
+        self.model = model
+        self.critical_dt = float(critical_dt)
+        self.positions = model.positions[:, 0] if model.dim == 1 else model.positions
+        self.volume = model.volume
+        self.dt, self.basis, self.mass = model.dt, model.basis, model.mass_matrix
+        self.damping, self.n_particles = model.damping, model.n_particles

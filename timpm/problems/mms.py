@@ -30,10 +30,10 @@ import numpy as np
 from ..loads import BodyForce
 from ..materials import NeoHookean
 from ..model import Model, Wall
-from ..scene import PLACEMENTS, Material, discrete_critical_time_step, equidistant_particles
-from .base import Problem, check_positive
+from ..scene import PLACEMENTS, Material, discrete_critical_time_step
+from .base import Problem, ProblemScene, check_positive, lattice
 
-__all__ = ["ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D", "ProblemScene", "lattice"]
+__all__ = ["ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D"]
 
 #: phase of each component's time factor
 PHASES = (0.0, math.pi, math.pi)
@@ -177,29 +177,6 @@ class ManufacturedSolution(Problem):
         """The particle nearest the body's centre (X = 1/2 on every axis)."""
         X = self._points(x0)
         return int(np.argmin(np.sum((X - 0.5) ** 2, axis=1)))
-
-
-def lattice(cells, ppc, h, placement):
-    """Positions (n, dim) and volumes of ``ppc`` particles per cell and axis, placed by
-    ``placement`` (``timpm.scene.PLACEMENTS``) in ``cells[k]`` cells of size h from 0
-    along axis k: tensor products of the 1D placement."""
-    xs, vs = zip(*(equidistant_particles(c, ppc, h, placement=placement) for c in cells))
-    X = np.stack([a.ravel() for a in np.meshgrid(*xs, indexing="ij")], axis=1)
-    volume = np.prod(np.stack([v.ravel() for v in np.meshgrid(*vs, indexing="ij")], axis=1),
-                     axis=1)
-    return X, volume
-
-
-class ProblemScene:
-    """A problem's model with what a study reports of it (``positions`` are (n,) in 1D)."""
-
-    def __init__(self, model, critical_dt):
-        self.model = model
-        self.critical_dt = float(critical_dt)
-        self.positions = model.positions[:, 0] if model.dim == 1 else model.positions
-        self.volume = model.volume
-        self.dt, self.basis, self.mass = model.dt, model.basis, model.mass_matrix
-        self.damping, self.n_particles = model.damping, model.n_particles
 
 
 @dataclass(frozen=True)

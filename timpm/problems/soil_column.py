@@ -5,7 +5,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene import Constant, Traction
-from .base import Problem, check_positive, last_below
+from .base import Problem, ProblemScene, check_positive, last_below, lattice
 
 
 @dataclass(frozen=True)
@@ -136,7 +136,6 @@ class SoilColumn2D(SoilColumn):
               damping=None, projection="standard", transfer="musl"):
         from ..materials import LinearElastic
         from ..model import Model, Wall
-        from .mms import ProblemScene, lattice
 
         if stress_update != "study":
             raise ValueError(f"{self.name} is linear elastic (nu = 0): it takes no "
