@@ -40,7 +40,6 @@ def _drift(energies):
 
 
 def audit_1d(steps, progress):
-    from timpm import Solver
     from timpm.problems import get_problem
 
     problem = get_problem("vibrating-string")
@@ -54,19 +53,13 @@ def audit_1d(steps, progress):
                 scene = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
                                       placement=placement, transfer=transfer,
                                       dt=factor * critical)
-                solver = Solver(scene, mode="serial", energy_guard=None,
-                                record_every=max(1, steps // 1000), volume_range=None)
-                row = dict(dim=1, basis=basis, mass=mass, transfer=transfer,
-                           placement=placement, factor=factor, critical_dt=critical,
-                           steps=steps)
-                _run(solver, steps, row)
-                rows.append(row)
-                progress(row)
+                rows.append(_run(scene, steps, progress, dim=1, basis=basis, mass=mass,
+                                 transfer=transfer, placement=placement, factor=factor,
+                                 critical_dt=critical))
     return rows
 
 
 def audit_2d(steps, progress):
-    from timpm import Solver
     from timpm.problems import get_problem
 
     problem = get_problem("mms-2d", G=1e-3)
@@ -78,21 +71,21 @@ def audit_2d(steps, progress):
             model = dataclasses.replace(scene.model, body_force=None)
             critical = model.h / problem.material_law.wave_speed
             for factor in FACTORS:
-                solver = Solver(dataclasses.replace(model, dt=factor * critical),
-                                energy_guard=None, record_every=max(1, steps // 1000),
-                                volume_range=None)
-                row = dict(dim=2, basis=basis, mass="lumped", transfer=transfer,
-                           placement=placement, factor=factor, critical_dt=critical,
-                           steps=steps)
-                _run(solver, steps, row)
-                rows.append(row)
-                progress(row)
+                rows.append(_run(dataclasses.replace(model, dt=factor * critical), steps,
+                                 progress, dim=2, basis=basis, mass="lumped",
+                                 transfer=transfer, placement=placement, factor=factor,
+                                 critical_dt=critical))
     return rows
 
 
-def _run(solver, steps, row):
-    from timpm import SimulationError
+def _run(scene, steps, progress, **row):
+    """One row: ``steps`` fused serial steps of ``scene`` without the energy and volume
+    guards, the energy's drift and change (or where it stopped) added to ``row``."""
+    from timpm import SimulationError, Solver
 
+    solver = Solver(scene, mode="serial", energy_guard=None,
+                    record_every=max(1, steps // 1000), volume_range=None)
+    row["steps"] = steps
     t0 = time.perf_counter()
     try:
         solver.run(n_steps=steps)
@@ -102,6 +95,8 @@ def _run(solver, steps, row):
         row.update(drift=None, change=None, status=f"stopped: {str(err)[:60]}")
     row["seconds"] = time.perf_counter() - t0
     solver.release()
+    progress(row)
+    return row
 
 
 def table(rows) -> str:

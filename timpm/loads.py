@@ -11,7 +11,7 @@ import taichi as ti
 from .checks import positive
 
 __all__ = ["Constant", "Sine", "Ramp", "Traction", "BodyForce", "SurfaceTraction",
-           "field_function", "TIME_FUNCTIONS"]
+           "field_function", "time_function", "TIME_FUNCTIONS"]
 
 
 @ti.data_oriented
@@ -80,6 +80,17 @@ class Ramp:
         return f"Ramp(duration={self.duration!r})"
 
 
+def time_function(name: str, value):
+    """``value`` as the time function of a load: Constant() for None, else an object with a
+    kernel ``at(t, param)`` (Constant, Sine, Ramp or alike); an error names ``name``."""
+    if value is None:
+        return Constant()
+    if not callable(getattr(value, "at", None)):
+        raise ValueError(f"{name} must be a time function (Constant, Sine, Ramp), got "
+                         f"{value!r}")
+    return value
+
+
 @dataclass(frozen=True)
 class Traction:
     """A force ``amplitude * time_function(t)`` (per unit area) applied on one particle (3.5)."""
@@ -91,8 +102,7 @@ class Traction:
     def __post_init__(self):
         if not math.isfinite(float(self.amplitude)):
             raise ValueError(f"traction amplitude must be finite, got {self.amplitude!r}")
-        if not callable(getattr(self.time_function, "at", None)):
-            raise ValueError("traction time_function must be Constant, Sine, Ramp or alike")
+        time_function("traction time_function", self.time_function)
 
 
 #: the time functions a load may take
@@ -200,6 +210,4 @@ class SurfaceTraction:
         from .checks import vector
 
         object.__setattr__(self, "traction", tuple(vector("surface traction", self.traction)))
-        if not callable(getattr(self.time_function, "at", None)):
-            raise ValueError("surface traction time_function must be Constant, Sine, Ramp or "
-                             "alike")
+        time_function("surface traction time_function", self.time_function)

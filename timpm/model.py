@@ -19,7 +19,7 @@ import numpy as np
 
 from .basis import get_basis
 from .checks import positive, positive_int, vector
-from .loads import BodyForce, Constant, field_function
+from .loads import BodyForce, field_function, time_function
 from .materials import Material
 
 __all__ = ["Model", "Wall", "walls_from", "check_scheme", "SIDES", "WALL_KINDS", "ND_BASES",
@@ -364,11 +364,7 @@ class Model:
         velocities = np.array(velocities, dtype=np.float64).reshape(len(fixed), dim)
         velocities.setflags(write=False)
         set_("fixed_velocity", velocities)
-        if self.fixed_time is None:
-            set_("fixed_time", Constant())
-        elif not callable(getattr(self.fixed_time, "at", None)):
-            raise ValueError(f"fixed_time must be a time function (Constant, Sine, Ramp), got "
-                             f"{self.fixed_time!r}")
+        set_("fixed_time", time_function("fixed_time", self.fixed_time))
         if self.prescribes_motion and (self.mass_matrix != "lumped"
                                        or self.projection != "standard"):
             raise ValueError("prescribed non-zero node velocities are implemented for the "
@@ -389,11 +385,8 @@ class Model:
                 raise ValueError("particle_force must be finite")
             f.setflags(write=False)
             set_("particle_force", f if np.any(f != 0.0) else None)
-        if self.particle_force_time is None:
-            set_("particle_force_time", Constant())
-        elif not callable(getattr(self.particle_force_time, "at", None)):
-            raise ValueError(f"particle_force_time must be a time function (Constant, Sine, "
-                             f"Ramp), got {self.particle_force_time!r}")
+        set_("particle_force_time", time_function("particle_force_time",
+                                                  self.particle_force_time))
         if self.traction is not None:
             if dim != 1:
                 raise ValueError("the particle traction (3.5) acts along x in 1D models only")

@@ -144,9 +144,15 @@ def lattice(cells, ppc, h, placement):
 
 
 class ProblemScene:
-    """A problem's model with what a study reports of it (``positions`` are (n,) in 1D)."""
+    """A problem's model with what a study reports of it (``positions`` are (n,) in 1D);
+    a time step above ``critical_dt`` (``rule``: how it was found) is refused unless
+    ``allow_unstable_dt``."""
 
-    def __init__(self, model, critical_dt):
+    def __init__(self, model, critical_dt, rule, allow_unstable_dt=False):
+        if model.dt > critical_dt and not allow_unstable_dt:
+            raise ValueError(f"time step dt = {model.dt:g} s exceeds the critical time step "
+                             f"{critical_dt:g} s ({rule}, h = {model.h:g} m) of {model.name}; "
+                             "choose a smaller dt or pass allow_unstable_dt=True")
         self.model = model
         self.critical_dt = float(critical_dt)
         self.positions = model.positions[:, 0] if model.dim == 1 else model.positions

@@ -156,14 +156,10 @@ class ManufacturedSolution(Problem):
             fixed = tuple(i for (i,) in model.fixed_nodes)
             critical = discrete_critical_time_step(grid, Material(self.E, self.density),
                                                    basis_cls, X[:, 0], volume, mass, fixed)
+            rule = "2 / w_max of the particle discretisation"
         else:
-            law = self.material_law
-            critical = h / law.wave_speed  # the CFL limit h / c_p
-        if dt > critical and not allow_unstable_dt:
-            raise ValueError(f"time step dt = {dt:g} s exceeds the critical time step "
-                             f"{critical:g} s of {self.name} on {n} elements; choose a "
-                             "smaller dt or pass allow_unstable_dt=True")
-        return ProblemScene(model, critical)
+            critical, rule = h / self.material_law.wave_speed, "the CFL limit h / c_p"
+        return ProblemScene(model, critical, rule, allow_unstable_dt)
 
     def summary(self, x0, solver, stress_update) -> dict:
         X = self._points(x0)

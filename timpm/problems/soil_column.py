@@ -158,11 +158,8 @@ class SoilColumn2D(SoilColumn):
                       walls=(Wall("slip"), Wall("slip"), Wall("sticky"), None),
                       wall_cells=((side, side + self.width), (side, side + n + top)),
                       name=self.name)
-        critical = h / np.sqrt(self.E / self.density)
-        if dt > critical and not allow_unstable_dt:
-            raise ValueError(f"time step dt = {dt:g} s exceeds the critical time step "
-                             f"{critical:g} s (h / c) of {self.name} on {n} elements")
-        return ProblemScene(model, critical)
+        return ProblemScene(model, h / np.sqrt(self.E / self.density), "h / c",
+                            allow_unstable_dt)
 
     def displacement(self, x0, t, stress_update="study"):
         X = np.asarray(x0, dtype=float).reshape(-1, 2)
