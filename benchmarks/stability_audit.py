@@ -7,9 +7,13 @@ elements with lumped mass).  2D: the manufactured solution's square without its 
 (a Neo-Hookean square vibrating freely between roller walls, G = 1e-3, 16 x 16 cells, 2
 particles per cell and axis, 1e4 steps), critical step the CFL limit h / c_p.  A row
 *gains* energy when its total energy at the end exceeds the start by more than 1e-3 of the
-energy in motion.  Writes a Markdown table (stdout) and, with ``--json``, the records::
+energy in motion.  ``--stress-update`` picks the 1D law (default the study's forward-Euler
+update; ``study-exact`` integrates it exactly and records the stored energy W(F) V0 instead
+of the path work).  Writes a Markdown table (stdout) and, with ``--json``, the records::
 
     python benchmarks/stability_audit.py --json docs/stability_audit.json
+    python benchmarks/stability_audit.py --only 1d --stress-update study-exact \
+        --json docs/stability_audit_exact.json
 """
 import argparse
 import dataclasses
@@ -39,7 +43,7 @@ def _drift(energies):
             float((total[-1] - total[0]) / scale))
 
 
-def audit_1d(steps, progress):
+def audit_1d(steps, progress, stress_update="study"):
     from timpm.problems import get_problem
 
     problem = get_problem("vibrating-string")
@@ -47,15 +51,16 @@ def audit_1d(steps, progress):
     for basis, mass, transfer in ROWS_1D:
         for placement in PLACEMENTS:
             base = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
-                                 placement=placement, transfer=transfer, dt=1e-9)
+                                 placement=placement, transfer=transfer, dt=1e-9,
+                                 stress_update=stress_update)
             critical = base.critical_dt
             for factor in FACTORS:
                 scene = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
                                       placement=placement, transfer=transfer,
-                                      dt=factor * critical)
+                                      dt=factor * critical, stress_update=stress_update)
                 rows.append(_run(scene, steps, progress, dim=1, basis=basis, mass=mass,
                                  transfer=transfer, placement=placement, factor=factor,
-                                 critical_dt=critical))
+                                 critical_dt=critical, stress_update=stress_update))
     return rows
 
 
@@ -141,6 +146,9 @@ def main(argv=None):
     ap.add_argument("--steps-1d", type=int, default=100_000)
     ap.add_argument("--steps-2d", type=int, default=10_000)
     ap.add_argument("--only", choices=("1d", "2d"))
+    ap.add_argument("--stress-update", default="study",
+                    choices=("study", "small", "study-exact", "small-exact"),
+                    help="the 1D law (default: the study's forward-Euler update)")
     ap.add_argument("--json")
     args = ap.parse_args(argv)
 
@@ -152,7 +160,7 @@ def main(argv=None):
 
     rows = []
     if args.only in (None, "1d"):
-        rows += audit_1d(args.steps_1d, progress)
+        rows += audit_1d(args.steps_1d, progress, args.stress_update)
     if args.only in (None, "2d"):
         rows += audit_2d(args.steps_2d, progress)
     print(table(rows))

@@ -35,6 +35,13 @@ def reference_run(x, vol, v, rho, E, h, n_elements, fixed, dt, n_steps, mass="lu
         du = vn * dt
         dup, deps = N @ du, B @ du
         u, x = u + dup, x + dup
-        sig = sig + ((E - sig) if stress_update == "study" else E) * deps
+        if stress_update.endswith("-exact"):
+            # the rate law integrated exactly over the step, F_new = (1 + deps) F_old
+            if stress_update == "study-exact":
+                sig = E - (E - sig) / (1 + deps)
+            else:
+                sig = sig + E * np.log1p(deps)
+        else:
+            sig = sig + ((E - sig) if stress_update == "study" else E) * deps
         vol = vol * (1 + deps)
     return dict(x=x, u=u, v=v, stress=sig, volume=vol)

@@ -29,7 +29,9 @@ def _add_common(p):
                    help="particle positions in an element (default: the problem's; the "
                         "study's problems: study, (k+1)/(ppc+1); mms-*: gauss)")
     p.add_argument("--stress-update", default="study", choices=list(STRESS_UPDATES),
-                   help="study: sigma += (E - sigma) d_eps (2.2.4); small: sigma += E d_eps")
+                   help="study: sigma += (E - sigma) d_eps (2.2.4); small: sigma += E d_eps; "
+                        "*-exact: the same law integrated exactly over each step (no "
+                        "drifting mean stress on long runs; strain energy W(F) V0)")
     p.add_argument("--damping", type=float, help="local damping factor alpha (A.4)")
     p.add_argument("--projection", default="standard", choices=list(PROJECTIONS),
                    help="mls: velocity, density and stress reconstructed by moving least "

@@ -24,7 +24,7 @@ __all__ = [
 ]
 
 
-STRESS_UPDATES = ("study", "small")
+STRESS_UPDATES = ("study", "small", "study-exact", "small-exact")
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,10 @@ class Material:
     ``stress_update="study"`` is the update of section 2.2.4,
     sigma += (E - sigma) * d_eps, which integrates to sigma = E (1 - 1/stretch) and gives
     the large-deformation oedometer strain ln(1 + p0/E) (A.4); ``"small"`` is the plain
-    small-strain update sigma += E * d_eps.
+    small-strain update sigma += E * d_eps.  ``"study-exact"`` and ``"small-exact"`` are
+    the same laws integrated exactly over each step (sigma = E (1 - 1/F), sigma = E ln F
+    with F = V / V0; :class:`~timpm.materials.Hypoelastic1D`): no drift of the mean
+    stress over long runs, and the records report the stored energy W(F) V0.
     """
 
     E: float
@@ -54,7 +57,9 @@ class Material:
 
     def law(self) -> Hypoelastic1D:
         """The constitutive law the engine compiles: :class:`~timpm.materials.Hypoelastic1D`."""
-        return Hypoelastic1D(self.E, self.density, self.stress_update == "study")
+        law, _, integration = self.stress_update.partition("-")
+        return Hypoelastic1D(self.E, self.density, study=law == "study",
+                             exact=integration == "exact")
 
 
 @dataclass(frozen=True)

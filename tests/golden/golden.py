@@ -2,7 +2,7 @@
 engine redesign and compared bit for bit after it.
 
     python tests/golden/golden.py record [--precision f64|f32]   # writes golden_<prec>.npz
-    python tests/golden/golden.py update --only CASE... --keys ARRAY...   # an intended change
+    python tests/golden/golden.py update --only CASE... --keys ARRAY... [--rtol R]   # an intended change
     python tests/golden/golden.py check  [--precision f64|f32]   # exit 1 on any difference
 
 Each case builds its scene through the public API only (problems, World, Solver), runs a
@@ -241,27 +241,46 @@ def compute(names, precision, strict):
     return out
 
 
-def _update(path, ref, got, keys):
+def _relative_difference(a, b):
+    """max |a - b| as a fraction of b's largest magnitude."""
+    diff = float(np.nanmax(np.abs(a.astype(np.float64) - b.astype(np.float64))))
+    scale = float(np.nanmax(np.abs(b))) if b.size else 0.0
+    return diff / scale if scale > 0 else float("inf")
+
+
+def _update(path, ref, got, keys, rtol=None):
     """Replace the arrays named ``keys`` of the computed cases, and only where every other
-    array of the golden file is still bit for bit (an intended change of one output)."""
+    array of the golden file is still bit for bit (an intended change of one output), or,
+    with ``rtol``, within that fraction of its largest value (an intended change of the
+    method that moves the other outputs by rounding-sized amounts; each one is listed)."""
     if not keys:
         print("update needs --keys: the arrays the change replaces")
         return 2
-    changed, other = [], []
+    changed, moved, other = [], [], []
     for key, value in got.items():
         if key not in ref.files or not np.array_equal(value, ref[key], equal_nan=True):
-            (changed if key.split("/", 1)[1] in keys else other).append(key)
+            if key.split("/", 1)[1] in keys:
+                changed.append(key)
+            elif (rtol is not None and value.shape == ref[key].shape
+                  and _relative_difference(value, ref[key]) <= rtol):
+                moved.append(key)
+            else:
+                other.append(key)
     if other:
         for key in other:
             print("DIFF (not updated)", key)
-        print(f"{len(other)} arrays outside --keys differ: nothing written")
+        print(f"{len(other)} arrays outside --keys differ"
+              f"{'' if rtol is None else f' by more than {rtol:g}'}: nothing written")
         return 1
     arrays = {k: ref[k] for k in ref.files}
-    arrays.update({k: got[k] for k in changed})
+    arrays.update({k: got[k] for k in changed + moved})
     np.savez_compressed(path, **arrays)
     for key in changed:
         print("updated", key)
-    print(f"{len(changed)} arrays updated in {path}; every other array bit for bit")
+    for key in moved:
+        print(f"updated {key} (moved by {_relative_difference(got[key], ref[key]):.2e} "
+              "of its largest value)")
+    print(f"{len(changed) + len(moved)} arrays updated in {path}; every other array bit for bit")
     return 0
 
 
@@ -278,8 +297,9 @@ def main(argv=None):
                          "constants folded by reassociation, so values moved to run time "
                          "round differently in the last bits")
     ap.add_argument("--rtol", type=float, default=None,
-                    help="accept differences up to this fraction of each array's largest "
-                         "magnitude (default: none, bit for bit)")
+                    help="check: accept differences up to this fraction of each array's largest "
+                         "magnitude (default: none, bit for bit); update: replace the arrays "
+                         "outside --keys that moved by no more than this")
     args = ap.parse_args(argv)
     os.environ["TIMPM_THREADS"] = "1"
     path = HERE / f"golden_{args.precision}{'_fast' if args.fast_math else ''}.npz"
@@ -291,7 +311,7 @@ def main(argv=None):
         return 0
     ref = np.load(path)
     if args.action == "update":
-        return _update(path, ref, got, set(args.keys))
+        return _update(path, ref, got, set(args.keys), args.rtol)
     bad, worst = [], {}
     cases = {k.split("/")[0] for k in got}
     expected = {k for k in ref.files if k.split("/")[0] in cases}
@@ -304,8 +324,7 @@ def main(argv=None):
             bad.append(f"{key}: shape/dtype {a.shape} {a.dtype} != golden {b.shape} {b.dtype}")
         elif not np.array_equal(a, b, equal_nan=True):
             diff = np.abs(a.astype(np.float64) - b.astype(np.float64))
-            scale = float(np.nanmax(np.abs(b))) if b.size else 0.0
-            rel = float(np.nanmax(diff)) / scale if scale > 0 else float("inf")
+            rel = _relative_difference(a, b)
             worst[key] = rel
             if args.rtol is None or not rel <= args.rtol:
                 bad.append(f"{key}: differs, max |diff| {np.nanmax(diff):.3e} "

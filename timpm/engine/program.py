@@ -126,7 +126,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         self.update_volume = f.update_volume
         # the strain energy: W(F) V0 of a hyperelastic law, else the work sigma : d_eps V
         # integrated along the path (a field only where some material needs it)
-        self.path_work = f.energies and not all(cls.energy_function for cls, _ in f.materials)
+        self.path_work = f.energies and not all(cls.has_energy_function(flags)
+                                                 for cls, flags in f.materials)
         self.bandwidth, self.node_offset = f.bandwidth, f.node_offset
         # rows of the run sums: the grid fields each scattering phase adds to
         self.scatter_rows = {"p2g": ("gm", "gf") + (("gp",) if self.damping else ()),

@@ -68,7 +68,7 @@ class Recorder:
     @ti.func
     def _unit_strain_energy(self, unit: ti.template(), p):
         energy = 0.0
-        if ti.static(unit.energy_function):
+        if ti.static(unit.stores_energy):
             energy = unit.energy(self, p)
         else:
             energy = self.work[p]

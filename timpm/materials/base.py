@@ -13,7 +13,8 @@ value says what the engine compiles and with which numbers:
 - ``free_expansion``: the law lets a particle expand without bound (a tension cut-off);
 - ``energy_function``: the law has a stored energy W(F) (hyperelastic); its unit then
   gives ``energy(s, p)`` = W(F_p) V0_p, which the records report as the strain energy
-  (otherwise the work sigma : d_eps V integrated along the path, which holds dissipation).
+  (otherwise the work sigma : d_eps V integrated along the path, which holds dissipation);
+  a law whose compile-time flags decide it overrides ``has_energy_function(flags)``.
 
 The compiled unit is the same class built by :meth:`unit` with a getter per constant
 (``self.c.mu()``) and one ``@ti.func``::
@@ -82,10 +83,17 @@ class Material:
         unit = object.__new__(cls)
         unit.c = constants
         unit.set_flags(flags)
+        unit.stores_energy = cls.has_energy_function(flags)  # what the records read
         return unit
 
     def set_flags(self, flags: tuple):
         """Set the compile-time attributes of a unit from ``flags()``."""
+
+    @classmethod
+    def has_energy_function(cls, flags: tuple) -> bool:
+        """Whether the law compiled with ``flags`` has a stored energy W(F)
+        (``energy_function``, unless a flag decides it)."""
+        return cls.energy_function
 
     @ti.func
     def _initial_volume(self, s: ti.template(), p):

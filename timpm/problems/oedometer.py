@@ -56,8 +56,9 @@ class Oedometer(Problem):
                     damping=self.alpha)
 
     def strain(self, stress_update="study"):
-        """Equilibrium (logarithmic) strain of the column under p0."""
-        if stress_update == "small":
+        """Equilibrium strain of the column under p0: logarithmic, except the engineering
+        strain of the forward-Euler small-strain update; E ln F = -p0 with ``small-exact``."""
+        if stress_update in ("small", "small-exact"):
             return -self.p0 / self.E
         return -np.log1p(self.p0 / self.E)
 
