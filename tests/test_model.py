@@ -7,7 +7,7 @@ import pytest
 
 import timpm
 from timpm import Body, Box, Grid1D, Material, Model, Scene, Solver, World, equidistant_particles
-from timpm.materials import Hypoelastic1D, LinearElastic
+from timpm.materials import Hypoelastic1D, LinearElastic, NeoHookean
 
 E, RHO, V0, LENGTH = 1e6, 1e3, 0.1, 0.5
 C = (E / RHO) ** 0.5
@@ -142,6 +142,54 @@ def test_a_bar_follows_its_moving_ends():
     assert np.allclose(s.displacements(), 0.1 * (1 - np.cos(3 * 0.2)) / 3, rtol=1e-4)
 
 
+def test_an_initial_displacement_vibrates_as_the_exact_string():
+    # u0 = A sin(pi X / L), v0 = 0 gives u = A sin(pi X / L) cos(w t); the body starts
+    # stressed: its strain energy is the exact one, and the error is second order in h
+    import dataclasses
+
+    from timpm.problems import get_problem
+
+    problem = get_problem("vibrating-string")
+    L, A = problem.L, 0.01
+    errors = []
+    for elements in (16, 32):
+        scene = problem.scene(elements=elements, ppc=4, dt=1e-3, stress_update="small")
+        model = dataclasses.replace(scene.model, velocity=None,
+                                    displacement=lambda X: A * np.sin(np.pi * X / L))
+        solver = Solver(model, mode="serial", record_every=10)
+        solver.run(3.0)
+        exact = A * np.sin(np.pi * model.positions[:, 0] / L) * np.cos(problem.omega * solver.t)
+        errors.append(np.sqrt(np.mean((solver.displacements() - exact) ** 2)))
+        # W = E / 2 (du/dX)^2 integrated: E / 2 (A pi / L)^2 L / 2
+        exact_energy = 0.25 * problem.E * (A * np.pi / L) ** 2 * L
+        assert solver.energies()["strain"][0] == pytest.approx(exact_energy, rel=1e-8)
+        solver.release()
+    assert np.log2(errors[0] / errors[1]) > 1.8
+
+
+def test_an_initial_displacement_deforms_a_2d_body():
+    # a uniform stretch u0 = (0.1 X, -0.05 Y): F0 = diag(1.1, 0.95) in every particle, the
+    # volumes det(F0) V0, the positions X + u0 and the Neo-Hookean energy W(F0) V0
+    law = NeoHookean(1e4, 0.3, 1e3)
+    world = World(domain=(1.0, 1.0), cells=8, gravity=(0.0, 0.0), transfer="apic",
+                  bodies=Body(Box((0.3, 0.3), (0.6, 0.6)), law))
+    model = world.model
+    import dataclasses
+
+    stretched = dataclasses.replace(model, displacement=lambda X: X * [0.1, -0.05])
+    solver = Solver(stretched, mode="serial", record_every=1)
+    assert np.allclose(solver.positions(), model.positions * [1.1, 0.95], rtol=1e-12)
+    assert np.allclose(solver.volumes(), model.volume * 1.1 * 0.95, rtol=1e-12)
+    solver.run(n_steps=1)
+    F0 = np.diag([1.1, 0.95])
+    assert np.allclose(stretched.initial_gradient, F0 - np.eye(2), atol=1e-8)
+    mu, lam = law.mu, law.lam
+    J = np.linalg.det(F0)
+    W = 0.5 * mu * (np.sum(F0 * F0) - 2) - mu * np.log(J) + 0.5 * lam * np.log(J) ** 2
+    assert solver.energies()["strain"][0] == pytest.approx(W * model.volume.sum(), rel=1e-6)
+    solver.release()
+
+
 def test_the_study_law_in_a_1d_world():
     # the study's material is a material like any other in 1D
     law = timpm.get_material("hypoelastic-1d", E=E, density=RHO, study=False)
@@ -210,6 +258,23 @@ def test_the_study_law_in_a_1d_world():
                    positions=np.full((3, 2), 0.2), volume=np.ones(3), dt=1e-4,
                    materials=(LinearElastic(1e4, 0.3, 1e3),), traction=timpm.Traction(0, 1.0)),
      "the particle traction (3.5) acts along x in 1D models only"),
+    (lambda: Model(basis="linear", origin=(0.0,), h=0.1, elements=(4,),
+                   positions=np.full(3, 0.2), volume=np.ones(3), dt=1e-4,
+                   materials=(LinearElastic(1e4, 0.0, 1e3),), displacement=np.zeros(3)),
+     "displacement must be a function u0(X)"),
+    (lambda: Model(basis="linear", origin=(0.0,), h=0.1, elements=(4,),
+                   positions=np.array([0.1, 0.2, 0.3]), volume=np.ones(3), dt=1e-4,
+                   materials=(LinearElastic(1e4, 0.0, 1e3),), displacement=lambda X: -2 * X),
+     "the initial displacement u0(X) inverts particle 0 at X = 0.1: det(I + grad u0) = -1"),
+    (lambda: Model(basis="linear", origin=(0.0,), h=0.1, elements=(4,),
+                   positions=np.array([0.1, 0.2, 0.3]), volume=np.ones(3), dt=1e-4,
+                   materials=(LinearElastic(1e4, 0.0, 1e3),), displacement=lambda X: X),
+     "moves particle 2 from X = 0.3 to 0.6, outside the grid"),
+    (lambda: Model(basis="linear", origin=(0.0,), h=0.1, elements=(4,),
+                   positions=np.array([0.1, 0.2, 0.3]), volume=np.ones(3), dt=1e-4,
+                   materials=(LinearElastic(1e4, 0.0, 1e3),),
+                   displacement=lambda X: np.where(X < 0.15, np.nan, 0.0)),
+     "the initial displacement u0(X) is not finite at point 0"),
 ])
 def test_bad_models_are_refused(build, message):
     with pytest.raises(ValueError) as err:

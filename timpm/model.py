@@ -168,6 +168,10 @@ class Model:
     b(X, t) per unit mass (a Python function, vectorised); ``traction`` the study's load
     on one particle (1D); ``damping`` the local damping factor alpha of A.4.
     ``velocity`` is an (n, dim) array or a function v0(X) of the (n, dim) positions.
+    ``displacement`` a function u0(X) (vectorised like v0): the body starts deformed, its
+    particles at x = X + u0(X) with F = I + grad u0 (central differences of u0, step
+    1e-6 h), volumes det(F) V and the stresses of one material update from the
+    undeformed state; ``positions`` and ``volume`` are then the reference X and V0.
     ``particle_force`` an (n, dim) array of forces on the particles (the surface tractions
     a World spreads over a face's particles), times the time function
     ``particle_force_time`` (default Constant).
@@ -182,6 +186,7 @@ class Model:
     materials: tuple
     dt: float
     velocity: np.ndarray | None = None
+    displacement: object = None
     material_index: np.ndarray | None = None
     body_index: np.ndarray | None = None
     transfer: str = "musl"
@@ -272,6 +277,46 @@ class Model:
             raise ValueError(f"particle {int(np.flatnonzero(~finite)[0])} has a "
                              "non-finite initial velocity")
         for key, arr in (("positions", x), ("volume", vol), ("velocity", v)):
+            arr.setflags(write=False)
+            set_(key, arr)
+        self._check_displacement(x, lo, hi)
+
+    def _check_displacement(self, X, lo, hi):
+        """u0(X) and F0 = I + grad u0 of an initial displacement function, checked: the
+        displaced particles inside the grid, det F0 > 0."""
+        set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731
+        if self.displacement is None:
+            set_("initial_displacement", None)
+            set_("initial_gradient", None)
+            return
+        if not callable(self.displacement):
+            raise ValueError("displacement must be a function u0(X) of the (n, dim) reference "
+                             "positions (its gradient is taken by central differences), got "
+                             f"{type(self.displacement).__name__}")
+        what = "the initial displacement u0(X)"
+        u0 = field_function(self.displacement, X, what)
+        n, dim = X.shape
+        step = 1e-6 * self.h
+        grad = np.empty((n, dim, dim))
+        for k in range(dim):
+            shift = np.zeros(dim)
+            shift[k] = step
+            plus = field_function(self.displacement, X + shift, what, signature=False)
+            minus = field_function(self.displacement, X - shift, what, signature=False)
+            grad[:, :, k] = (plus - minus) / (2 * step)
+        det = np.linalg.det(np.eye(dim) + grad)
+        bad = np.flatnonzero(~(det > 0))
+        if len(bad):
+            p = int(bad[0])
+            raise ValueError(f"{what} inverts particle {p} at X = {_point(X[p])!r}: "
+                             f"det(I + grad u0) = {det[p]:g} ({len(bad)} particle(s))")
+        x = X + u0
+        outside = np.flatnonzero(np.any((x < lo) | (x > hi), axis=1))
+        if len(outside):
+            p = int(outside[0])
+            raise ValueError(f"{what} moves particle {p} from X = {_point(X[p])!r} to "
+                             f"{_point(x[p])!r}, outside the grid ({len(outside)} particle(s))")
+        for key, arr in (("initial_displacement", u0), ("initial_gradient", grad)):
             arr.setflags(write=False)
             set_(key, arr)
 

@@ -327,6 +327,16 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
                         self.b[p][k] = values[p, k]
 
             self.set_body_force = set_body_force
+        @ti.kernel
+        def prestrain(grads: ti.types.ndarray(dtype=ti.f64, ndim=3)):
+            # compiled on the first call only: scenes with an initial displacement
+            for p in range(self.p.n_particles()):
+                grad_u0 = ti.Matrix.zero(float, self.dim, self.dim)
+                for i, k in ti.static(ti.ndrange(self.dim, self.dim)):
+                    grad_u0[i, k] = grads[p, i, k]
+                self._initial_deformation(p, grad_u0)
+
+        self.prestrain = prestrain
         if self.team:
             @ti.kernel
             def team(n_steps: ti.i32):

@@ -28,10 +28,13 @@ class State:
         prog.params.set("p", {k: v for k, v in values.items() if ("p", k) in prog.params.slots})
         for k, consts in enumerate(lay.material_values):
             prog.params.set(f"m{k}", consts)
-        if self.host is None:
+        fresh = self.host is None
+        if fresh:
             self.host = self.initial(prog)
         prog.load(self.host, self.track)  # the staged values too
         self.host = None
+        if fresh and self.model.initial_gradient is not None:
+            prog.prestrain(np.ascontiguousarray(self.model.initial_gradient))
 
     def save_to_host(self, prog):
         """Keep this state in host memory (another solver takes the program)."""
@@ -40,12 +43,17 @@ class State:
     def initial(self, prog):
         """The scene's initial state as the program's host arrays: positions, velocities,
         masses, volumes, F = I, J = 1, material indices, Dirichlet nodes, elements
-        (crossings); the rest zero."""
+        (crossings); the rest zero.  An initial displacement u0 places the particles at
+        X + u0 (and sets the 1D u); its deformation is applied after the upload
+        (``prestrain``)."""
         model, n, d = self.model, self.layout.n_particles, self.features.dim
-        values = {"x": model.positions, "v": model.velocity,
-                  "m": model.mass_per_particle, "vol": model.volume, "J": np.ones(n),
-                  "F": np.broadcast_to(np.eye(d), (n, d, d)),
-                  "elem": self._element_of(model.positions)}
+        x = model.positions
+        values = {"v": model.velocity, "m": model.mass_per_particle, "vol": model.volume,
+                  "J": np.ones(n), "F": np.broadcast_to(np.eye(d), (n, d, d))}
+        if model.initial_displacement is not None:
+            x = x + model.initial_displacement
+            values["u"] = model.initial_displacement
+        values.update(x=x, elem=self._element_of(x))
         if self.features.multi_material:
             values["mat"] = model.material_index
         if model.particle_force is not None:
