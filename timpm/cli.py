@@ -52,6 +52,26 @@ def _add_common(p):
     p.add_argument("--quiet", action="store_true", help="no table on stdout")
 
 
+def _add_fields(p, frames_help=None):
+    p.add_argument("--vtk", metavar="DIR", help="write the particle fields as a ParaView "
+                   "time series: DIR/particles.pvd and one .vtu per frame")
+    p.add_argument("--npz", metavar="DIR", help="write the particle fields as one NumPy "
+                   ".npz per frame")
+    if frames_help:
+        p.add_argument("--frames", type=positive_int, default=20, help=frames_help)
+
+
+def _field_writer(args):
+    """The FieldWriter of --vtk / --npz (checked before any work), or None."""
+    if args.vtk and args.npz:
+        raise ValueError("--vtk and --npz: choose one field format")
+    if not (args.vtk or args.npz):
+        return None
+    from .output.fields import FieldWriter
+
+    return FieldWriter(args.vtk or args.npz, "vtk" if args.vtk else "npz")
+
+
 def _parser():
     ap = argparse.ArgumentParser(prog="timpm", description="High-order material point method "
                                  "in Taichi: the study's 1D benchmarks and convergence studies.",
@@ -62,6 +82,7 @@ def _parser():
     run = sub.add_parser("run", help="run one benchmark and compare with its exact solution")
     _add_common(run)
     run.add_argument("--elements", type=int, help="number of elements over the body")
+    _add_fields(run, "field frames over the run, with --vtk or --npz (default 20)")
     conv = sub.add_parser("convergence", help="RMS error and observed rates over meshes")
     _add_common(conv)
     conv.add_argument("--elements", type=int, nargs="+", default=[4, 8, 16, 32, 64],
@@ -84,6 +105,7 @@ def _parser():
     demo.add_argument("--width", type=positive_int, default=480, help="image width [px]")
     demo.add_argument("--color", help="colour by: speed, pressure, plastic, von-mises, body")
     demo.add_argument("--png-dir", metavar="DIR", help="also write every frame as PNG")
+    _add_fields(demo)
     demo.add_argument("--t-end", type=float, help="end time [s] (default: the demo's)")
     demo.add_argument("--param", type=setting, action="append", default=[], metavar="NAME=VALUE",
                       help="override a demo parameter, e.g. aspect=1, cells=40, transfer=musl")
@@ -162,8 +184,9 @@ def _demo(args):
     movie = None
     if args.out:
         movie = Movie(args.out, fps=args.fps, width=args.width, png_dir=args.png_dir)
+    fields = _field_writer(args)
     result = run_demo(args.name, movie=movie, frames=args.frames, color=args.color,
-                      progress=args.progress, mode=args.mode, **params)
+                      progress=args.progress, mode=args.mode, fields=fields, **params)
     print(result.report())
     if args.plot:
         from .output.viz import plot_demo
@@ -245,7 +268,8 @@ def main(argv=None):
         runtime.init(threads=args.threads)
         opts = _options(args)
         if args.command == "run":
-            result = run_problem(args.problem, elements=args.elements, **opts)
+            result = run_problem(args.problem, elements=args.elements,
+                                 fields=_field_writer(args), frames=args.frames, **opts)
             doc = {"command": "run", "problem": result.record["problem"], "runs": [result.record]}
             if not args.quiet:
                 print(_table(doc["runs"]))

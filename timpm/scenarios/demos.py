@@ -317,7 +317,7 @@ class DemoResult:
 
 
 def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto",
-             **params) -> DemoResult:
+             fields=None, **params) -> DemoResult:
     """Run demo ``name`` (``DEMOS``), drawing its frames into ``movie`` (None: no images).
 
     ``frames`` frames are spread evenly over the run (plus the initial state); ``params``
@@ -325,6 +325,8 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
     ``movie`` is a sink such as :class:`timpm.output.render.Movie`: ``movie.start(world,
     color)`` before the run, ``movie.add(positions, values, vmin, vmax)`` at every frame,
     ``movie.close()`` after it; its ``out`` and ``seconds`` go into the result.
+    ``fields`` (a :class:`timpm.output.fields.FieldWriter`) gets the particle fields at
+    every frame.
     """
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise ValueError(f"frames must be a positive integer, got {frames!r}")
@@ -349,6 +351,8 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
         if movie is not None:
             values, lo, hi = quantity(solver, color)
             movie.add(solver.positions(), values, lo, hi)
+        if fields is not None:
+            fields.write(solver)
         bar.update(k)
     bar.close()
     if movie is not None:

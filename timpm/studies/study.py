@@ -33,7 +33,8 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                 mass="lumped", dt=None, t_end=None, placement=None, stress_update="study",
                 damping=None, allow_unstable_dt=False, mode="auto", record_every=None,
                 progress=None, params=None, energies=True, projection="standard",
-                series=True, reuse=True, transfer="musl") -> RunResult:
+                series=True, reuse=True, transfer="musl", fields=None,
+                frames=20) -> RunResult:
     """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
 
     Unset numerical values take the problem's defaults (``placement`` too: the study's
@@ -45,8 +46,13 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     ``transfer`` is the particle-grid transfer (``"musl"``, ``"apic"``, ``"mls-mpm"``);
     ``reuse=True`` keeps the scene for a later run with the same arguments (see
     :func:`clear_solvers`).  Solvers of one feature set share their compiled program, so
-    a run after the first of its kind compiles nothing.
+    a run after the first of its kind compiles nothing.  ``fields`` (a
+    :class:`timpm.output.fields.FieldWriter`) receives the particle fields at ``frames``
+    times spread evenly over the run, and at its start.
     """
+    if fields is not None and (isinstance(frames, bool) or not isinstance(frames, int)
+                               or frames < 1):
+        raise ValueError(f"frames must be a positive integer, got {frames!r}")
     run = _plan(problem, elements, ppc, basis, mass, dt, t_end, placement, stress_update,
                 damping, allow_unstable_dt, record_every, params, energies, projection, series,
                 transfer, reuse=reuse)
@@ -55,7 +61,16 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                     mode=mode)
     build_seconds = time.perf_counter() - t_build
     try:
-        solver.run(run.t_end, progress=progress)
+        if fields is None:
+            solver.run(run.t_end, progress=progress)
+        else:
+            fields.write(solver)
+            steps = solver.steps_for(run.t_end)
+            for k in range(1, frames + 1):
+                target = steps * k // frames  # fewer steps than frames: fewer frames
+                if target > solver.step:
+                    solver.run(n_steps=target - solver.step, progress=progress)
+                    fields.write(solver)
         return run.result(solver, build_seconds)
     finally:
         solver.release()

@@ -1,0 +1,73 @@
+"""Field output: ParaView time series read back by an independent reader (meshio), NumPy
+frames, and output paths refused before the run."""
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from timpm.cli import main
+from timpm.output.fields import FieldWriter
+from timpm.scenarios import run_demo
+from timpm.studies.study import run_problem
+
+
+def test_disks_demo_written_for_paraview_is_read_back(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    frames = 3
+    result = run_demo("disks", frames=frames, cells=16, fields=FieldWriter(tmp_path / "vtk"))
+    solver = result.solver
+    n = result.particles
+    series = ET.parse(tmp_path / "vtk" / "particles.pvd").getroot()
+    entries = series.find("Collection").findall("DataSet")
+    assert len(entries) == frames + 1
+    times = [float(e.get("timestep")) for e in entries]
+    assert times[0] == 0.0 and times[-1] == pytest.approx(solver.t)
+    last = meshio.read(tmp_path / "vtk" / entries[-1].get("file"))
+    data = last.point_data
+    # every particle, at its position, with its velocity and every stress component
+    assert last.points.shape == (n, 3)
+    np.testing.assert_allclose(last.points[:, :2], solver.positions(), rtol=1e-15)
+    np.testing.assert_allclose(data["velocity"][:, :2], solver.velocities(), rtol=1e-15)
+    stress = solver.stresses()
+    assert np.abs(stress).max() > 1.0  # the disks collided: stressed
+    for name, (i, j) in (("stress_xx", (0, 0)), ("stress_xy", (0, 1)), ("stress_yy", (1, 1))):
+        np.testing.assert_allclose(data[name].ravel(), stress[:, i, j], rtol=1e-15)
+    np.testing.assert_allclose(data["volume"].ravel(), solver.volumes(), rtol=1e-15)
+    assert set(np.unique(data["body"])) == {0, 1}  # two disks
+    result.solver.release()
+
+
+def test_run_writes_numpy_frames_spread_over_the_run(tmp_path):
+    assert main(["run", "vibrating-string", "--npz", str(tmp_path / "npz"), "--frames", "4",
+                 "--quiet"]) == 0
+    files = sorted((tmp_path / "npz").glob("particles_*.npz"))
+    assert len(files) == 5
+    frames = [np.load(f) for f in files]
+    np.testing.assert_allclose([f["t"] for f in frames], [0.0, 0.025, 0.05, 0.075, 0.1])
+    assert [int(f["step"]) for f in frames] == [0, 250, 500, 750, 1000]
+    # the displacement is the exact solution's to the run's accuracy (e_RMS 5.4e-5)
+    r = run_problem("vibrating-string")
+    np.testing.assert_allclose(frames[-1]["displacement"][:, 0], r.displacement, rtol=1e-12)
+    assert frames[-1]["stress"].shape == (64, 1, 1)
+    assert not list((tmp_path / "npz").glob(".*tmp*"))  # no half-written file left
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--vtk", "{tmp}/a_file"], "is a file, not a directory"),
+    (["--vtk", "{tmp}/missing/deeper"], "its parent directory"),
+    (["--vtk", "{tmp}/v", "--npz", "{tmp}/n"], "choose one field format"),
+])
+def test_bad_output_directories_are_refused_before_the_run(tmp_path, capsys, argv, message):
+    (tmp_path / "a_file").write_text("")
+    argv = [a.format(tmp=tmp_path) for a in argv]
+    assert main(["run", "vibrating-string", *argv]) == 2
+    err = capsys.readouterr()
+    assert message in err.err
+    assert "elements" not in err.out  # no table: nothing ran
+
+
+def test_bad_writer_arguments_are_refused(tmp_path):
+    with pytest.raises(ValueError, match="unknown field format 'vtp'"):
+        FieldWriter(tmp_path, format="vtp")
+    with pytest.raises(ValueError, match="frames must be a positive integer, got 0"):
+        run_problem("vibrating-string", fields=FieldWriter(tmp_path), frames=0)

@@ -1,0 +1,150 @@
+"""Particle fields of a run, written frame by frame: ParaView files or NumPy archives.
+
+``FieldWriter(directory, format="vtk")`` writes, at every ``write(solver)``, one file of
+the particles' data: ``particles_00000.vtu`` (VTK unstructured points, written by
+pyevtk) and the time series ``particles.pvd`` that ParaView opens (rewritten after every
+frame, so an interrupted run leaves a readable series); ``format="npz"`` writes
+``particles_00000.npz`` (NumPy) instead.  Every file is written under a temporary name
+and renamed: a frame on disk is whole.
+
+The fields (:func:`particle_fields`): position (as the VTK points), displacement,
+velocity, volume, mass, the Cauchy stress (``stress_xx``, ``stress_xy``, ... in the VTK
+files, one array per component; the (n, dim, dim) tensor in the archives), pressure and
+von Mises stress, the material and body of each particle, and the materials' own state
+where the scene keeps it (``plastic_strain``, ``J``).
+"""
+import os
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["FORMATS", "FieldWriter", "particle_fields", "check_output_directory"]
+
+FORMATS = ("vtk", "npz")
+AXES = "xyz"
+
+
+def check_output_directory(directory, what="output directory") -> Path:
+    """``directory`` as a Path, created if missing (its parent must exist), refused when
+    it is a file or not writable: before any work."""
+    path = Path(directory)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{what} {str(path)!r} is a file, not a directory")
+    if not path.exists():
+        parent = path.parent if str(path.parent) else Path(".")
+        if not parent.is_dir():
+            raise ValueError(f"{what} {str(path)!r}: its parent directory {str(parent)!r} "
+                             "does not exist")
+        try:
+            path.mkdir()
+        except OSError as err:
+            raise ValueError(f"{what} {str(path)!r} cannot be created: {err}") from None
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise ValueError(f"{what} {str(path)!r} is not writable")
+    return path
+
+
+def particle_fields(solver) -> dict:
+    """The particle data of ``solver`` now, by name: (n,) scalars, (n, dim) vectors and
+    the (n, dim, dim) stress."""
+    n, dim = solver.n_particles, solver.dim
+    model = solver.model
+    stress = np.asarray(solver.stresses(), dtype=np.float64).reshape(n, dim, dim)
+    pressure = -np.trace(stress, axis1=1, axis2=2) / dim
+    deviator = stress + pressure[:, None, None] * np.eye(dim)
+    out = {
+        "position": solver.positions().reshape(n, dim),
+        "displacement": solver.displacements().reshape(n, dim),
+        "velocity": solver.velocities().reshape(n, dim),
+        "volume": np.asarray(solver.volumes(), dtype=np.float64).reshape(n),
+        "mass": np.asarray(model.mass_per_particle, dtype=np.float64).reshape(n),
+        "stress": stress,
+        "pressure": pressure,
+        "von_mises": np.sqrt(1.5 * np.einsum("pij,pij->p", deviator, deviator)),
+        "material": np.asarray(model.material_index, dtype=np.int32).reshape(n),
+        "body": np.asarray(model.body_index, dtype=np.int32).reshape(n),
+    }
+    kept = solver.memory()["particle_fields"]
+    for field, name in (("plastic", "plastic_strain"), ("J", "J")):
+        if field in kept:
+            out[name] = np.asarray(solver.read(field), dtype=np.float64).reshape(n)
+    return out
+
+
+class FieldWriter:
+    """Frames of particle fields in ``directory`` (created if missing): ParaView
+    (``format="vtk"``) or NumPy (``"npz"``); see the module."""
+
+    def __init__(self, directory, format="vtk", prefix="particles"):
+        if format not in FORMATS:
+            raise ValueError(f"unknown field format {format!r}: choose one of "
+                             f"{', '.join(FORMATS)}")
+        if not isinstance(prefix, str) or not prefix or os.sep in prefix:
+            raise ValueError(f"prefix must be a plain file name, got {prefix!r}")
+        self.directory = check_output_directory(directory)
+        self.format, self.prefix = format, prefix
+        self.frames = []  # (file name, simulated time)
+        if format == "vtk":
+            import importlib
+
+            importlib.import_module("pyevtk.hl")  # a missing package fails here, not later
+
+    @property
+    def series(self) -> Path:
+        """The ParaView time series (``.pvd``; vtk format)."""
+        return self.directory / f"{self.prefix}.pvd"
+
+    def write(self, solver) -> Path:
+        """One frame: the fields of ``solver`` at its current time."""
+        fields = particle_fields(solver)
+        name = f"{self.prefix}_{len(self.frames):05d}"
+        if self.format == "npz":
+            path = self.directory / f"{name}.npz"
+            tmp = self.directory / f".{name}.tmp.npz"
+            np.savez(tmp, t=solver.t, step=solver.step, **fields)
+        else:
+            path = self.directory / f"{name}.vtu"
+            tmp = self.directory / f".{name}.tmp.vtu"
+            _write_vtu(str(tmp)[:-len(".vtu")], fields)
+        os.replace(tmp, path)
+        self.frames.append((path.name, float(solver.t)))
+        if self.format == "vtk":
+            self._write_series()
+        return path
+
+    def _write_series(self):
+        from pyevtk.vtk import VtkGroup
+
+        tmp = self.directory / f".{self.prefix}.tmp"
+        group = VtkGroup(str(tmp))
+        for name, t in self.frames:
+            group.addFile(str(self.directory / name), sim_time=t)
+        group.save()
+        os.replace(f"{tmp}.pvd", self.series)
+
+
+def _write_vtu(base, fields):
+    """Unstructured points (pyevtk): the positions padded to 3D, vectors as 3-component
+    arrays, the stress one array per component."""
+    from pyevtk.hl import pointsToVTK
+
+    n, dim = fields["position"].shape
+    column = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+
+    def vector(a):
+        return tuple(column(a[:, k]) if k < dim else np.zeros(n) for k in range(3))
+
+    data = {}
+    for name, value in fields.items():
+        if name == "position":
+            continue
+        if name == "stress":
+            for i in range(dim):
+                for j in range(i, dim):
+                    data[f"stress_{AXES[i]}{AXES[j]}"] = column(value[:, i, j])
+        elif value.ndim == 2:
+            data[name] = vector(value)
+        else:
+            data[name] = column(value)
+    x, y, z = vector(fields["position"])
+    pointsToVTK(base, x, y, z, data=data)
