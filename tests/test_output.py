@@ -52,10 +52,29 @@ def test_run_writes_numpy_frames_spread_over_the_run(tmp_path):
     assert not list((tmp_path / "npz").glob(".*tmp*"))  # no half-written file left
 
 
+def test_run_records_carry_the_time_series_as_json_and_csv(tmp_path):
+    import json
+
+    assert main(["run", "vibrating-string", "--json", str(tmp_path / "r.json"),
+                 "--csv", str(tmp_path / "r.csv"), "--quiet"]) == 0
+    series = json.load(open(tmp_path / "r.json"))["runs"][0]["series"]
+    table = np.genfromtxt(tmp_path / "r.csv", delimiter=",", names=True)
+    assert set(table.dtype.names) == set(series)
+    for name in ("t", "u", "u_exact", "energy_kinetic", "energy_total"):
+        np.testing.assert_array_equal(table[name], series[name])
+    # the monitored particle follows its exact series; the energy is conserved
+    assert np.max(np.abs(table["u"] - table["u_exact"])) < 1e-4
+    assert np.ptp(table["energy_total"]) < 1e-3 * table["energy_total"][0]
+    assert table["t"][-1] == pytest.approx(0.1)
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--vtk", "{tmp}/a_file"], "is a file, not a directory"),
     (["--vtk", "{tmp}/missing/deeper"], "its parent directory"),
     (["--vtk", "{tmp}/v", "--npz", "{tmp}/n"], "choose one field format"),
+    (["--json", "{tmp}"], "is a directory"),
+    (["--csv", "{tmp}/missing/r.csv"], "does not exist"),
+    (["--plot", "{tmp}/missing/r.png"], "does not exist"),
 ])
 def test_bad_output_directories_are_refused_before_the_run(tmp_path, capsys, argv, message):
     (tmp_path / "a_file").write_text("")

@@ -5,7 +5,10 @@ The throughput benchmark is not part of the package: ``python benchmarks/through
 """
 import argparse
 import json
+import os
 import sys
+
+import numpy as np
 
 from . import __version__
 from .argtypes import param, positive_int, setting
@@ -72,6 +75,45 @@ def _field_writer(args):
     return FieldWriter(args.vtk or args.npz, "vtk" if args.vtk else "npz")
 
 
+def _time_series(result) -> dict:
+    """The run's recorded series on one time base: the monitored particle's (``u``, ``v``,
+    ``stress``, and the exact ``u_exact``, ``v_exact``) and the energies
+    (``energy_kinetic``, ...)."""
+    out = {k: np.asarray(v) for k, v in result.series.items() if np.ndim(v) == 1}
+    if result.energies is not None:
+        times = np.asarray(result.energies["t"])
+        if "t" not in out or np.array_equal(out["t"], times):
+            out["t"] = times
+            out.update({f"energy_{k}": np.asarray(v) for k, v in result.energies.items()
+                        if k != "t"})
+    return out
+
+
+def _check_output_files(args):
+    """--json, --csv, --plot: a writable file in an existing directory, before any work."""
+    from .output.fields import check_output_file
+
+    for flag in ("json", "csv", "plot", "out"):
+        if getattr(args, flag, None):
+            check_output_file(getattr(args, flag), f"--{flag}")
+
+
+def _write_json(path, doc):
+    """The document under a temporary name, then renamed: a file on disk is whole."""
+    tmp = f"{path}.tmp"
+    with open(tmp, "w") as fh:
+        json.dump(doc, fh, indent=2)
+    os.replace(tmp, path)
+
+
+def _write_csv(path, series):
+    names = list(series)
+    table = np.column_stack([series[k] for k in names])
+    tmp = f"{path}.tmp"
+    np.savetxt(tmp, table, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+    os.replace(tmp, path)
+
+
 def _parser():
     ap = argparse.ArgumentParser(prog="timpm", description="High-order material point method "
                                  "in Taichi: the study's 1D benchmarks and convergence studies.",
@@ -83,6 +125,8 @@ def _parser():
     _add_common(run)
     run.add_argument("--elements", type=int, help="number of elements over the body")
     _add_fields(run, "field frames over the run, with --vtk or --npz (default 20)")
+    run.add_argument("--csv", metavar="FILE", help="write the recorded time series (the "
+                     "monitored particle, the energies) as a table")
     conv = sub.add_parser("convergence", help="RMS error and observed rates over meshes")
     _add_common(conv)
     conv.add_argument("--elements", type=int, nargs="+", default=[4, 8, 16, 32, 64],
@@ -137,8 +181,7 @@ def _compare(args):
                    "position": list(map(float, cmp[k]["position"]))} for k in ("mpm", "ulfem")}
         doc["mpm"]["record"] = cmp["mpm"]["record"]
         doc["study_periods"] = cmp["study_periods"]
-        with open(args.json, "w") as fh:
-            json.dump(doc, fh, indent=2)
+        _write_json(args.json, doc)
     return 0
 
 
@@ -180,6 +223,7 @@ def _demo(args):
     params = dict(args.param)
     if args.t_end is not None:
         params["t_end"] = args.t_end
+    _check_output_files(args)
     runtime.init(threads=args.threads)
     movie = None
     if args.out:
@@ -199,8 +243,7 @@ def _demo(args):
                                                "summary", "memory")}
         doc["simulated_per_wall_second"] = result.simulated_per_wall_second
         doc["series"] = {k: v.tolist() for k, v in result.series.items()}
-        with open(args.json, "w") as fh:
-            json.dump(doc, fh, indent=2)
+        _write_json(args.json, doc)
     return 0
 
 
@@ -216,6 +259,7 @@ def _speed_error(args) -> int:
         if args.max_halvings < 0:
             raise ValueError(f"--max-halvings must be non-negative, got {args.max_halvings}")
         get_problem(args.problem, **dict(args.param))
+        _check_output_files(args)
         runtime.init(threads=args.threads)
         doc = speed_error.speed_error_study(
             args.problem, bases=args.bases, masses=args.masses, stress_update=args.stress_update,
@@ -233,8 +277,7 @@ def _speed_error(args) -> int:
     if args.plot:
         plot_speed_error(doc, args.plot)
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(doc, fh, indent=2)
+        _write_json(args.json, doc)
     return 0
 
 
@@ -263,8 +306,10 @@ def main(argv=None):
 
     try:
         if args.command == "compare-ulfem":
+            _check_output_files(args)
             return _compare(args)
         get_problem(args.problem, **dict(args.param))
+        _check_output_files(args)
         runtime.init(threads=args.threads)
         opts = _options(args)
         if args.command == "run":
@@ -277,6 +322,10 @@ def main(argv=None):
                          ("strain", "exact_strain", "strain_relative_error", "energy_drift")}
                 if extra:
                     print("  ".join(f"{k} = {v:.6g}" for k, v in extra.items() if v is not None))
+            series = _time_series(result)
+            doc["runs"][0]["series"] = {k: v.tolist() for k, v in series.items()}
+            if args.csv:
+                _write_csv(args.csv, series)
             if args.plot:
                 plot_series(result, args.plot)
         else:
@@ -290,8 +339,7 @@ def main(argv=None):
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(doc, fh, indent=2)
+        _write_json(args.json, doc)
     return 0
 
 

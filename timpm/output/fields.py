@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMATS", "FieldWriter", "particle_fields", "check_output_directory"]
+__all__ = ["FORMATS", "FieldWriter", "particle_fields", "check_output_directory",
+           "check_output_file"]
 
 FORMATS = ("vtk", "npz")
 AXES = "xyz"
@@ -40,6 +41,20 @@ def check_output_directory(directory, what="output directory") -> Path:
         except OSError as err:
             raise ValueError(f"{what} {str(path)!r} cannot be created: {err}") from None
     if not os.access(path, os.W_OK | os.X_OK):
+        raise ValueError(f"{what} {str(path)!r} is not writable")
+    return path
+
+
+def check_output_file(path, what="output file") -> Path:
+    """``path`` refused before any work when it is a directory, its directory is missing
+    or not writable."""
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{what} {str(path)!r} is a directory")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(f"{what} {str(path)!r}: the directory {str(parent)!r} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
         raise ValueError(f"{what} {str(path)!r} is not writable")
     return path
 
