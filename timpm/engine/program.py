@@ -327,6 +327,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
                         self.b[p][k] = values[p, k]
 
             self.set_body_force = set_body_force
+
         @ti.kernel
         def prestrain(grads: ti.types.ndarray(dtype=ti.f64, ndim=3)):
             # compiled on the first call only: scenes with an initial displacement

@@ -30,16 +30,21 @@ class Transfer:
         return sig_new
 
     @ti.func
+    def _jacobian(self, grad_du):
+        """det(I + grad du): the step's volume ratio."""
+        jac = 1.0 + grad_du[0, 0]
+        if ti.static(self.dim > 1):
+            jac = (ti.Matrix.identity(float, self.dim) + grad_du).determinant()
+        return jac
+
+    @ti.func
     def _initial_deformation(self, p, grad_u0):
         # initial displacement: F0 = I + grad u0 as one material update from the undeformed
         # state, V = det(F0) V0 (the materials read the new volume), sigma = law(F0)
         vol_old = self.vol[p]
         vol_new = vol_old
         if ti.static(self.update_volume):
-            jac = 1.0 + grad_u0[0, 0]
-            if ti.static(self.dim > 1):
-                jac = (ti.Matrix.identity(float, self.dim) + grad_u0).determinant()
-            vol_new = vol_old * jac
+            vol_new = vol_old * self._jacobian(grad_u0)
             self.vol[p] = vol_new
         sig_old = self.sigma[p]
         sig_new = self._material_update(p, grad_u0, sig_old)
@@ -248,9 +253,7 @@ class Transfer:
             jac = 1.0
             vol_new = vol_old
             if ti.static(self.update_volume):
-                jac = 1.0 + grad_du[0, 0]
-                if ti.static(self.dim > 1):
-                    jac = (ti.Matrix.identity(float, self.dim) + grad_du).determinant()
+                jac = self._jacobian(grad_du)
                 vol_new = vol_old * jac
                 self.vol[p] = vol_new  # the materials read the new volume
             sig_new = self._material_update(p, grad_du, sig_old)
