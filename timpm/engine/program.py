@@ -28,6 +28,7 @@ from .recorder import Recorder
 from .scatter import ScatterOps
 from .stencil import StencilOps
 from .transfer import Transfer
+from .uploads import Uploads
 
 __all__ = ["Program", "Capacity", "program_for", "clear_programs"]
 
@@ -99,7 +100,7 @@ def _param_spec(features):
 
 
 @ti.data_oriented
-class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProjection,
+class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads, MLSProjection,
               Recorder, Drivers):
     """Fields and kernels of one feature set at one capacity."""
 
@@ -318,26 +319,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, MLSProj
         self.project, self.clear = project, clear
         self._bind_transfers()
         self._bind_history_reader()
-        if self.body_force:
-            @ti.kernel
-            def set_body_force(values: ti.types.ndarray(dtype=ti.f64, ndim=2)):
-                # b_p = b(X_p, t) of this step, evaluated in Python (one call, all particles)
-                for p in range(self.p.n_particles()):
-                    for k in ti.static(range(self.dim)):
-                        self.b[p][k] = values[p, k]
-
-            self.set_body_force = set_body_force
-
-        @ti.kernel
-        def prestrain(grads: ti.types.ndarray(dtype=ti.f64, ndim=3)):
-            # compiled on the first call only: scenes with an initial displacement
-            for p in range(self.p.n_particles()):
-                grad_u0 = ti.Matrix.zero(float, self.dim, self.dim)
-                for i, k in ti.static(ti.ndrange(self.dim, self.dim)):
-                    grad_u0[i, k] = grads[p, i, k]
-                self._initial_deformation(p, grad_u0)
-
-        self.prestrain = prestrain
+        self._bind_uploads()
         if self.team:
             @ti.kernel
             def team(n_steps: ti.i32):

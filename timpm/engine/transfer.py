@@ -38,23 +38,6 @@ class Transfer:
         return jac
 
     @ti.func
-    def _initial_deformation(self, p, grad_u0):
-        # initial displacement: F0 = I + grad u0 as one material update from the undeformed
-        # state, V = det(F0) V0 (the materials read the new volume), sigma = law(F0)
-        vol_old = self.vol[p]
-        vol_new = vol_old
-        if ti.static(self.update_volume):
-            vol_new = vol_old * self._jacobian(grad_u0)
-            self.vol[p] = vol_new
-        sig_old = self.sigma[p]
-        sig_new = self._material_update(p, grad_u0, sig_old)
-        self.sigma[p] = sig_new
-        if ti.static(self.path_work):
-            deps = 0.5 * (grad_u0 + grad_u0.transpose())
-            self.accumulate(self.work[p],
-                           0.5 * ((sig_old * vol_old + sig_new * vol_new) * deps).sum())
-
-    @ti.func
     def _volume_in_range(self, p, vol):
         """volume_min <= V_p / V0 <= volume_max, V0 = m_p / density of the particle's
         material; a material that expands freely (no tension) has no upper bound."""

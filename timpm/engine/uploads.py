@@ -1,0 +1,52 @@
+"""Particle values computed in Python and uploaded into a program's state: the body
+force of each step and the initial deformation of an initial displacement field.
+
+One kernel launch each, compiled on its first call only (scenes without a body force or
+an initial displacement never compile them); neither is part of the step's phases.
+"""
+import taichi as ti
+
+__all__ = ["Uploads"]
+
+
+class Uploads:
+    """Mixin of :class:`~timpm.engine.program.Program`: ``set_body_force(values)`` and
+    ``prestrain(grads)``, bound by :meth:`_bind_uploads`."""
+
+    def _bind_uploads(self):
+        if self.body_force:
+            @ti.kernel
+            def set_body_force(values: ti.types.ndarray(dtype=ti.f64, ndim=2)):
+                # b_p = b(X_p, t) of this step, evaluated in Python (one call, all particles)
+                for p in range(self.p.n_particles()):
+                    for k in ti.static(range(self.dim)):
+                        self.b[p][k] = values[p, k]
+
+            self.set_body_force = set_body_force
+
+        @ti.kernel
+        def prestrain(grads: ti.types.ndarray(dtype=ti.f64, ndim=3)):
+            for p in range(self.p.n_particles()):
+                grad_u0 = ti.Matrix.zero(float, self.dim, self.dim)
+                for i, k in ti.static(ti.ndrange(self.dim, self.dim)):
+                    grad_u0[i, k] = grads[p, i, k]
+                self._initial_deformation(p, grad_u0)
+
+        self.prestrain = prestrain
+
+    @ti.func
+    def _initial_deformation(self, p, grad_u0):
+        # initial displacement: F0 = I + grad u0 as one material update from the undeformed
+        # state, V = det(F0) V0 (the materials read the new volume), sigma = law(F0)
+        vol_old = self.vol[p]
+        vol_new = vol_old
+        if ti.static(self.update_volume):
+            vol_new = vol_old * self._jacobian(grad_u0)
+            self.vol[p] = vol_new
+        sig_old = self.sigma[p]
+        sig_new = self._material_update(p, grad_u0, sig_old)
+        self.sigma[p] = sig_new
+        if ti.static(self.path_work):
+            deps = 0.5 * (grad_u0 + grad_u0.transpose())
+            self.accumulate(self.work[p],
+                           0.5 * ((sig_old * vol_old + sig_new * vol_new) * deps).sum())
