@@ -125,6 +125,18 @@ def _takes(fn, what, want):
     return None if required <= want <= len(positional) else required
 
 
+def _check_arity(fn, what, want, points):
+    """An error naming ``what`` unless ``fn`` takes ``want`` positional arguments: the
+    ``points`` positions X (``"(n, 2)"``), and the time t when ``want`` is 2."""
+    arity = _takes(fn, what, want)
+    if arity is not None:
+        count, names = (("one argument", "(X)") if want == 1 else
+                        ("two arguments", "(X, t)"))
+        raise ValueError(f"{what} must take {count} {names}: the {points} positions"
+                         f"{' and the time' if want == 2 else ''}; "
+                         f"{getattr(fn, '__name__', fn)!s} takes {arity}")
+
+
 def field_function(fn, X, what, *args, signature=True):
     """``fn(X, *args)`` for the (n, dim) points X as an (n, dim) float array, checked: a
     function of the points (and ``args``), vectorised over them, finite everywhere.  In
@@ -132,13 +144,8 @@ def field_function(fn, X, what, *args, signature=True):
     bad point and the value there (``signature=False``: the parameters were checked
     already)."""
     n, dim = X.shape
-    want = 1 + len(args)
-    arity = _takes(fn, what, want) if signature else None
-    if arity is not None:
-        names = "(X" + ", t" * len(args) + ")"
-        raise ValueError(f"{what} must take {want} argument(s) {names}: the points as an "
-                         f"(n, {dim}) array{' and the time' if args else ''}; "
-                         f"{getattr(fn, '__name__', fn)!s} takes {arity}")
+    if signature:
+        _check_arity(fn, what, 1 + len(args), f"(n, {dim})")
     try:
         out = fn(X.copy(), *args)
     except Exception as err:
@@ -180,11 +187,7 @@ class BodyForce:
         if self.frame not in ("reference", "current"):
             raise ValueError(f"body force frame must be 'reference' or 'current', got "
                              f"{self.frame!r}")
-        arity = _takes(self.fn, "the body force", 2)
-        if arity is not None:
-            raise ValueError(f"the body force must take two arguments (X, t): the (n, dim) "
-                             f"positions and the time; {getattr(self.fn, '__name__', self.fn)!s}"
-                             f" takes {arity}")
+        _check_arity(self.fn, "the body force", 2, "(n, dim)")
 
     def __call__(self, X, t):
         """b at points X (n, dim) and time t, checked: an (n, dim) float array."""
