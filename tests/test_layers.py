@@ -16,10 +16,10 @@ PACKAGE = Path(__file__).resolve().parent.parent / "timpm"
 #: below it.  A name covers the module and its submodules; a trailing ``*`` covers every
 #: module whose name starts so (``timpm.model*``: timpm.model, timpm.models.x, ...)
 LAYERS = (
-    ("timpm.runtime", "timpm.argtypes", "timpm.progress"),
+    ("timpm.runtime", "timpm.argtypes", "timpm.progress", "timpm.interrupt"),
     ("timpm.scene", "timpm.world", "timpm.basis", "timpm.materials*", "timpm.model*",
      "timpm.engine*", "timpm.errors", "timpm.checks", "timpm.loads"),
-    ("timpm.solver", "timpm.batch"),
+    ("timpm.solver", "timpm.batch", "timpm.checkpoint"),
     ("timpm.problems*", "timpm.scenarios*"),
     ("timpm.studies*",),
     ("timpm.output*",),

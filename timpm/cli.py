@@ -20,6 +20,9 @@ from .studies import speed_error
 
 __all__ = ["main", "demo_script"]
 
+#: where Ctrl-C saves a run given no --checkpoint (in the working directory)
+INTERRUPTED_CHECKPOINT = "timpm-interrupted.npz"
+
 
 def _add_common(p):
     p.add_argument("problem", help=f"one of: {', '.join(PROBLEMS)}")
@@ -64,6 +67,14 @@ def _add_fields(p, frames_help=None):
         p.add_argument("--frames", type=positive_int, default=20, help=frames_help)
 
 
+def _add_checkpoint(p):
+    p.add_argument("--checkpoint", metavar="FILE", help="save the whole state and the run's "
+                   "description to FILE (.npz) at the end, every --checkpoint-every steps "
+                   "and on Ctrl-C; continue with: timpm resume FILE --t-end T")
+    p.add_argument("--checkpoint-every", type=positive_int, metavar="STEPS",
+                   help="also save the checkpoint every STEPS steps")
+
+
 def _field_writer(args):
     """The FieldWriter of --vtk / --npz (checked before any work), or None."""
     if args.vtk and args.npz:
@@ -93,7 +104,7 @@ def _check_output_files(args):
     """--json, --csv, --plot: a writable file in an existing directory, before any work."""
     from .output.fields import check_output_file
 
-    for flag in ("json", "csv", "plot", "out"):
+    for flag in ("json", "csv", "plot", "out", "checkpoint"):
         if getattr(args, flag, None):
             check_output_file(getattr(args, flag), f"--{flag}")
 
@@ -127,6 +138,21 @@ def _parser():
     _add_fields(run, "field frames over the run, with --vtk or --npz (default 20)")
     run.add_argument("--csv", metavar="FILE", help="write the recorded time series (the "
                      "monitored particle, the energies) as a table")
+    _add_checkpoint(run)
+    resume = sub.add_parser("resume", help="continue a run saved by --checkpoint (or by "
+                            "Ctrl-C) to a later time, bit for bit as if never stopped")
+    resume.add_argument("saved", metavar="FILE", help="a checkpoint file (.npz)")
+    resume.add_argument("--t-end", type=float, required=True, help="end time [s]")
+    resume.add_argument("--mode", choices=["auto", "serial", "parallel", "team"],
+                        help="run mode (default: the saved run's)")
+    resume.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
+    resume.add_argument("--json", metavar="FILE", help="write the records as JSON")
+    resume.add_argument("--plot", metavar="FILE.png", help="draw a plot")
+    resume.add_argument("--quiet", action="store_true", help="no table on stdout")
+    resume.add_argument("--csv", metavar="FILE", help="write the recorded time series")
+    _add_fields(resume, "field frames over the resumed part, with --vtk or --npz "
+                "(default 20)")
+    _add_checkpoint(resume)
     conv = sub.add_parser("convergence", help="RMS error and observed rates over meshes")
     _add_common(conv)
     conv.add_argument("--elements", type=int, nargs="+", default=[4, 8, 16, 32, 64],
@@ -183,6 +209,45 @@ def _compare(args):
         doc["study_periods"] = cmp["study_periods"]
         _write_json(args.json, doc)
     return 0
+
+
+def _run(args, start):
+    """``timpm run`` / ``timpm resume``: ``start(**outputs)`` runs; print the table, write the
+    outputs; returns the JSON document, or None when Ctrl-C stopped the run (then the
+    checkpoint and the partial record are written and one line says where)."""
+    from . import interrupt
+    from .output.viz import plot_series
+
+    try:
+        with interrupt.deferred_sigint():
+            result = start(fields=_field_writer(args), frames=args.frames,
+                           checkpoint=args.checkpoint, checkpoint_every=args.checkpoint_every,
+                           interrupted_to=args.checkpoint or INTERRUPTED_CHECKPOINT)
+    except interrupt.RunInterrupted as stop:
+        doc = {"command": args.command, "runs": [stop.result.record]} if stop.result else None
+        if doc and args.json:
+            _write_json(args.json, doc)
+        where = (f"; saved to {stop.checkpoint} (timpm resume {stop.checkpoint} --t-end T)"
+                 if stop.checkpoint else "")
+        print(f"timpm: interrupted at step {stop.step} (t = {stop.t:g} s){where}"
+              + (f"; partial record {args.json}" if doc and args.json else ""),
+              file=sys.stderr)
+        return None
+    doc = {"command": args.command, "problem": result.record["problem"],
+           "runs": [result.record]}
+    if not args.quiet:
+        print(_table(doc["runs"]))
+        extra = {k: v for k, v in result.record.items() if k in
+                 ("strain", "exact_strain", "strain_relative_error", "energy_drift")}
+        if extra:
+            print("  ".join(f"{k} = {v:.6g}" for k, v in extra.items() if v is not None))
+    series = _time_series(result)
+    doc["runs"][0]["series"] = {k: v.tolist() for k, v in series.items()}
+    if args.csv:
+        _write_csv(args.csv, series)
+    if args.plot:
+        plot_series(result, args.plot)
+    return doc
 
 
 def _options(args):
@@ -282,6 +347,14 @@ def _speed_error(args) -> int:
 
 
 def main(argv=None):
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # outside a run's deferred Ctrl-C (a demo, a study)
+        print("timpm: interrupted", file=sys.stderr)
+        return 130
+
+
+def _main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(argv)
     if args.command == "study":
@@ -301,33 +374,35 @@ def main(argv=None):
         print("demos: column-collapse, disks, dam-break (timpm demo NAME --out FILE.gif)")
         return 0
     from . import runtime
-    from .output.viz import plot_convergence, plot_series
+    from .output.viz import plot_convergence
     from .studies.study import convergence, run_problem
 
     try:
         if args.command == "compare-ulfem":
             _check_output_files(args)
             return _compare(args)
+        if args.command == "resume":
+            from .studies.study import resume_problem
+
+            _check_output_files(args)
+            runtime.init(threads=args.threads)
+            mode = {} if args.mode is None else {"mode": args.mode}
+            doc = _run(args, lambda **out: resume_problem(args.saved, args.t_end,
+                                                          **mode, **out))
+            if doc is None:
+                return 130
+            if args.json:
+                _write_json(args.json, doc)
+            return 0
         get_problem(args.problem, **dict(args.param))
         _check_output_files(args)
         runtime.init(threads=args.threads)
         opts = _options(args)
         if args.command == "run":
-            result = run_problem(args.problem, elements=args.elements,
-                                 fields=_field_writer(args), frames=args.frames, **opts)
-            doc = {"command": "run", "problem": result.record["problem"], "runs": [result.record]}
-            if not args.quiet:
-                print(_table(doc["runs"]))
-                extra = {k: v for k, v in result.record.items() if k in
-                         ("strain", "exact_strain", "strain_relative_error", "energy_drift")}
-                if extra:
-                    print("  ".join(f"{k} = {v:.6g}" for k, v in extra.items() if v is not None))
-            series = _time_series(result)
-            doc["runs"][0]["series"] = {k: v.tolist() for k, v in series.items()}
-            if args.csv:
-                _write_csv(args.csv, series)
-            if args.plot:
-                plot_series(result, args.plot)
+            doc = _run(args, lambda **out: run_problem(args.problem, elements=args.elements,
+                                                       **opts, **out))
+            if doc is None:
+                return 130
         else:
             doc = convergence(args.problem, elements=args.elements, **opts)
             doc["command"] = "convergence"

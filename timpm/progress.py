@@ -8,14 +8,16 @@ __all__ = ["Progress"]
 class Progress:
     """A one-line progress bar on stderr for runs longer than a couple of seconds."""
 
-    def __init__(self, total, enabled):
-        self.total, self.enabled = max(int(total), 1), enabled
+    def __init__(self, total, enabled, bounded=False):
+        # bounded: chunks of about half a second even without a bar (a run that must
+        # notice Ctrl-C within a second)
+        self.total, self.enabled, self.bounded = max(int(total), 1), enabled, bounded
         self.start = time.perf_counter()
         self.shown = False
 
     def suggested_chunk(self, done):
         # small first chunks let the bar appear; later chunks cover about half a second
-        if self.enabled is False:
+        if self.enabled is False and not self.bounded:
             return self.total
         elapsed = time.perf_counter() - self.start
         if done == 0 or elapsed <= 0:

@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from . import runtime
+from . import interrupt, runtime
 from .engine.features import SCATTERS, auto_mode, plan
 from .engine.program import program_for
 from .engine.state import State
@@ -165,6 +165,54 @@ class Solver:
             raise KeyError(f"this solver has no state field {name!r}")
         self.state.write(prog, name, np.asarray(values))
 
+    # ---- snapshot and restore (checkpoints) ----------------------------------------------------
+    def fingerprint(self) -> dict:
+        """What a saved state must match to be restored into this solver: the feature
+        set's physics, the sizes, the grid and the time step (the mode and the scatter may
+        differ)."""
+        f, lay = self.features, self.layout
+        return {"dim": f.dim, "basis": f.basis, "transfer": f.transfer,
+                "consistent": f.consistent, "mls": f.mls,
+                "materials": [[cls.__name__, repr(flags)] for cls, flags in f.materials],
+                "particles": int(lay.n_particles), "nodes": [int(n) for n in lay.nodes],
+                "h": float(lay.h), "dt": float(self.dt),
+                "origin": [float(o) for o in lay.origin], "precision": f.precision,
+                "tracked": [int(p) for p in self.track], "record_every": self.record_every}
+
+    def snapshot(self) -> dict:
+        """The whole state of this run as NumPy arrays (particles, grid, time, step, the
+        first error), the records so far, and :meth:`fingerprint`: what :meth:`restore`
+        takes to go on bit for bit."""
+        prog = self._program()
+        self.drain()
+        arrays = self.state.snapshot(prog)
+        history = {k: np.concatenate(v) for k, v in self.history.items() if len(v)}
+        return {"arrays": arrays, "history": history, "fingerprint": self.fingerprint(),
+                "columns": prog.state_layout(), "energy_input": self._energy_input,
+                "run_seconds": self.run_seconds}
+
+    def restore(self, snapshot: dict):
+        """Continue from a :meth:`snapshot` of a solver of the same scene (this process's
+        or another's, e.g. read from a checkpoint file); returns self."""
+        prog = self._program()
+        mine, theirs = self.fingerprint(), snapshot["fingerprint"]
+        for key in mine:
+            if mine[key] != theirs.get(key):
+                raise ValueError(f"the saved state does not fit this solver: its {key} is "
+                                 f"{theirs.get(key)!r}, this solver's {mine[key]!r}")
+        columns = {b: [tuple(e) for e in entries] for b, entries in snapshot["columns"].items()}
+        if columns != {b: [tuple(e) for e in entries]
+                       for b, entries in prog.state_layout().items()}:
+            raise ValueError("the saved state holds other state fields than this solver "
+                             "keeps (another material or feature set)")
+        self.state.restore(prog, snapshot["arrays"])
+        self.history = {k: [np.asarray(v)] for k, v in snapshot["history"].items()}
+        self.history.setdefault("t", [])
+        self.history.setdefault("step", [])
+        self._energy_input = float(snapshot["energy_input"])
+        self.run_seconds = float(snapshot["run_seconds"])
+        return self
+
     # ---- reset and release -----------------------------------------------------------------
     def reset(self):
         """Back to the scene's initial state, keeping the compiled kernels: a second run
@@ -246,7 +294,10 @@ class Solver:
         progress line is drawn on stderr for runs that last more than two seconds when
         stderr is a terminal (``progress=True`` forces it, ``False`` turns it off).
         Wall time spent stepping accumulates in ``run_seconds``; kernel compilation is
-        booked apart in ``compile_seconds``.
+        booked apart in ``compile_seconds``.  Inside :func:`timpm.interrupt.deferred_sigint`
+        a Ctrl-C stops the run at the next step boundary (launches then last at most about
+        half a second) with :class:`~timpm.interrupt.RunInterrupted`; the state is whole
+        and can be saved (:meth:`snapshot`).
         """
         prog = self._program()
         total = self.steps_to(t_end, n_steps)
@@ -254,7 +305,7 @@ class Solver:
             runtime.ensure_pinned()  # the workers, one per core, before they first wake
         self.compile()
         self.record_start()
-        bar = Progress(total, progress)
+        bar = Progress(total, progress, bounded=interrupt.active())
         done = 0
         loads = self.features.body_force  # b(X, t) evaluated in Python before every step
         first_step = self.step if loads else 0
@@ -298,9 +349,13 @@ class Solver:
                 self.check()
                 self._record_step(prog)
             bar.update(done)
+            if interrupt.requested() and done < total:
+                break  # Ctrl-C: stop here, at a step boundary, the state whole
         bar.close()
         self.record_end()
         self.run_seconds += time.perf_counter() - start
+        if done < total:
+            raise interrupt.RunInterrupted(self.step, self.t)
         return self
 
     def _upload_loads(self, prog, step):

@@ -40,6 +40,21 @@ class State:
         """Keep this state in host memory (another solver takes the program)."""
         self.host = prog.save(self.layout.n_particles, int(np.prod(self.layout.nodes)))
 
+    def snapshot(self, prog):
+        """The state blocks of ``prog`` now (this state's program), as host arrays."""
+        return prog.save(self.layout.n_particles, int(np.prod(self.layout.nodes)))
+
+    def restore(self, prog, arrays):
+        """Upload saved state blocks (:meth:`snapshot`, of the same layout) into ``prog``."""
+        expected = prog.host_arrays(self.layout.n_particles, int(np.prod(self.layout.nodes)))
+        for block, empty in expected.items():
+            got = np.asarray(arrays.get(block))
+            if got.shape != empty.shape or got.dtype != empty.dtype:
+                raise ValueError(f"saved state block {block!r} has shape {got.shape} "
+                                 f"({got.dtype}), this scene needs {empty.shape} ({empty.dtype})")
+        self.host = {b: np.ascontiguousarray(arrays[b]) for b in expected}
+        self.load_into(prog)
+
     def initial(self, prog):
         """The scene's initial state as the program's host arrays: positions, velocities,
         masses, volumes, F = I, J = 1, material indices, Dirichlet nodes, elements

@@ -10,7 +10,7 @@ from ..problems import get_problem
 from ..solver import Solver
 from .analysis import energy_drift, observed_rates, rms_error
 
-__all__ = ["RunResult", "run_problem", "convergence", "clear_solvers"]
+__all__ = ["RunResult", "run_problem", "resume_problem", "convergence", "clear_solvers"]
 
 
 @dataclass
@@ -34,7 +34,8 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                 damping=None, allow_unstable_dt=False, mode="auto", record_every=None,
                 progress=None, params=None, energies=True, projection="standard",
                 series=True, reuse=True, transfer="musl", fields=None,
-                frames=20) -> RunResult:
+                frames=20, checkpoint=None, checkpoint_every=None,
+                interrupted_to=None, resume=None) -> RunResult:
     """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
 
     Unset numerical values take the problem's defaults (``placement`` too: the study's
@@ -49,31 +50,101 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     a run after the first of its kind compiles nothing.  ``fields`` (a
     :class:`timpm.output.fields.FieldWriter`) receives the particle fields at ``frames``
     times spread evenly over the run, and at its start.
+
+    ``checkpoint`` (a file name) receives the whole state and the run's description every
+    ``checkpoint_every`` steps, at the end, and when Ctrl-C stops the run inside
+    :func:`timpm.interrupt.deferred_sigint` (then :class:`~timpm.interrupt.RunInterrupted`
+    is raised carrying the partial ``result`` and the ``checkpoint`` written; there
+    ``interrupted_to``, when given, names the file instead);
+    ``resume`` (a :func:`timpm.checkpoint.load_checkpoint` dict) continues a saved run of
+    the same arguments from its step (see :func:`resume_problem`).
     """
+    from ..checkpoint import save_checkpoint
+    from ..interrupt import RunInterrupted
+
     if fields is not None and (isinstance(frames, bool) or not isinstance(frames, int)
                                or frames < 1):
         raise ValueError(f"frames must be a positive integer, got {frames!r}")
+    if checkpoint_every is not None:
+        if checkpoint is None:
+            raise ValueError("checkpoint_every needs a checkpoint file")
+        if (isinstance(checkpoint_every, bool) or not isinstance(checkpoint_every, int)
+                or checkpoint_every < 1):
+            raise ValueError("checkpoint_every must be a positive number of steps, got "
+                             f"{checkpoint_every!r}")
     run = _plan(problem, elements, ppc, basis, mass, dt, t_end, placement, stress_update,
                 damping, allow_unstable_dt, record_every, params, energies, projection, series,
                 transfer, reuse=reuse)
+    description = None
+    if isinstance(problem, str):
+        description = dict(problem=problem, elements=run.elements, ppc=run.ppc, basis=basis,
+                           mass=mass, dt=run.scene.dt, placement=run.placement,
+                           stress_update=stress_update, damping=damping,
+                           allow_unstable_dt=allow_unstable_dt, mode=mode,
+                           record_every=run.every, params=dict(params or {}),
+                           energies=bool(energies), projection=projection,
+                           series=bool(series), transfer=transfer)
     t_build = time.perf_counter()
     solver = Solver(run.scene, track=run.track, record_every=run.every, energies=energies,
                     mode=mode)
     build_seconds = time.perf_counter() - t_build
     try:
-        if fields is None:
-            solver.run(run.t_end, progress=progress)
-        else:
+        if resume is not None:
+            solver.restore(resume)
+        steps = solver.steps_for(run.t_end)
+        if steps < solver.step:
+            raise ValueError(f"t_end = {run.t_end:g} s lies before the saved run's time "
+                             f"{solver.t:g} s (step {solver.step})")
+        # the steps at which something is written: field frames, checkpoints
+        stops, saves = {steps}, set()
+        if fields is not None:
+            start = solver.step
+            stops.update(start + (steps - start) * k // frames for k in range(1, frames + 1))
             fields.write(solver)
-            steps = solver.steps_for(run.t_end)
-            for k in range(1, frames + 1):
-                target = steps * k // frames  # fewer steps than frames: fewer frames
-                if target > solver.step:
-                    solver.run(n_steps=target - solver.step, progress=progress)
+        if checkpoint_every is not None:
+            saves = set(range(solver.step + checkpoint_every, steps, checkpoint_every))
+            stops.update(saves)
+        try:
+            for stop in sorted(s for s in stops if s > solver.step):
+                solver.run(n_steps=stop - solver.step, progress=progress)
+                if fields is not None:
                     fields.write(solver)
+                if checkpoint is not None and stop in saves:
+                    save_checkpoint(checkpoint, solver, description)
+        except RunInterrupted as stop:
+            to = interrupted_to or checkpoint
+            if to is not None:
+                stop.checkpoint = save_checkpoint(to, solver, description)
+            stop.result = run.result(solver, build_seconds)
+            stop.result.record["interrupted"] = True
+            raise
+        if checkpoint is not None:
+            save_checkpoint(checkpoint, solver, description)  # the end
         return run.result(solver, build_seconds)
     finally:
         solver.release()
+
+
+def resume_problem(path, t_end, **options) -> RunResult:
+    """Continue the run saved in ``path`` (a file written by ``run_problem(...,
+    checkpoint=...)`` or ``timpm run --checkpoint``) to ``t_end``, in this process, with the
+    saved run's arguments; ``options`` are run_problem's output and progress options
+    (``fields``, ``frames``, ``checkpoint``, ``checkpoint_every``, ``progress``)."""
+    from ..checkpoint import load_checkpoint
+
+    saved = load_checkpoint(path)
+    if saved["run"] is None:
+        raise ValueError(f"checkpoint {path}: it holds no description of its run (it "
+                         "was written from Python without one): build the solver of the "
+                         "same scene and call solver.restore(load_checkpoint(...))")
+    allowed = {"fields", "frames", "checkpoint", "checkpoint_every", "interrupted_to",
+               "progress", "mode"}
+    unknown = set(options) - allowed
+    if unknown:
+        raise ValueError(f"resume_problem takes only {sorted(allowed)}, got {sorted(unknown)}")
+    kwargs = dict(saved["run"])
+    kwargs.update(options)
+    return run_problem(kwargs.pop("problem"), t_end=t_end, resume=saved, **kwargs)
 
 
 def _plan(problem, *options, reuse=True):

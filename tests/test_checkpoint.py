@@ -1,0 +1,148 @@
+"""Checkpoints and Ctrl-C: a saved run goes on bit for bit (in this process and in a new
+one), Ctrl-C stops a run at a step boundary with exit code 130 and keeps its record, and
+bad checkpoints are refused clearly."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from timpm import Solver
+from timpm.checkpoint import load_checkpoint, save_checkpoint
+from timpm.cli import main
+from timpm.scenarios.demos import get_demo
+
+ENV = dict(os.environ, TIMPM_THREADS="1", ENABLE_TAICHI_HEADER_PRINT="false",
+           TI_LOG_LEVEL="warn")
+
+
+def _state(solver):
+    return {k: solver.read(k) for k in ("x", "v", "F", "sigma", "vol")} | {"t": solver.t}
+
+
+def test_sand_column_restored_into_a_new_solver_goes_on_bit_for_bit(tmp_path):
+    """Drucker-Prager sand (plastic state) in 2D: 40 steps straight, or 15, a checkpoint
+    file, a new solver of the same scene, 25 more: the same bits."""
+    world = get_demo("column-collapse", cells_per_width=8).world()
+    straight = Solver(world, mode="serial").run(n_steps=40)
+    expected = _state(straight)
+    straight.release()
+
+    first = Solver(world, mode="serial").run(n_steps=15)
+    path = save_checkpoint(tmp_path / "sand.npz", first)
+    first.release()
+    saved = load_checkpoint(path)
+    assert saved["step"] == 15 and saved["run"] is None
+    again = Solver(world, mode="serial").restore(saved)
+    assert again.step == 15 and again.t == saved["t"]
+    again.run(n_steps=25)
+    got = _state(again)
+    for key in expected:
+        assert np.array_equal(got[key], expected[key]), key
+    assert np.abs(again.read("sigma")).max() > 0  # stressed: the test compares something
+    # the energy records go on from the saved ones
+    assert len(again.energies()["t"]) == len(Solver(world, mode="serial").run(
+        n_steps=40).energies()["t"])
+    again.release()
+
+
+def test_restore_refuses_another_scene(tmp_path):
+    small = Solver(get_demo("column-collapse", cells_per_width=8).world(), mode="serial")
+    other = Solver(get_demo("column-collapse", cells_per_width=10).world(), mode="serial")
+    with pytest.raises(ValueError, match="does not fit this solver: its particles is"):
+        other.restore(small.snapshot())
+    small.release()
+    other.release()
+
+
+def _cli(*args):
+    return main([str(a) for a in args])
+
+
+def test_resume_in_a_new_process_ends_where_the_straight_run_ends(tmp_path, capsys):
+    straight, part, resumed = (tmp_path / f"{k}.npz" for k in ("straight", "part", "resumed"))
+    common = ("vibrating-string", "--quiet", "--mode", "serial")
+    assert _cli("run", *common, "--t-end", 3, "--checkpoint", straight,
+                "--json", tmp_path / "straight.json") == 0
+    assert _cli("run", *common, "--t-end", 1, "--checkpoint", part,
+                "--checkpoint-every", 4000) == 0
+    assert load_checkpoint(part)["step"] == 10000  # the last save: the end
+    done = subprocess.run([sys.executable, "-m", "timpm", "resume", str(part), "--t-end", "3",
+                           "--checkpoint", str(resumed), "--json", str(tmp_path / "r.json"),
+                           "--quiet"], env=ENV, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    a, b = load_checkpoint(straight), load_checkpoint(resumed)
+    assert a["step"] == b["step"] == 30000
+    for block in a["arrays"]:
+        assert np.array_equal(a["arrays"][block], b["arrays"][block]), block
+    records = [json.loads((tmp_path / f).read_text())["runs"][0]
+               for f in ("straight.json", "r.json")]
+    assert records[0]["rms_error"] == records[1]["rms_error"]
+
+
+def test_ctrl_c_stops_the_run_saves_it_and_exits_130(tmp_path):
+    saved, record = tmp_path / "run.npz", tmp_path / "run.json"
+    run = subprocess.Popen(
+        [sys.executable, "-m", "timpm", "run", "vibrating-string", "--t-end", "1e5",
+         "--checkpoint", str(saved), "--checkpoint-every", "20000", "--json", str(record)],
+        env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not saved.exists():  # running: its first checkpoint is on disk
+        assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+        time.sleep(0.1)
+    sent = time.monotonic()
+    run.send_signal(signal.SIGINT)
+    out, err = run.communicate(timeout=60)
+    took = time.monotonic() - sent
+    assert run.returncode == 130, err
+    assert took < 10  # the next step boundary: about half a second, here a loaded machine
+    lines = [line for line in err.splitlines() if line.startswith("timpm")]
+    assert len(lines) == 1 and "interrupted at step" in lines[0] and "timpm resume" in lines[0]
+    assert "Traceback" not in err
+    partial = json.loads(record.read_text())["runs"][0]
+    ckpt = load_checkpoint(saved)
+    assert partial["interrupted"] is True
+    assert partial["steps"] == ckpt["step"] > 0
+    assert 0 < partial["t_end"] < 1e5
+
+
+@pytest.mark.parametrize("content, message", [
+    (None, "no such file"),
+    (b"not a zip", "not a timpm checkpoint"),
+])
+def test_resume_refuses_a_missing_or_foreign_file(tmp_path, capsys, content, message):
+    path = tmp_path / "c.npz"
+    if content is not None:
+        path.write_bytes(content)
+    assert _cli("resume", path, "--t-end", 1) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_resume_refuses_a_numpy_file_without_a_header(tmp_path, capsys):
+    path = tmp_path / "plain.npz"
+    np.savez(path, x=np.zeros(3))
+    assert _cli("resume", path, "--t-end", 1) == 2
+    assert "no timpm header" in capsys.readouterr().err
+
+
+def test_resume_refuses_an_earlier_end_and_a_python_checkpoint(tmp_path, capsys):
+    part = tmp_path / "part.npz"
+    assert _cli("run", "vibrating-string", "--quiet", "--t-end", 1, "--checkpoint", part) == 0
+    assert _cli("resume", part, "--t-end", 0.5) == 2
+    assert "lies before the saved run's time 1 s" in capsys.readouterr().err
+    solver = Solver(get_demo("disks", cells=16).world())
+    bare = save_checkpoint(tmp_path / "bare.npz", solver)
+    solver.release()
+    assert _cli("resume", bare, "--t-end", 1) == 2
+    assert "holds no description of its run" in capsys.readouterr().err
+
+
+def test_checkpoint_path_checked_before_the_run(tmp_path, capsys):
+    assert _cli("run", "vibrating-string", "--checkpoint", tmp_path / "no" / "c.npz") == 2
+    err = capsys.readouterr().err
+    assert "--checkpoint" in err and "does not exist" in err
