@@ -52,6 +52,63 @@ def test_run_writes_numpy_frames_spread_over_the_run(tmp_path):
     assert not list((tmp_path / "npz").glob(".*tmp*"))  # no half-written file left
 
 
+def _read_vti(path):
+    """Point arrays of a VTK image (raw appended data, UInt64 headers): an independent
+    reading of the format (https://docs.vtk.org/en/latest/design_documents/VTKFileFormats.html),
+    x fastest."""
+    raw = path.read_bytes()
+    head, data = raw.split(b'<AppendedData encoding="raw">', 1)
+    data = data[data.index(b"_") + 1:]
+    root = ET.fromstring(head.decode() + "</VTKFile>")
+    image = root.find("ImageData")
+    extent = [int(v) for v in image.get("WholeExtent").split()]
+    shape = tuple(extent[2 * k + 1] - extent[2 * k] + 1 for k in range(3))
+    out = {"origin": [float(v) for v in image.get("Origin").split()],
+           "spacing": [float(v) for v in image.get("Spacing").split()]}
+    for array in image.iter("DataArray"):
+        offset, comps = int(array.get("offset")), int(array.get("NumberOfComponents"))
+        size = int(np.frombuffer(data, np.uint64, 1, offset)[0])
+        values = np.frombuffer(data, np.float64, size // 8, offset + 8)
+        out[array.get("Name")] = values.reshape(shape[::-1] + (comps,)).transpose(2, 1, 0, 3)
+    return out
+
+
+def test_grid_mass_and_velocity_written_with_the_particles(tmp_path):
+    """--grid: each frame's nodal mass sums to the particles' mass and its momentum to
+    theirs (the basis is a partition of unity), in the .vti images and the .npz frames;
+    writing them does not change the run."""
+    from timpm.output.fields import grid_fields
+
+    plain = run_demo("disks", frames=2, cells=16)
+    result = run_demo("disks", frames=2, cells=16,
+                      fields=FieldWriter(tmp_path / "vtk", grid=True))
+    solver = result.solver
+    np.testing.assert_array_equal(solver.positions(), plain.solver.positions())
+    entries = ET.parse(tmp_path / "vtk" / "grid.pvd").getroot().find("Collection")
+    files = [e.get("file") for e in entries.findall("DataSet")]
+    assert len(files) == 3
+    image = _read_vti(tmp_path / "vtk" / files[-1])
+    mass, velocity = image["mass"][:, :, 0, 0], image["velocity"][:, :, 0, :2]
+    particles_mass = solver.read("m")
+    momentum = (particles_mass[:, None] * solver.velocities()).sum(axis=0)
+    assert mass.sum() == pytest.approx(particles_mass.sum(), rel=1e-12)
+    # the disks' momenta cancel: compare to the round-off of the momentum magnitudes
+    scale = np.abs(particles_mass[:, None] * solver.velocities()).sum()
+    assert scale > 1.0
+    np.testing.assert_allclose((mass[..., None] * velocity).sum(axis=(0, 1)), momentum,
+                               rtol=0, atol=1e-13 * scale)
+    grid = grid_fields(solver)
+    np.testing.assert_array_equal(mass, grid["mass"])
+    assert image["origin"][:2] == list(grid["origin"])
+    assert image["spacing"][:2] == list(grid["spacing"])
+    for r in (plain, result):
+        r.solver.release()
+    assert main(["run", "vibrating-string", "--npz", str(tmp_path / "npz"), "--grid",
+                 "--frames", "1", "--quiet"]) == 0
+    last = np.load(sorted((tmp_path / "npz").glob("particles_*.npz"))[-1])
+    assert last["grid_mass"].sum() == pytest.approx(last["mass"].sum(), rel=1e-12)
+
+
 def test_run_records_carry_the_time_series_as_json_and_csv(tmp_path):
     import json
 
@@ -72,6 +129,7 @@ def test_run_records_carry_the_time_series_as_json_and_csv(tmp_path):
     (["--vtk", "{tmp}/a_file"], "is a file, not a directory"),
     (["--vtk", "{tmp}/missing/deeper"], "its parent directory"),
     (["--vtk", "{tmp}/v", "--npz", "{tmp}/n"], "choose one field format"),
+    (["--grid"], "give --vtk DIR or --npz DIR too"),
     (["--json", "{tmp}"], "is a directory"),
     (["--csv", "{tmp}/missing/r.csv"], "does not exist"),
     (["--plot", "{tmp}/missing/r.png"], "does not exist"),

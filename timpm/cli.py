@@ -63,6 +63,8 @@ def _add_fields(p, frames_help=None):
                    "time series: DIR/particles.pvd and one .vtu per frame")
     p.add_argument("--npz", metavar="DIR", help="write the particle fields as one NumPy "
                    ".npz per frame")
+    p.add_argument("--grid", action="store_true", help="with --vtk or --npz: also the grid's "
+                   "nodal mass and velocity at each frame (--vtk: DIR/grid.pvd, .vti images)")
     if frames_help:
         p.add_argument("--frames", type=positive_int, default=20, help=frames_help)
 
@@ -80,10 +82,13 @@ def _field_writer(args):
     if args.vtk and args.npz:
         raise ValueError("--vtk and --npz: choose one field format")
     if not (args.vtk or args.npz):
+        if args.grid:
+            raise ValueError("--grid writes the grid beside the particle fields: give --vtk "
+                             "DIR or --npz DIR too")
         return None
     from .output.fields import FieldWriter
 
-    return FieldWriter(args.vtk or args.npz, "vtk" if args.vtk else "npz")
+    return FieldWriter(args.vtk or args.npz, "vtk" if args.vtk else "npz", grid=args.grid)
 
 
 def _time_series(result) -> dict:

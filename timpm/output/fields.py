@@ -12,14 +12,20 @@ velocity, volume, mass, the Cauchy stress (``stress_xx``, ``stress_xy``, ... in 
 files, one array per component; the (n, dim, dim) tensor in the archives), pressure and
 von Mises stress, the material and body of each particle, and the materials' own state
 where the scene keeps it (``plastic_strain``, ``J``).
+
+``grid=True`` adds the grid at every frame (:func:`grid_fields`): the nodal mass and
+velocity projected from the particles then (P2G alone, between two steps: the run is not
+changed), as ``grid_00000.vti`` (VTK image data) with the series ``grid.pvd``, or as
+``grid_mass`` and ``grid_velocity`` arrays (with ``grid_origin`` and ``grid_spacing``) in
+the frame's archive.
 """
 import os
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMATS", "FieldWriter", "particle_fields", "check_output_directory",
-           "check_output_file"]
+__all__ = ["FORMATS", "FieldWriter", "particle_fields", "grid_fields",
+           "check_output_directory", "check_output_file"]
 
 FORMATS = ("vtk", "npz")
 AXES = "xyz"
@@ -86,19 +92,36 @@ def particle_fields(solver) -> dict:
     return out
 
 
+def grid_fields(solver) -> dict:
+    """The grid now: ``mass`` (nodes) and ``velocity`` (nodes x dim; zero where a node has
+    no mass) projected from the particles, the ``origin`` and the ``spacing``."""
+    mass, momentum = solver.project()
+    dim = solver.dim
+    mass = np.asarray(mass, dtype=np.float64).reshape(tuple(solver.grid_nodes))
+    momentum = np.asarray(momentum, dtype=np.float64).reshape(mass.shape + (dim,))
+    velocity = np.zeros_like(momentum)
+    filled = mass > 0
+    velocity[filled] = momentum[filled] / mass[filled][:, None]
+    return {"mass": mass, "velocity": velocity,
+            "origin": np.asarray(solver.origin, dtype=np.float64).reshape(dim),
+            "spacing": np.full(dim, float(solver.h))}
+
+
 class FieldWriter:
     """Frames of particle fields in ``directory`` (created if missing): ParaView
-    (``format="vtk"``) or NumPy (``"npz"``); see the module."""
+    (``format="vtk"``) or NumPy (``"npz"``), with the grid's where ``grid``; see the
+    module."""
 
-    def __init__(self, directory, format="vtk", prefix="particles"):
+    def __init__(self, directory, format="vtk", prefix="particles", grid=False):
         if format not in FORMATS:
             raise ValueError(f"unknown field format {format!r}: choose one of "
                              f"{', '.join(FORMATS)}")
         if not isinstance(prefix, str) or not prefix or os.sep in prefix:
             raise ValueError(f"prefix must be a plain file name, got {prefix!r}")
         self.directory = check_output_directory(directory)
-        self.format, self.prefix = format, prefix
+        self.format, self.prefix, self.grid = format, prefix, bool(grid)
         self.frames = []  # (file name, simulated time)
+        self.grid_frames = []
         if format == "vtk":
             import importlib
 
@@ -109,14 +132,22 @@ class FieldWriter:
         """The ParaView time series (``.pvd``; vtk format)."""
         return self.directory / f"{self.prefix}.pvd"
 
+    @property
+    def grid_series(self) -> Path:
+        """The grid's ParaView time series (``grid.pvd``; vtk format, ``grid=True``)."""
+        return self.directory / "grid.pvd"
+
     def write(self, solver) -> Path:
         """One frame: the fields of ``solver`` at its current time."""
         fields = particle_fields(solver)
-        name = f"{self.prefix}_{len(self.frames):05d}"
+        grid = grid_fields(solver) if self.grid else None
+        index = len(self.frames)
+        name = f"{self.prefix}_{index:05d}"
         if self.format == "npz":
             path = self.directory / f"{name}.npz"
             tmp = self.directory / f".{name}.tmp.npz"
-            np.savez(tmp, t=solver.t, step=solver.step, **fields)
+            extra = {f"grid_{k}": v for k, v in grid.items()} if grid else {}
+            np.savez(tmp, t=solver.t, step=solver.step, **fields, **extra)
         else:
             path = self.directory / f"{name}.vtu"
             tmp = self.directory / f".{name}.tmp.vtu"
@@ -124,18 +155,44 @@ class FieldWriter:
         os.replace(tmp, path)
         self.frames.append((path.name, float(solver.t)))
         if self.format == "vtk":
-            self._write_series()
+            _write_series(self.directory, self.frames, self.series)
+            if grid is not None:
+                image = self.directory / f"grid_{index:05d}.vti"
+                tmp = self.directory / f".grid_{index:05d}.tmp"
+                _write_vti(str(tmp), grid)
+                os.replace(f"{tmp}.vti", image)
+                self.grid_frames.append((image.name, float(solver.t)))
+                _write_series(self.directory, self.grid_frames, self.grid_series)
         return path
 
-    def _write_series(self):
-        from pyevtk.vtk import VtkGroup
 
-        tmp = self.directory / f".{self.prefix}.tmp"
-        group = VtkGroup(str(tmp))
-        for name, t in self.frames:
-            group.addFile(str(self.directory / name), sim_time=t)
-        group.save()
-        os.replace(f"{tmp}.pvd", self.series)
+def _write_series(directory, frames, series):
+    """The ``.pvd`` collection of ``frames`` ((file name, time), ...) at ``series``."""
+    from pyevtk.vtk import VtkGroup
+
+    tmp = directory / f".{series.stem}.tmp"
+    group = VtkGroup(str(tmp))
+    for name, t in frames:
+        group.addFile(str(directory / name), sim_time=t)
+    group.save()
+    os.replace(f"{tmp}.pvd", series)
+
+
+def _write_vti(base, grid):
+    """The grid as VTK image data (pyevtk): node values padded to 3D."""
+    from pyevtk.hl import imageToVTK
+
+    dim = grid["mass"].ndim
+    shape = grid["mass"].shape + (1,) * (3 - dim)
+
+    def volume(a):
+        return np.asfortranarray(np.asarray(a, dtype=np.float64).reshape(shape))
+
+    velocity = tuple(volume(grid["velocity"][..., k]) if k < dim else volume(
+        np.zeros(grid["mass"].shape)) for k in range(3))
+    pad = lambda a, fill: tuple(float(v) for v in a) + (fill,) * (3 - dim)  # noqa: E731
+    imageToVTK(base, origin=pad(grid["origin"], 0.0), spacing=pad(grid["spacing"], 1.0),
+               pointData={"mass": volume(grid["mass"]), "velocity": velocity})
 
 
 def _write_vtu(base, fields):
