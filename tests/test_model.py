@@ -1,6 +1,7 @@
 """The one model of 1D to 3D: Scene and World build it, the engine runs it; walls and
 Dirichlet nodes in every dimension."""
 import itertools
+import re
 
 import numpy as np
 import pytest
@@ -154,8 +155,12 @@ def test_an_initial_displacement_vibrates_as_the_exact_string():
     errors = []
     for elements in (16, 32):
         scene = problem.scene(elements=elements, ppc=4, dt=1e-3, stress_update="small")
-        model = dataclasses.replace(scene.model, velocity=None,
-                                    displacement=lambda X: A * np.sin(np.pi * X / L))
+        u0 = lambda X: A * np.sin(np.pi * X / L)  # noqa: E731
+        # the same through the model and through the 1D scene
+        if elements == 16:
+            model = dataclasses.replace(scene.model, velocity=None, displacement=u0)
+        else:
+            model = dataclasses.replace(scene, velocity=None, displacement=u0).model
         solver = Solver(model, mode="serial", record_every=10)
         solver.run(3.0)
         exact = A * np.sin(np.pi * model.positions[:, 0] / L) * np.cos(problem.omega * solver.t)
@@ -188,6 +193,44 @@ def test_an_initial_displacement_deforms_a_2d_body():
     W = 0.5 * mu * (np.sum(F0 * F0) - 2) - mu * np.log(J) + 0.5 * lam * np.log(J) ** 2
     assert solver.energies()["strain"][0] == pytest.approx(W * model.volume.sum(), rel=1e-6)
     solver.release()
+
+
+def test_bodies_start_displaced_each_by_its_own_function():
+    # two bodies: the first stretched by u0 = (0.1 (X - 0.3), 0), the second at rest; each
+    # body's F0, volume and position, and the stretched one's energy W(F0) V0 alone
+    law = NeoHookean(1e4, 0.3, 1e3)
+    stretched = Body(Box((0.3, 0.3), (0.5, 0.5)), law,
+                     displacement=lambda X: (X - 0.3) * [0.1, 0.0])
+    resting = Body(Box((0.6, 0.3), (0.8, 0.5)), law)
+    world = World(domain=(1.0, 1.0), cells=8, gravity=(0.0, 0.0), transfer="apic",
+                  bodies=[stretched, resting])
+    model = world.model
+    first = model.body_index == 0
+    X = model.positions
+    solver = Solver(world, mode="serial", record_every=1)
+    x = solver.positions()
+    assert np.allclose(x[first], X[first] + (X[first] - 0.3) * [0.1, 0.0], rtol=1e-12)
+    assert np.array_equal(x[~first], X[~first])
+    assert np.allclose(solver.volumes()[first], model.volume[first] * 1.1, rtol=1e-12)
+    assert np.array_equal(solver.volumes()[~first], model.volume[~first])
+    solver.run(n_steps=1)
+    F0 = np.diag([1.1, 1.0])
+    J = 1.1
+    W = 0.5 * law.mu * (np.sum(F0 * F0) - 2) - law.mu * np.log(J) + 0.5 * law.lam * np.log(J) ** 2
+    assert solver.energies()["strain"][0] == pytest.approx(W * model.volume[first].sum(),
+                                                           rel=1e-6)
+    solver.release()
+
+
+@pytest.mark.parametrize("displacement, message", [
+    (0.1, "body displacement must be a function u0(X)"),
+    (lambda X: X[:, :1], "body 0's displacement u0(X) must return an (n, 2) array"),
+    (lambda X: X * np.nan, "body 0's displacement u0(X) is not finite at point 0"),
+])
+def test_a_bad_body_displacement_is_refused(displacement, message):
+    with pytest.raises(ValueError, match=re.escape(message)):
+        World(domain=(1.0, 1.0), cells=8, gravity=(0.0, 0.0),
+              bodies=Body(Box((0.3, 0.3), (0.5, 0.5)), "rubber", displacement=displacement))
 
 
 def test_the_study_law_in_a_1d_world():

@@ -224,7 +224,8 @@ class Scene:
     acceleration along x (negative points down); ``damping`` the local damping factor
     alpha of A.4; ``projection`` the particle-to-grid projection (``PROJECTIONS``);
     ``transfer`` the particle-grid transfer (the study's ``"musl"``, or the affine
-    ``"apic"`` and ``"mls-mpm"`` with uniformly spaced nodes).
+    ``"apic"`` and ``"mls-mpm"`` with uniformly spaced nodes); ``displacement`` a function
+    u0(X) the body starts displaced by (see :class:`~timpm.model.Model`).
     """
 
     grid: Grid1D
@@ -245,6 +246,7 @@ class Scene:
     name: str = "scene"
     transfer: str = "musl"
     fixed_time: object = None
+    displacement: object = None
 
     def __post_init__(self):
         basis = get_basis(self.basis)
@@ -270,7 +272,8 @@ class Scene:
                       mass_matrix=self.mass, projection=self.projection,
                       gravity=(float(self.gravity),), damping=self.damping, walls=walls,
                       fixed_nodes=fixed_nodes, fixed_time=self.fixed_time,
-                      traction=self.traction, name=self.name)
+                      traction=self.traction, name=self.name,
+                      displacement=self.displacement)
         object.__setattr__(self, "model", model)
         x, vol = model.positions[:, 0], model.volume
         object.__setattr__(self, "positions", x)

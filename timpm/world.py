@@ -21,6 +21,7 @@ import numpy as np
 
 from .basis import get_basis
 from .checks import positive as _positive, vector as _vector
+from .loads import field_function
 from .materials import MATERIALS, Material, get_material
 from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Wall, check_scheme,
                     walls_from)
@@ -147,13 +148,17 @@ class Points:
 @dataclass(frozen=True)
 class Body:
     """A shape filled with one material, moving at ``velocity``, ``ppc`` particles per cell
-    and axis.  ``material`` is a material object or a preset name (``PRESETS``)."""
+    and axis.  ``material`` is a material object or a preset name (``PRESETS``).
+    ``displacement`` a function u0(X) of the body's (n, dim) reference positions: the body
+    starts deformed (see :class:`~timpm.model.Model`: particles at X + u0, F = I + grad
+    u0, its stresses)."""
 
     shape: object
     material: object
     velocity: tuple | None = None
     ppc: int = 2
     name: str = ""
+    displacement: object = None
 
     def __post_init__(self):
         mat = self.material
@@ -172,6 +177,30 @@ class Body:
         if isinstance(self.ppc, bool) or not isinstance(self.ppc, (int, np.integer)) or self.ppc < 1:
             raise ValueError(f"ppc (particles per cell and axis) must be a positive integer, "
                              f"got {self.ppc!r}")
+        if self.displacement is not None and not callable(self.displacement):
+            raise ValueError("body displacement must be a function u0(X) of the body's (n, "
+                             f"dim) reference positions, got {type(self.displacement).__name__}")
+
+
+class _BodyDisplacements:
+    """The model's u0(X) of a world whose bodies start displaced: each body's function on
+    its own rows (the model evaluates u0 at the particles' n positions, shifted, in
+    particle order), zero for the other bodies."""
+
+    def __init__(self, bodies, body_index):
+        self.parts = [(k, np.flatnonzero(body_index == k), b.displacement)
+                      for k, b in enumerate(bodies) if b.displacement is not None]
+        self.n = len(body_index)
+
+    def __call__(self, X):
+        X = np.asarray(X, dtype=np.float64)
+        if X.shape[0] != self.n:
+            raise ValueError(f"a world's displacement is evaluated at its {self.n} particles, "
+                             f"got {X.shape[0]} points")
+        out = np.zeros_like(X)
+        for k, rows, u0 in self.parts:
+            out[rows] = field_function(u0, X[rows], f"body {k}'s displacement u0(X)")
+        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -259,7 +288,10 @@ class World:
                       fixed_nodes=(dict(self.fixed_nodes) if isinstance(self.fixed_nodes, dict)
                                    else tuple(self.fixed_nodes)),
                       fixed_time=self.fixed_time, particle_force=forces,
-                      particle_force_time=force_time, name=self.name)
+                      particle_force_time=force_time, name=self.name,
+                      displacement=(_BodyDisplacements(self.bodies, part["body_index"])
+                                    if any(b.displacement is not None for b in self.bodies)
+                                    else None))
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "fixed_nodes", model.fixed_nodes)
 
