@@ -15,6 +15,8 @@ and the patch tests hold for any dt because the stress is zero in the first step
 """
 import itertools
 
+import re
+
 import numpy as np
 import pytest
 
@@ -881,3 +883,50 @@ def test_falling_block_converts_potential_to_kinetic_energy():
         assert abs(e["strain"][-1]) < 1e-12 * e["kinetic"][-1]  # no stress in free fall
     finally:
         s.release()
+
+
+@pytest.mark.parametrize("ramp", [None, 0.02])
+def test_a_moving_sticky_wall_drives_the_material_touching_it(ramp):
+    """A lid-driven box: the top wall moves along x at V f(t) (f = 1, or a ramp over
+    0.02 s); the nodes on and behind it move with it, the layer under it follows, the
+    material at the fixed floor stays at rest, and the lid puts x momentum in."""
+    from timpm import Ramp, Wall
+
+    V = 0.2
+    world = World(domain=(1.0, 1.0), cells=8, gravity=(0.0, 0.0), transfer="apic",
+                  bodies=Body(Box((0.0, 0.0), (1.0, 1.0)), NeoHookean(1e4, 0.3, 1e3)),
+                  walls={"top": Wall("sticky", velocity=(V, 0.0)), "default": "sticky"},
+                  fixed_time=None if ramp is None else Ramp(ramp))
+    solver = Solver(world, mode="serial")
+    assert solver.energy_guard is None  # the wall does work the records do not count
+    # 0.3 s: the shear wave (c_s = 2 m/s) has not reached the floor back; the lid moved
+    # 0.06 m, half a cell
+    solver.run(0.3)
+    f = 1.0 if ramp is None else min(solver.t / ramp, 1.0)
+    top = world.model.wall_nodes()[1][1]
+    gv = solver.read("gv")
+    lid = gv[:, top:][np.any(gv[:, top:] != 0.0, axis=-1)]
+    assert len(lid) >= world.cells + 1  # the top row at least
+    np.testing.assert_array_equal(lid, np.broadcast_to([V * f, 0.0], lid.shape))
+    x, v = solver.positions(), solver.velocities()
+    h = world.h
+    assert 0.5 * V < v[x[:, 1] > 1.0 - h, 0].mean() < V
+    assert abs(v[x[:, 1] < h, 0].mean()) < 0.05 * V
+    assert (world.mass_per_particle * v[:, 0]).sum() > 0.0
+    solver.release()
+
+
+@pytest.mark.parametrize("walls, message", [
+    (lambda W: {"top": W("slip", velocity=(1.0, 0.0))}, "a slip wall takes no velocity"),
+    (lambda W: {"top": W("sticky", velocity=(0.0, 1.0))},
+     "the top wall's velocity must lie along the wall (it stays in place): its component y"),
+    (lambda W: {"left": W("sticky", velocity=(1.0, 0.0, 0.0))},
+     "the left wall's velocity must have 2 components"),
+    (lambda W: {"top": W("sticky", velocity=(np.nan, 0.0))}, "wall velocity must be finite"),
+])
+def test_bad_wall_velocities_are_refused(walls, message):
+    from timpm import Wall
+
+    with pytest.raises(ValueError, match=re.escape(message)):
+        World(domain=(1.0, 1.0), cells=8, bodies=Body(Box((0.2, 0.2), (0.5, 0.5)), "rubber"),
+              walls=walls(Wall))

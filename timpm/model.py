@@ -48,10 +48,13 @@ class Wall:
     ``slip`` (no penetration, no friction), ``friction`` (Coulomb, coefficient ``mu``) or
     ``roller`` (no normal motion either way, no friction: the symmetry plane and the
     bilateral u_n = 0 of a Dirichlet side); slip and friction walls let the material
-    separate."""
+    separate.  A sticky wall with a ``velocity`` (a vector along the wall: the wall stays
+    where it is) drives the material touching it at ``velocity`` f(t), f the model's time
+    function ``fixed_time`` (a lid-driven cavity, a shear box)."""
 
     kind: str = "slip"
     mu: float = 0.0
+    velocity: tuple | None = None
 
     def __post_init__(self):
         if self.kind not in WALL_KINDS:
@@ -62,6 +65,22 @@ class Wall:
         if self.kind != "friction" and mu != 0.0:
             raise ValueError(f"a {self.kind} wall takes no friction coefficient (got mu={mu})")
         object.__setattr__(self, "mu", mu)
+        if self.velocity is not None:
+            if self.kind != "sticky":
+                raise ValueError(f"a {self.kind} wall takes no velocity: a moving wall is "
+                                 "sticky (it drives the material touching it)")
+            try:
+                v = tuple(float(c) for c in np.atleast_1d(self.velocity))
+            except (TypeError, ValueError):
+                raise ValueError(f"wall velocity must be a vector of numbers, got "
+                                 f"{self.velocity!r}") from None
+            if not all(math.isfinite(c) for c in v):
+                raise ValueError(f"wall velocity must be finite, got {self.velocity!r}")
+            object.__setattr__(self, "velocity", v if any(v) else None)
+
+    @property
+    def moves(self) -> bool:
+        return self.velocity is not None
 
 
 def _wall(value, where, open_ok):
@@ -361,6 +380,16 @@ class Model:
                                  f"({', '.join(SIDES[:2 * dim])}), got {self.walls!r}")
             if all(w is None for w in walls):
                 walls = None
+        for side, w in zip(SIDES, walls or ()):
+            if w is not None and w.moves:
+                axis = SIDES.index(side) // 2
+                if len(w.velocity) != dim:
+                    raise ValueError(f"the {side} wall's velocity must have {dim} components, "
+                                     f"got {w.velocity!r}")
+                if w.velocity[axis] != 0.0:
+                    raise ValueError(f"the {side} wall's velocity must lie along the wall (it "
+                                     f"stays in place): its component {'xyz'[axis]} is "
+                                     f"{w.velocity[axis]:g}, not 0")
         if walls is not None and (self.mass_matrix != "lumped" or self.projection != "standard"):
             raise ValueError("walls act on the lumped nodal velocities: with the consistent "
                              "mass or the MLS projection hold the end nodes fixed instead "
@@ -442,8 +471,12 @@ class Model:
     # ---- derived -----------------------------------------------------------------------
     @property
     def prescribes_motion(self) -> bool:
-        """Some fixed node has a non-zero prescribed velocity."""
-        return bool(np.any(self.fixed_velocity != 0.0))
+        """Some fixed node has a non-zero prescribed velocity, or a wall moves."""
+        return bool(np.any(self.fixed_velocity != 0.0)) or self.moving_walls
+
+    @property
+    def moving_walls(self) -> bool:
+        return self.walls is not None and any(w is not None and w.moves for w in self.walls)
 
     @property
     def dim(self) -> int:

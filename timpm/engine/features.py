@@ -51,7 +51,8 @@ class FeatureSet:
     consistent: bool             # consistent mass matrix (1D)
     mls: bool                    # MLS projection of 4.4 (1D)
     materials: tuple             # ((material class, its flags()), ...) in material-index order
-    walls: tuple | None          # wall kind per side ("open": none there); None: no walls
+    walls: tuple | None          # wall kind per side ("open": none there, "driven": a moving
+                                 # sticky wall); None: no walls
     damping: bool                # local damping of A.4
     traction: type | None        # time-function class of the particle traction (1D)
     body_force: bool             # a body force b(X, t) per particle, uploaded every step
@@ -233,8 +234,9 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         raise ValueError("grid_displacement is available for 1D scenes only")
     elements, origin, gravity = model.elements, model.origin, model.gravity
     materials, damping, traction = list(model.materials), model.damping, model.traction
-    walls = None if model.walls is None else tuple("open" if w is None else w.kind
-                                                     for w in model.walls)
+    # a moving (sticky) wall is its own kind: the others compile as before
+    walls = None if model.walls is None else tuple(
+        "open" if w is None else "driven" if w.moves else w.kind for w in model.walls)
     fixed_nodes = list(model.fixed_nodes)
     nodes = model.nodes
     strain_remap = transfer == "apic" and basis.support == 2
@@ -295,6 +297,10 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     if walls is not None:
         values.update(wall_mu=tuple(0.0 if w is None else w.mu for w in model.walls),
                       wall_nodes=tuple(i for pair in model.wall_nodes() for i in pair))
+        if model.moving_walls:  # per side its velocity vector, zeros for the others
+            values.update(wall_velocity=tuple(
+                c for w in model.walls for c in (w.velocity if w is not None and w.moves
+                                                 else (0.0,) * dim)))
     # 1D: room for a stencil beyond the last node (the banded solve reads it, as zeros)
     room = (nodes[0] + basis.support,) if dim == 1 else nodes
     layout = Layout(n_particles=n, elements=tuple(elements), nodes=nodes, room=room,

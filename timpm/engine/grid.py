@@ -31,7 +31,8 @@ class GridOps:
     @ti.func
     def _wall(self, I, v):
         """Wall conditions on the velocity of node I (sides left/right, bottom/top, ...):
-        sticky v = 0; roller v_n = 0; slip removes the outward normal component; friction
+        sticky v = 0; driven (a moving sticky wall) v = v_wall f(t_n + dt); roller v_n = 0;
+        slip removes the outward normal component; friction
         also slows the tangential velocity by mu |v_n| (Coulomb), down to rest.  A wall
         acts on the nodes at and beyond it (``wall_nodes``: per side the last node on or
         behind the wall)."""
@@ -44,6 +45,12 @@ class GridOps:
                         vn = v[k] if ti.static(side == 0) else -v[k]  # along the inward normal
                         if ti.static(self.walls[2 * k + side] == "sticky"):
                             v = ti.Vector.zero(float, self.dim)
+                        elif ti.static(self.walls[2 * k + side] == "driven"):
+                            speeds = self.p.wall_velocity()
+                            f = self.prescribed_fn.at(self.time[None] + self.p.dt(),
+                                                      self.p.prescribed_param())
+                            for j in ti.static(range(self.dim)):
+                                v[j] = speeds[(2 * k + side) * self.dim + j] * f
                         elif ti.static(self.walls[2 * k + side] == "roller"):
                             v[k] = 0.0
                         elif vn < 0.0:

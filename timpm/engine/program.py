@@ -93,6 +93,8 @@ def _param_spec(features):
         spec.update(surface_param="real")
     if features.has_walls:
         spec.update(wall_mu=("real", 2 * d), wall_nodes=("int", 2 * d))
+        if "driven" in features.walls:
+            spec.update(wall_velocity=("real", 2 * d * d))
     groups = {"p": spec}
     for k, (cls, _) in enumerate(features.materials):
         groups[f"m{k}"] = {name: "real" for name in cls.CONSTANTS}
