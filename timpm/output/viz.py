@@ -157,10 +157,13 @@ def plot_demo(result, path):
                    label=f"final run-out, Lajeunesse et al. 2005: {m['lajeunesse_runout']:.2f}")
         ax.set_xlabel("time [s]")
         ax.set_ylabel("length / L0 (L0: the column's width)")
-        ax.set_title(f"column collapse a = {m['aspect']:g}: run-out {m['runout']:.2f}; Lube et al. "
+        ax.set_title(f"column collapse a = {m['aspect']:g}: run-out {m['runout']:.2f}\nLube et al. "
                      f"2005: {m['lube_runout']:.2f} ({100 * m['relative_error']:+.0f}%), Lajeunesse "
                      f"et al. 2005: {m['lajeunesse_runout']:.2f} "
                      f"({100 * m['lajeunesse_relative_error']:+.0f}%)", fontsize=9)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="center right", bbox_to_anchor=(1.0, 0.45))
+        return save(fig, path)
     ax.grid(True, alpha=0.3)
     ax.legend()
     return save(fig, path)
