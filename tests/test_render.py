@@ -2,7 +2,10 @@
 import numpy as np
 import pytest
 
-from timpm.output.render import NAN_COLOR, GifWriter, Renderer
+from timpm.output.decorations import (DEFAULT_WIDTH, MAX_WIDTH, MIN_WIDTH, OPEN_SIDE_COLOR,
+                                      ROUGH_WALL_COLOR, WALL_COLOR, FrameLayout, check_width,
+                                      tick_labels, tick_values)
+from timpm.output.render import NAN_COLOR, GifWriter, Movie, Renderer, gif_palette
 
 WHITE = (255, 255, 255)
 
@@ -205,3 +208,165 @@ def test_bad_gif_use(tmp_path):
     with pytest.raises(ValueError, match="no frames were added"):
         GifWriter(tmp_path / "empty.gif").close()
     assert not (tmp_path / "empty.gif").exists()
+
+
+# ---- movie frames: axes, walls, a colour bar fixed for the run, the time -----------------
+
+@pytest.fixture(scope="module")
+def tank():
+    """A 2D world with a friction floor and slip walls elsewhere (the column collapse's)."""
+    from timpm.scenarios import get_demo
+
+    return get_demo("column-collapse", cells_per_width=6, aspect=1.0).world()
+
+
+def _movie_frames(path, world, frames, value_range=(0.0, 2.0), **kw):
+    """Frames (positions, values, t) through a Movie into ``path``; the movie and the GIF's
+    frames decoded to RGB."""
+    from PIL import Image
+
+    movie = Movie(path, **kw)
+    movie.start(world, "speed", value_range=value_range, label="speed", unit="m/s", title="tank")
+    for pos, val, t in frames:
+        movie.add(np.asarray(pos, float), np.asarray(val, float), t=t)
+    movie.close()
+    with Image.open(path) as im:
+        decoded = []
+        for k in range(im.n_frames):
+            im.seek(k)
+            decoded.append(np.asarray(im.convert("RGB")))
+    return movie, decoded
+
+
+def _region(img, box):
+    x, y, w, h = box
+    return img[y:y + h, x:x + w]
+
+
+def test_movie_frame_is_640_px_wide_with_the_plot_inside(tmp_path, tank):
+    movie, gif = _movie_frames(tmp_path / "m.gif", tank, [([[0.1, 0.1]], [1.0], 0.0)])
+    layout = movie.layout
+    assert movie.width == DEFAULT_WIDTH == 640
+    assert gif[0].shape == (layout.height, 640, 3)
+    x, y, pw, ph = layout.plot_box
+    assert (movie.renderer.width, movie.renderer.height) == (pw, ph)
+    assert 0 < x and x + pw < 640 and 0 < y and y + ph < layout.height
+    # the plot keeps the domain's aspect ratio: one scale in metres per pixel on both axes
+    lx, ly = tank.domain
+    assert abs(ph - pw * ly / lx) <= 0.5
+
+
+def test_walls_are_drawn_along_the_plot(tmp_path, tank):
+    movie = Movie(tmp_path / "m.gif")
+    movie.start(tank, "speed", value_range=(0.0, 1.0))
+    bg = movie.layout.background
+    x, y, pw, ph = movie.layout.plot_box
+    assert tank.walls[2].kind == "friction" and tank.walls[0].kind == "slip"
+    assert tuple(bg[y + ph, x + pw // 2]) == ROUGH_WALL_COLOR     # the floor, below the plot
+    assert tuple(bg[y + ph // 2, x - 1]) == WALL_COLOR            # the left wall
+    assert tuple(bg[y + ph // 2, x + pw]) == WALL_COLOR           # the right wall
+    assert tuple(bg[y - 1, x + pw // 2]) == WALL_COLOR            # the lid
+    from timpm.world import Ball, Body, World
+    from timpm.materials import NeoHookean
+
+    open_top = World(domain=(1.0, 0.5), cells=10, walls={"default": "slip", "top": None},
+                     bodies=[Body(Ball((0.5, 0.2), 0.1), NeoHookean(1e3, 0.3, 1e3))])
+    movie.start(open_top, "speed", value_range=(0.0, 1.0))
+    x, y, pw, ph = movie.layout.plot_box
+    assert tuple(movie.layout.background[y - 1, x + pw // 2]) == OPEN_SIDE_COLOR
+
+
+def test_axes_are_labelled_in_metres(tank):
+    layout = FrameLayout(640, (0.0, 0.0), tank.domain, walls=tank.walls)
+    ticks = [v for v, _ in layout.x_ticks]
+    assert ticks[0] == 0.0 and ticks[-1] <= tank.domain[0] and len(ticks) >= 3
+    assert [label for _, label in layout.y_ticks] == tick_labels([v for v, _ in layout.y_ticks])
+    assert tick_values(0.0, 3.4, 4) == [0.0, 1.0, 2.0, 3.0]
+    assert tick_labels([0.0, 0.25, 0.5]) == ["0.00", "0.25", "0.50"]
+    assert tick_labels([-0.2, 0.0, 0.2]) == ["-0.2", "0.0", "0.2"]
+    assert tick_labels([0.0, 500.0, 1000.0]) == ["0", "500", "1000"]
+
+
+def test_colour_range_is_fixed_for_the_run(tmp_path, tank):
+    # one particle, slower than the range's top, then faster than it: a range fitted to
+    # each frame would draw both in the top colour
+    vmax = 2.0
+    centre = [[0.5 * tank.domain[0], 0.5 * tank.domain[1]]]
+    movie, gif = _movie_frames(tmp_path / "m.gif", tank, [(centre, [0.5 * vmax], 0.0),
+                                                          (centre, [3.0 * vmax], 0.01),
+                                                          (centre, [0.0], 0.02)], (0.0, vmax))
+    assert movie.value_range == (0.0, vmax) and len(gif) == 3
+    x, y, pw, ph = movie.layout.plot_box
+    at_centre = [f[y + ph // 2, x + pw // 2] for f in gif]
+    # the colour bar: the same pixels in every frame, from the colour table's first colour
+    # to its last (up to the GIF palette's rounding)
+    bars = [_region(f, movie.layout.colorbar_box)[0] for f in gif]
+    assert all(np.array_equal(bars[0], b) for b in bars[1:])
+    lut = movie.renderer.lut.astype(int)
+    assert np.abs(bars[0][[0, -1]] - lut[[0, -1]]).max() <= 4
+    # the particle's colour is the bar's at its value: the middle, the top (clamped), 0
+    bar = bars[0]
+    assert [tuple(c) for c in at_centre] == [tuple(bar[len(bar) // 2]), tuple(bar[-1]), tuple(bar[0])]
+
+
+def test_time_label_changes_from_frame_to_frame(tmp_path, tank):
+    pos = [[0.1, 0.1]]
+    movie, gif = _movie_frames(tmp_path / "m.gif", tank, [(pos, [1.0], 0.0), (pos, [1.0], 0.125),
+                                                          (pos, [1.0], 0.125)])
+    labels = [_region(f, movie.layout.time_box) for f in gif]
+    assert not np.array_equal(labels[0], labels[1])
+    assert (labels[0] != 255).any()                 # written, not blank
+    # Pillow merges identical consecutive frames: the same time gives the same frame
+    assert len(gif) == 2
+    # outside the plot and the time label, the frames are the background
+    outside = np.ones(gif[0].shape[:2], bool)
+    for x, y, w, h in (movie.layout.plot_box, movie.layout.time_box):
+        outside[y:y + h, x:x + w] = False
+    assert np.array_equal(gif[0][outside], gif[1][outside])
+
+
+@pytest.mark.parametrize("width, match", [
+    (319, "at least 320 px"), (8193, "at most 8192 px"), (640.0, "whole number of pixels"),
+])
+def test_movie_width_is_checked(tmp_path, width, match):
+    with pytest.raises(ValueError, match=match):
+        Movie(tmp_path / "m.gif", width=width)
+    assert check_width(MIN_WIDTH) == MIN_WIDTH and check_width(MAX_WIDTH) == MAX_WIDTH
+
+
+def test_smallest_width_fits_every_label(tmp_path, tank):
+    movie = Movie(tmp_path / "m.gif", width=MIN_WIDTH)
+    movie.start(tank, "speed", value_range=(0.0, 14715.0), label="pressure", unit="Pa")
+    layout = movie.layout
+    tx, _, tw, _ = layout.time_box
+    bx, _, bw, _ = layout.colorbar_box
+    assert tx + tw < bx and bx + bw < MIN_WIDTH
+    assert layout._text_width(f"t = {100:.3f} s") <= tw
+    assert layout.plot_box[2] > MIN_WIDTH // 2
+
+
+def test_movie_needs_a_colour_range_for_values(tmp_path, tank):
+    movie = Movie(tmp_path / "m.gif")
+    movie.start(tank, "speed")
+    with pytest.raises(ValueError, match="needs the run's colour range"):
+        movie.add(np.zeros((1, 2)), np.zeros(1), t=0.0)
+    movie.add(np.zeros((1, 2)), t=0.0)          # one colour, no colour bar
+    assert movie.layout.colorbar_box is None
+    with pytest.raises(ValueError, match="finite vmin < vmax"):
+        movie.start(tank, "speed", value_range=(1.0, 1.0))
+
+
+def test_gif_palette_holds_the_extras_greys_and_colour_table():
+    lut = Renderer([0, 0], [1, 1]).lut
+    extras = [(255, 255, 255), (31, 119, 180)]
+    for shades in ((1.0,), (1.0, 0.8, 0.6)):
+        pal = gif_palette(lut, extras, shades, greys=24)
+        n = (256 - len(extras) - 24) // len(shades)
+        assert pal.shape == (len(extras) + 24 + n * len(shades), 3) and len(pal) <= 256
+        assert [tuple(c) for c in pal[:2]] == extras
+        assert tuple(pal[2]) == (0, 0, 0) and tuple(pal[25]) == (255, 255, 255)
+        table = pal[26:26 + n]
+        assert tuple(table[0]) == tuple(lut[0]) and tuple(table[-1]) == tuple(lut[-1])
+        darkest = pal[-n:]          # the table at the last brightness
+        expected = np.round(lut[[0, -1]].astype(float) * shades[-1]).astype(np.uint8)
+        assert np.array_equal(darkest[[0, -1]], expected)

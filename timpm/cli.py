@@ -177,7 +177,8 @@ def _parser():
     demo.add_argument("--out", metavar="FILE.gif", help="animated GIF to write")
     demo.add_argument("--frames", type=positive_int, default=60, help="frames (default 60)")
     demo.add_argument("--fps", type=positive_int, default=20)
-    demo.add_argument("--width", type=positive_int, default=480, help="image width [px]")
+    demo.add_argument("--width", type=positive_int, default=640,
+                      help="frame width [px], 320 to 8192 (default 640)")
     demo.add_argument("--color", help="colour by: speed, pressure, plastic, von-mises, body")
     demo.add_argument("--png-dir", metavar="DIR", help="also write every frame as PNG")
     _add_fields(demo)
@@ -294,10 +295,10 @@ def _demo(args):
     if args.t_end is not None:
         params["t_end"] = args.t_end
     _check_output_files(args)
-    runtime.init(threads=args.threads)
     movie = None
     if args.out:
         movie = Movie(args.out, fps=args.fps, width=args.width, png_dir=args.png_dir)
+    runtime.init(threads=args.threads)
     fields = _field_writer(args)
     result = run_demo(args.name, movie=movie, frames=args.frames, color=args.color,
                       progress=args.progress, mode=args.mode, fields=fields, **params)

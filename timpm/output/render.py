@@ -4,7 +4,9 @@
 kernel (positions and values are passed as NumPy arrays, so every frame reuses it).  In
 3D the nearest particle wins each pixel and is shaded slightly darker the farther it is.
 ``GifWriter`` collects frames and writes them with Pillow; ``Movie`` joins the two into
-the sink :func:`timpm.scenarios.demos.run_demo` draws a demo's frames into.
+the sink :func:`timpm.scenarios.demos.run_demo` draws a demo's frames into: each frame
+is the particle raster inside axes, walls, a colour bar and the simulated time
+(:class:`timpm.output.decorations.FrameLayout`, drawn once; only the time changes).
 """
 import numbers
 import os
@@ -15,8 +17,10 @@ import numpy as np
 import taichi as ti
 
 from ..runtime import ensure_init
+from .decorations import (DEFAULT_WIDTH, OPEN_SIDE_COLOR, ROUGH_WALL_COLOR, TEXT_COLOR,
+                          WALL_COLOR, FrameLayout, check_width)
 
-__all__ = ["Renderer", "GifWriter", "Movie", "colormap_lut"]
+__all__ = ["Renderer", "GifWriter", "Movie", "colormap_lut", "gif_palette"]
 
 _SHIFT = 31                 # depth key = depth level << _SHIFT | reversed particle index
 _LEVELS = (1 << 24) - 1     # depth levels across the box
@@ -260,13 +264,31 @@ class Renderer:
         return img
 
 
+def gif_palette(lut, extras=(), shades=(1.0,), greys=24):
+    """At most 256 colours for a GIF: ``extras``, ``greys`` greys from black to white
+    (anti-aliased text) and, for each brightness in ``shades``, as many colours of the
+    (256, 3) colour table ``lut`` (evenly spaced) as fit.  Returns (n, 3) uint8."""
+    extras = np.asarray(extras, dtype=float).reshape(-1, 3)
+    n = (256 - len(extras) - greys) // len(shades)
+    if n < 2:
+        raise ValueError(f"no room for the colour table in 256 colours: {len(extras)} extra "
+                         f"colours, {greys} greys, {len(shades)} shades")
+    table = np.asarray(lut, dtype=float)[np.round(np.linspace(0, len(lut) - 1, n)).astype(int)]
+    ramp = np.repeat(np.linspace(0.0, 255.0, greys)[:, None], 3, axis=1)
+    rows = [extras, ramp] + [table * s for s in shades]
+    return np.round(np.vstack(rows)).astype(np.uint8)
+
+
 class GifWriter:
     """Collects RGB frames and writes an animated GIF (looping, ``fps`` frames a second),
     and each frame as ``png_dir/frame_0000.png`` ... when ``png_dir`` is given.
 
-    Pillow merges consecutive identical frames into one longer frame."""
+    ``palette`` ((n <= 256, 3) colours, settable before the first frame): every pixel
+    takes the nearest of them, without dithering, so that a colour is the same in every
+    frame; None: each frame gets its own adaptive palette.  Pillow merges consecutive
+    identical frames into one longer frame."""
 
-    def __init__(self, path, fps=25, png_dir=None):
+    def __init__(self, path, fps=25, png_dir=None, palette=None):
         self.path = Path(path)
         if self.path.suffix.lower() != ".gif":
             raise ValueError(f"GifWriter writes .gif files, got {str(path)!r}")
@@ -276,6 +298,8 @@ class GifWriter:
         self.png_dir = Path(png_dir) if png_dir is not None else None
         if self.png_dir is not None:
             os.makedirs(self.png_dir, exist_ok=True)
+        self.palette = palette
+        self._palette_image = None
         self._frames = []
         self._size = None
         self.closed = False
@@ -299,9 +323,23 @@ class GifWriter:
         image = Image.fromarray(np.ascontiguousarray(frame))
         if self.png_dir is not None:
             image.save(self.png_dir / f"frame_{len(self._frames):04d}.png")
-        adaptive = getattr(Image, "Palette", Image).ADAPTIVE
-        self._frames.append(image.convert("P", palette=adaptive, colors=256))
+        self._frames.append(self._indexed(image))
         self.seconds += time.perf_counter() - t0
+
+    def _indexed(self, image):
+        from PIL import Image
+
+        if self.palette is None:
+            return image.convert("P", palette=getattr(Image, "Palette", Image).ADAPTIVE, colors=256)
+        if self._palette_image is None:
+            colours = np.asarray(self.palette, dtype=np.uint8)
+            if colours.ndim != 2 or colours.shape[1] != 3 or not 1 <= len(colours) <= 256:
+                raise ValueError(f"a GIF palette is 1 to 256 RGB colours, got shape {colours.shape}")
+            self._palette_image = Image.new("P", (1, 1))
+            # the unused entries repeat the first colour, so that they are never nearer
+            full = np.vstack([colours, np.repeat(colours[:1], 256 - len(colours), axis=0)])
+            self._palette_image.putpalette(full.ravel().tolist())
+        return image.quantize(palette=self._palette_image, dither=getattr(Image, "Dither", Image).NONE)
 
     def close(self):
         """Write the GIF (once); refuses when no frame was added."""
@@ -329,31 +367,65 @@ class GifWriter:
 
 class Movie:
     """A simulation's frames rendered into an animated GIF ``out`` (``width`` pixels wide,
-    ``fps`` frames a second, each frame also as PNG in ``png_dir`` when given).
+    ``MIN_WIDTH`` to ``MAX_WIDTH`` of :mod:`timpm.output.decorations`; ``fps`` frames a
+    second, each frame also as PNG in ``png_dir`` when given).
 
-    ``start(world, color)`` fits a :class:`Renderer` to the world's domain and cells (the
-    colour ``body`` gets a diverging colormap), ``add`` renders and appends one frame,
-    ``close`` writes the GIF; ``seconds`` is the time spent rendering and writing."""
+    ``start(world, color, value_range, label, unit)`` lays the frame out around the
+    world's domain (axes in metres, its walls, a colour bar from ``value_range`` =
+    (vmin, vmax), fixed for the whole run; the colour ``body`` gets a diverging colormap)
+    and fits a :class:`Renderer` into its plot; ``add(positions, values, t)`` renders
+    and appends one frame with the simulated time ``t``; ``close`` writes the GIF;
+    ``seconds`` is the time spent rendering, composing and writing."""
 
-    def __init__(self, out, fps=20, width=480, png_dir=None):
+    def __init__(self, out, fps=20, width=DEFAULT_WIDTH, png_dir=None):
         self.out = str(out)
-        self.width = width
+        self.width = check_width(width)
         self.writer = GifWriter(out, fps=fps, png_dir=png_dir)
-        self.renderer = None
+        self.renderer = self.layout = self.value_range = None
+        self._seconds = 0.0   # laying out and composing frames
 
-    def start(self, world, color=None):
-        self.renderer = Renderer((0.0,) * world.dim, world.domain, width=self.width,
-                                 radius=max(1.0, 0.8 * self.width / world.cells / 2),
-                                 cmap="viridis" if color != "body" else "coolwarm")
+    def start(self, world, color=None, value_range=None, label=None, unit="", title=None):
+        """Lay the frames of ``world`` out; ``value_range``: the colour range of the whole
+        run (None: particles in one colour, no colour bar), its bar labelled ``label``
+        (default: ``color``) [``unit``]; ``title`` (default: the world's name)."""
+        t0 = time.perf_counter()
+        cmap = "viridis" if color != "body" else "coolwarm"
+        lut = colormap_lut(cmap)
+        colorbar = None
+        if value_range is not None:
+            colorbar = (lut, *value_range, color if label is None else label, unit)
+        lo, hi = (0.0,) * world.dim, world.domain
+        self.layout = FrameLayout(self.width, lo, hi, walls=world.walls, colorbar=colorbar,
+                                  title=world.name if title is None else title)
+        _, _, pw, ph = self.layout.plot_box
+        self.renderer = Renderer(lo, hi, width=pw, height=ph, cmap=cmap,
+                                 radius=max(1.0, 0.8 * pw / world.cells / 2))
+        self.value_range = self.layout.value_range
+        shades = (1.0,) if world.dim == 2 else (1.0, 1.0 - DEPTH_SHADE / 2, 1.0 - DEPTH_SHADE)
+        extras = [self.renderer.background, self.renderer.color, NAN_COLOR, TEXT_COLOR, WALL_COLOR,
+                  ROUGH_WALL_COLOR, OPEN_SIDE_COLOR]
+        self.writer.palette = gif_palette(lut, extras, shades)
+        self._seconds += time.perf_counter() - t0
 
-    def add(self, positions, values=None, vmin=None, vmax=None):
+    def add(self, positions, values=None, t=None):
+        """Render ``positions`` coloured by ``values`` (through the run's colour range)
+        at the simulated time ``t`` [s] and append the frame."""
         if self.renderer is None:
             raise ValueError("Movie.start(world) must come before the first frame")
-        self.writer.add(self.renderer.frame(positions, values, vmin=vmin, vmax=vmax))
+        if values is not None and self.value_range is None:
+            raise ValueError("colouring by values needs the run's colour range: "
+                             "Movie.start(world, color, value_range=(vmin, vmax))")
+        vmin, vmax = self.value_range if values is not None else (None, None)
+        plot = self.renderer.frame(positions, values, vmin=vmin, vmax=vmax)
+        t0 = time.perf_counter()
+        frame = self.layout.frame(plot, t)
+        self._seconds += time.perf_counter() - t0
+        self.writer.add(frame)
 
     def close(self):
         self.writer.close()
 
     @property
     def seconds(self) -> float:
-        return self.writer.seconds + (self.renderer.seconds if self.renderer is not None else 0.0)
+        rendering = self.renderer.seconds if self.renderer is not None else 0.0
+        return self.writer.seconds + rendering + self._seconds

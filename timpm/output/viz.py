@@ -123,7 +123,8 @@ def plot_fields(fields, path):
 
 def plot_demo(result, path):
     """The diagnostic of a demo run: energies (disks), surge front against Martin & Moyce
-    (dam break), front and height against time (column collapse)."""
+    (dam break), run-out and height against time with the final run-outs of Lube et al.
+    and Lajeunesse et al. (column collapse)."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 4))
     s = result.series
@@ -146,20 +147,31 @@ def plot_demo(result, path):
         ax.set_title(f"dam break: {result.particles} particles, mean |difference| "
                      f"{result.summary['mean_abs_difference']:.3f}", fontsize=9)
     else:
-        ax.plot(s["t"], s["front"], lw=1.4, label="front x [m]")
-        ax.plot(s["t"], s["height"], lw=1.4, label="height [m]")
+        m = result.summary
+        L0 = m["width"]
+        ax.plot(s["t"], (s["front"] - L0) / L0, lw=1.4, label="run-out (x_front - L0) / L0")
+        ax.plot(s["t"], s["height"] / L0, lw=1.4, label="height H / L0")
+        ax.axhline(m["lube_runout"], color="k", ls="--", lw=1,
+                   label=f"final run-out, Lube et al. 2005: {m['lube_runout']:.2f}")
+        ax.axhline(m["lajeunesse_runout"], color="tab:red", ls="-.", lw=1,
+                   label=f"final run-out, Lajeunesse et al. 2005: {m['lajeunesse_runout']:.2f}")
         ax.set_xlabel("time [s]")
-        ax.set_ylabel("[m]")
-        ax.set_title(f"column collapse a = {result.summary['aspect']:g}: run-out "
-                     f"{result.summary['runout']:.2f} (Lube et al. 2005: "
-                     f"{result.summary['lube_runout']:.2f})", fontsize=9)
+        ax.set_ylabel("length / L0 (L0: the column's width)")
+        ax.set_title(f"column collapse a = {m['aspect']:g}: run-out {m['runout']:.2f}\nLube et al. "
+                     f"2005: {m['lube_runout']:.2f} ({100 * m['relative_error']:+.0f}%), Lajeunesse "
+                     f"et al. 2005: {m['lajeunesse_runout']:.2f} "
+                     f"({100 * m['lajeunesse_relative_error']:+.0f}%)", fontsize=9)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="center right", bbox_to_anchor=(1.0, 0.45))
+        return save(fig, path)
     ax.grid(True, alpha=0.3)
     ax.legend()
     return save(fig, path)
 
 
 def plot_runout(rows, path):
-    """Run-out (L_inf - L0) / L0 against the aspect ratio, with Lube et al.'s laws."""
+    """Run-out (L_inf - L0) / L0 against the aspect ratio, with the laws of Lube et al.
+    (2005) and Lajeunesse et al. (2005)."""
     from ..scenarios.demos import lajeunesse_runout, lube_runout
 
     plt = _pyplot()
@@ -174,6 +186,8 @@ def plot_runout(rows, path):
               label="Lajeunesse et al. 2005: 1.8 a, 2.3 a^(2/3)")
     ax.set_xlabel("aspect ratio a = H0 / L0")
     ax.set_ylabel("run-out (L_inf - L0) / L0")
+    ax.set_title("granular column collapse: timpm against Lube et al. (2005)\n"
+                 "and Lajeunesse et al. (2005)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     return save(fig, path)

@@ -11,6 +11,8 @@
 ``run_demo(name, movie=Movie("scene.gif"))`` builds the scene, runs it frame by frame and
 hands every frame to the movie (:class:`timpm.output.render.Movie` rasterises it in a
 Taichi kernel and writes the GIF); simulation and rendering times are reported apart.
+The colours' range is fixed for the whole run, from the scene's physics
+(:func:`color_range`).
 Each demo's ``observe`` collects its diagnostic series per frame.  The plots of the
 diagnostics are :func:`timpm.output.viz.plot_demo` and :func:`timpm.output.viz.plot_runout`.
 """
@@ -27,10 +29,11 @@ from ..solver import Solver
 from ..world import Ball, Body, Box, Wall, World
 
 __all__ = ["DEMOS", "get_demo", "run_demo", "DemoResult", "ColumnCollapse", "Disks", "DamBreak",
-           "QUANTITIES", "lube_runout", "lajeunesse_runout", "MARTIN_MOYCE_N2_2"]
+           "QUANTITIES", "color_range", "lube_runout", "lajeunesse_runout", "MARTIN_MOYCE_N2_2"]
 
-#: colour quantities: name -> (function of the solver, label)
+#: colour quantities
 QUANTITIES = ("speed", "pressure", "plastic", "von-mises", "body")
+G = 9.81  # gravity [m/s^2]
 
 #: Martin & Moyce (1952), column height 2a (n^2 = 2), surge front Z = x / a against
 #: T = t sqrt(2 g / a); their Tables 2 and 6 (a = 2.25 in) as transcribed in Ocellaris'
@@ -80,6 +83,24 @@ class Demo:
     def summary(self, solver, series) -> dict:
         return {}
 
+    def speed_scale(self) -> float:
+        """The scene's speed scale [m/s]: the top of the speed colour bar."""
+        raise NotImplementedError
+
+    def stress_scale(self) -> float:
+        """The scene's stress scale [Pa]: the top of the pressure and von Mises bars."""
+        raise NotImplementedError
+
+    def strain_scale(self) -> float:
+        """The top of the plastic strain colour bar: 10, so that the core that does not
+        flow stays dark and the strain shows growing along the flow (the shear layer on
+        the floor, 30 and more, takes the top colour)."""
+        return 10.0
+
+    def title(self) -> str:
+        """The scene's name as the movie's frames show it."""
+        return self.name
+
     def end_time(self):
         return self.default_t_end() if self.t_end is None else _positive("t_end", self.t_end)
 
@@ -121,12 +142,23 @@ class ColumnCollapse(Demo):
         # the collapse is over after a few free-fall times of the column
         return 4.0 * math.sqrt(self.aspect * self.width / 9.81) + 0.3
 
+    def speed_scale(self) -> float:
+        """sqrt(2 g H0): the speed of a free fall from the column's top."""
+        return math.sqrt(2.0 * G * self.aspect * self.width)
+
+    def stress_scale(self) -> float:
+        """rho g H0: the weight of the column on its base."""
+        return self.density * G * self.aspect * self.width
+
     def observe(self, solver, t) -> dict:
         x = solver.positions()
         return {"front": self.front(x, solver.h), "tip": float(x[:, 0].max()),
                 "height": float(x[:, 1].max()),
                 "kinetic": float(0.5 * np.sum(solver.scene.mass_per_particle
                                               * np.sum(solver.velocities() ** 2, axis=1)))}
+
+    def title(self) -> str:
+        return f"column collapse, a = {self.aspect:g}"
 
     def front(self, x, h):
         """Farthest x at which the deposit is at least ``front_thickness`` H0 thick (columns
@@ -143,7 +175,7 @@ class ColumnCollapse(Demo):
         law = float(lube_runout(self.aspect))
         ke = np.asarray(series["kinetic"])
         other = float(lajeunesse_runout(self.aspect))
-        return {"aspect": self.aspect, "runout": runout, "lube_runout": law,
+        return {"aspect": self.aspect, "width": L0, "runout": runout, "lube_runout": law,
                 "relative_error": (runout - law) / law, "lajeunesse_runout": other,
                 "lajeunesse_relative_error": (runout - other) / other,
                 "tip_runout": (series["tip"][-1] - L0) / L0,
@@ -154,12 +186,14 @@ class ColumnCollapse(Demo):
 @dataclass
 class Disks(Demo):
     """Two elastic disks (balls in 3D) colliding head-on along the diagonal (Sulsky et al.
-    1994: E = 1000 Pa, nu = 0.3, rho = 1000 kg/m^3, R = 0.2 m, |v| = 0.1 sqrt(2) m/s)."""
+    1994: E = 1000 Pa, nu = 0.3, rho = 1000 kg/m^3, R = 0.2 m, |v| = 0.1 sqrt(2) m/s).
+    ``cells`` along each axis: by default 128 in 2D and ``CELLS_3D`` in 3D."""
 
     name = "disks"
     color = "von-mises"
+    CELLS_2D, CELLS_3D = 128, 40
     transfer: str = "apic"
-    cells: int = 128
+    cells: int | None = None
     ppc: int = 2
     dim: int = 2
     E: float = 1000.0
@@ -174,7 +208,10 @@ class Disks(Demo):
         rubber = NeoHookean(self.E, self.nu, self.density)
         lo, hi = (0.2,) * self.dim, (0.8,) * self.dim
         v = (self.speed,) * self.dim
-        return World(domain=(1.0,) * self.dim, cells=self.cells, basis=self.basis,
+        cells = self.cells
+        if cells is None:
+            cells = self.CELLS_2D if self.dim == 2 else self.CELLS_3D
+        return World(domain=(1.0,) * self.dim, cells=cells, basis=self.basis,
                      transfer=self.transfer, gravity=(0.0,) * self.dim, walls="slip",
                      bodies=[Body(Ball(lo, 0.2), rubber, velocity=v, ppc=self.ppc, name="left"),
                              Body(Ball(hi, 0.2), rubber, velocity=tuple(-c for c in v),
@@ -183,6 +220,18 @@ class Disks(Demo):
 
     def default_t_end(self) -> float:
         return 3.5
+
+    def title(self) -> str:
+        return "colliding disks" if self.dim == 2 else "colliding balls (3D)"
+
+    def speed_scale(self) -> float:
+        """The closing speed 2 |v0| of the two disks."""
+        return 2.0 * self.speed * math.sqrt(self.dim)
+
+    def stress_scale(self) -> float:
+        """rho c_p 2 |v0|: the P-wave speed c_p times the closing speed, times the density."""
+        c = NeoHookean(self.E, self.nu, self.density).wave_speed
+        return self.density * c * self.speed_scale()
 
     def summary(self, solver, series) -> dict:
         e = solver.energies()
@@ -223,6 +272,17 @@ class DamBreak(Demo):
         # the experiment's last point, T = 3.33, and a little more
         return 3.6 / math.sqrt(2 * 9.81 / self.a)
 
+    def title(self) -> str:
+        return "dam break"
+
+    def speed_scale(self) -> float:
+        """sqrt(2 g 2a): the speed of a free fall from the water column's top."""
+        return math.sqrt(2.0 * G * 2.0 * self.a)
+
+    def stress_scale(self) -> float:
+        """rho g 2a: the hydrostatic pressure at the column's base."""
+        return self.density * G * 2.0 * self.a
+
     def observe(self, solver, t) -> dict:
         x = solver.positions()
         h = solver.h
@@ -259,22 +319,40 @@ def get_demo(name: str, **params) -> Demo:
 
 
 def quantity(solver, name):
-    """Per-particle values to colour by, and their natural range (None: the data's)."""
+    """Per-particle values to colour by."""
     d = solver.dim
     if name == "speed":
-        return np.linalg.norm(solver.velocities(), axis=1), 0.0, None
+        return np.linalg.norm(solver.velocities(), axis=1)
     if name == "pressure":
-        return -np.trace(solver.stresses(), axis1=1, axis2=2) / d, None, None
+        return -np.trace(solver.stresses(), axis1=1, axis2=2) / d
     if name == "von-mises":
         s = solver.stresses()
         dev = s - np.trace(s, axis1=1, axis2=2)[:, None, None] / d * np.eye(d)
-        return np.sqrt(1.5 * np.sum(dev * dev, axis=(1, 2))), 0.0, None
+        return np.sqrt(1.5 * np.sum(dev * dev, axis=(1, 2)))
     if name == "plastic":
         if "plastic" not in solver.needs:
             raise ValueError("colour 'plastic' needs a plastic material (sand) in the scene")
-        return solver.read("plastic"), 0.0, None
+        return solver.read("plastic")
     if name == "body":
-        return solver.scene.body_index.astype(float), None, None
+        return solver.scene.body_index.astype(float)
+    raise ValueError(f"unknown colour quantity {name!r}: choose one of {', '.join(QUANTITIES)}")
+
+
+def color_range(demo, name, bodies=1):
+    """The colour range (vmin, vmax) of quantity ``name`` over a whole run of ``demo``,
+    its label and unit: speed 0 to the demo's speed scale, pressure and von Mises stress
+    0 to its stress scale, plastic strain 0 to its strain scale, body 0 to ``bodies`` - 1.
+    Values beyond the range take its end colours."""
+    if name == "speed":
+        return (0.0, demo.speed_scale()), "speed", "m/s"
+    if name == "pressure":
+        return (0.0, demo.stress_scale()), "pressure", "Pa"
+    if name == "von-mises":
+        return (0.0, demo.stress_scale()), "von Mises stress", "Pa"
+    if name == "plastic":
+        return (0.0, demo.strain_scale()), "plastic strain", ""
+    if name == "body":
+        return (0.0, float(max(1, bodies - 1))), "body", ""
     raise ValueError(f"unknown colour quantity {name!r}: choose one of {', '.join(QUANTITIES)}")
 
 
@@ -323,8 +401,9 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
     ``frames`` frames are spread evenly over the run (plus the initial state); ``params``
     override the demo's parameters (``t_end``, resolution, material constants ...).
     ``movie`` is a sink such as :class:`timpm.output.render.Movie`: ``movie.start(world,
-    color)`` before the run, ``movie.add(positions, values, vmin, vmax)`` at every frame,
-    ``movie.close()`` after it; its ``out`` and ``seconds`` go into the result.
+    color, value_range, label, unit, title)`` before the run (the range of
+    :func:`color_range`, fixed for the run), ``movie.add(positions, values, t)`` at every
+    frame, ``movie.close()`` after it; its ``out`` and ``seconds`` go into the result.
     ``fields`` (a :class:`timpm.output.fields.FieldWriter`) gets the particle fields at
     every frame.
     """
@@ -338,7 +417,9 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
                     record_every=max(1, int(round(t_end / world.dt / 200))))
     quantity(solver, color)  # an unknown or unavailable colour fails before the run
     if movie is not None:
-        movie.start(world, color)
+        value_range, label, unit = color_range(demo, color, len(world.bodies))
+        movie.start(world, color, value_range=value_range, label=label, unit=unit,
+                    title=demo.title())
     series = {}
     bar = Progress(frames, progress)
     solver.compile()
@@ -349,8 +430,7 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
             series.setdefault(key, []).append(value)
         series.setdefault("t", []).append(solver.t)
         if movie is not None:
-            values, lo, hi = quantity(solver, color)
-            movie.add(solver.positions(), values, lo, hi)
+            movie.add(solver.positions(), quantity(solver, color), t=solver.t)
         if fields is not None:
             fields.write(solver)
         bar.update(k)
