@@ -15,6 +15,7 @@ from .argtypes import param, positive_int, setting
 from .basis import BASES
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
+from .scenefile import is_scene_argument
 from .solver import SimulationError
 from .studies import speed_error
 
@@ -121,7 +122,8 @@ def _parser():
                                  "machine's bounds): python benchmarks/throughput.py --help")
     ap.add_argument("--version", action="version", version=f"timpm {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="run one benchmark and compare with its exact solution")
+    run = sub.add_parser("run", help="run one benchmark and compare with its exact solution, "
+                         "or a scene file: timpm run FILE.toml (timpm run FILE.toml --help)")
     _add_common(run)
     run.add_argument("--elements", type=int, help="number of elements over the body")
     _add_fields(run, "field frames over the run, with --vtk or --npz (default 20)")
@@ -283,6 +285,10 @@ def _speed_error(args) -> int:
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["run"] and is_scene_argument(argv[1:]):
+        from .scenefile import main as run_scene_file
+
+        return run_scene_file(argv[1:])
     args = _parser().parse_args(argv)
     if args.command == "study":
         return args.func(args)
