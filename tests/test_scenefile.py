@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from timpm import runtime
 from timpm.cli import main
 from timpm.scenarios.demos import get_demo
 from timpm.scenefile import key_lines, load_scene, run_scene, schema_reference
@@ -283,10 +284,21 @@ def test_world_errors_and_overrides_name_the_file(tmp_path):
     with pytest.raises(ValueError, match=r"scene.toml: body\[0\].ppc \(overridden\): expected "
                        "an integer >= 1, got 0"):
         load_scene(path, {"body[0].ppc": 0})
-    with pytest.raises(ValueError, match=r"override body\[5\].ppc: body has no element 5"):
+    with pytest.raises(ValueError, match=r"scene.toml: override body\[5\].ppc: body has no "
+                       "element 5$"):
         load_scene(path, {"body[5].ppc": 2})
     scene = load_scene(path, {"simulation.t_end": 0.5, "domain.walls": "sticky"})
     assert scene.t_end == 0.5 and {w.kind for w in scene.world.walls} == {"sticky"}
+
+
+def test_a_scene_in_another_precision_is_refused_before_the_run(tmp_path):
+    text = SCENE.replace("t_end = 0.01", 't_end = 0.01\nprecision = "f32"')
+    scene = load_scene(write(tmp_path, text))
+    assert runtime.precision() == "f64"
+    with pytest.raises(ValueError, match=f"scene.toml:{line_of(text, 'precision')}: simulation."
+                       r"precision: the scene runs in f32 but Taichi was started in f64: call "
+                       r"timpm.init\(precision='f32'\) first"):
+        run_scene(scene)
 
 
 def test_problem_errors(tmp_path):
@@ -324,7 +336,8 @@ def test_cli_runs_a_scene_with_options_over_the_file(tmp_path, capsys):
     # one neo-Hookean material, the affine transfer, quadratic B-splines
     assert main(["run", str(path), "--t-end", "0.02", "--npz", str(npz), "--json", str(out),
                  "--set", "body[1].ppc=3", "--frames", "3", "--set", "domain.walls=slip",
-                 "--set", "loads.gravity=[0.0, 0.0]"]) == 0
+                 "--set", "loads.gravity=[0.0, 0.0]",
+                 "--threads", str(runtime.cpu_threads())]) == 0  # Taichi not restarted
     text = capsys.readouterr().out
     doc = json.loads(out.read_text())
     assert f"scene ({path}): {doc['particles']} particles, {doc['steps']} steps" in text

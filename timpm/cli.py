@@ -122,8 +122,9 @@ def _parser():
                                  "machine's bounds): python benchmarks/throughput.py --help")
     ap.add_argument("--version", action="version", version=f"timpm {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="run one benchmark and compare with its exact solution, "
-                         "or a scene file: timpm run FILE.toml (timpm run FILE.toml --help)")
+    about = ("run one benchmark and compare with its exact solution, or a scene file: "
+             "timpm run FILE.toml (timpm run FILE.toml --help)")
+    run = sub.add_parser("run", help=about, description=about)
     _add_common(run)
     run.add_argument("--elements", type=int, help="number of elements over the body")
     _add_fields(run, "field frames over the run, with --vtk or --npz (default 20)")
@@ -305,6 +306,7 @@ def main(argv=None):
                   f"dt = {p.dt_rule}, t_end = {p.t_end:g} s")
         print("bases:", ", ".join(BASES))
         print("demos: column-collapse, disks, dam-break (timpm demo NAME --out FILE.gif)")
+        print("scene files: timpm run FILE.toml (examples/, docs/scene_files.md)")
         return 0
     from . import runtime
     from .output.viz import plot_convergence, plot_series

@@ -445,9 +445,9 @@ class _Reader:
         return data
 
 
-def _apply_overrides(data, overrides):
+def _apply_overrides(data, overrides, file):
     """``data`` with ``overrides`` (key path or its text -> value; None removes the key)
-    set; returns the key paths set."""
+    set; returns the key paths set (an error names the scene ``file``)."""
     done = set()
     for text, value in (overrides or {}).items():
         path = parse_path(text) if isinstance(text, str) else tuple(text)
@@ -455,17 +455,18 @@ def _apply_overrides(data, overrides):
         for k, part in enumerate(path[:-1]):
             if isinstance(part, int):
                 if not isinstance(node, list) or part >= len(node):
-                    raise ValueError(f"override {dotted(path)}: {dotted(path[:k])} has no "
+                    raise ValueError(f"{file}: override {dotted(path)}: {dotted(path[:k])} has no "
                                      f"element {part}")
                 node = node[part]
             else:
                 if not isinstance(node, dict):
-                    raise ValueError(f"override {dotted(path)}: {dotted(path[:k])} is no table")
+                    raise ValueError(f"{file}: override {dotted(path)}: {dotted(path[:k])} is no "
+                                     "table")
                 node = node.setdefault(part, {})
         last = path[-1]
         if isinstance(last, int) or not isinstance(node, dict):
-            raise ValueError(f"override {dotted(path)}: the last part must name a key of a "
-                             "table")
+            raise ValueError(f"{file}: override {dotted(path)}: the last part must name a key "
+                             "of a table")
         if value is None:
             node.pop(last, None)
         else:
@@ -525,7 +526,7 @@ def load_scene(path, overrides=None) -> SceneFile:
     (``"simulation.t_end"``, ``"body[0].ppc"``) to values that replace the file's (None
     removes a key).  Errors are ValueErrors naming file, line and key (see the module)."""
     text, data = read_toml(path)
-    overridden = _apply_overrides(data, overrides)
+    overridden = _apply_overrides(data, overrides, path)
     reader = _Reader(path, data, key_lines(text), overridden)
     if "problem" in data:
         return _problem_scene(reader, data, Path(path))
@@ -558,7 +559,7 @@ def _problem_scene(reader, data, path) -> SceneFile:
     cls = PROBLEMS[opts.pop("name")]
     params = opts.pop("params", {})
     known = [f.name for f in fields(cls)]
-    for name, value in params.items():
+    for name in params:
         if name not in known:
             raise reader.error(("problem", "params", name),
                                f"{cls.name} has no parameter {name!r}{_suggest(name, known)}: "
