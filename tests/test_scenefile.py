@@ -5,11 +5,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from timpm import runtime
 from timpm.cli import main
 from timpm.scenarios.demos import get_demo
-from timpm.scenefile import key_lines, load_scene, run_scene, schema_reference
+from timpm.scenefile import OUTPUT, key_lines, load_scene, run_scene, schema_reference
 from timpm.studies.study import run_problem
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -301,6 +302,31 @@ def test_a_scene_in_another_precision_is_refused_before_the_run(tmp_path):
         run_scene(scene)
 
 
+def test_surface_tractions_load_the_named_body(tmp_path):
+    from timpm.loads import Ramp, SurfaceTraction
+    from timpm.world import Wall, World
+
+    text = SCENE.replace("[output]", "[[loads.traction]]\nbody = \"right\"\nside = \"top\"\n"
+                         "traction = [0.0, -100.0]\nramp = 0.1\n\n[output]")
+    mine = load_scene(write(tmp_path, text)).world
+    theirs = World(domain=mine.domain, cells=mine.cells, bodies=mine.bodies, transfer="apic",
+                   walls={"default": "slip", "bottom": Wall("friction", 0.5)},
+                   tractions=[SurfaceTraction(1, "top", (0.0, -100.0), Ramp(0.1))])
+    forces = mine.model.particle_force
+    np.testing.assert_array_equal(forces, theirs.model.particle_force)
+    assert mine.model.particle_force_time.duration == 0.1
+    # on the top row of the ball's particles only, downwards
+    loaded = np.any(forces != 0, axis=1)
+    y = mine.positions[:, 1]
+    top = y[mine.body_index == 1].max()
+    assert loaded.any() and np.all(mine.body_index[loaded] == 1)
+    assert np.all(top - y[loaded] < 0.5 * mine.h / 2) and np.all(forces[loaded, 1] < 0)
+    with pytest.raises(ValueError, match=f"scene.toml:{line_of(text, 'body = ')}: "
+                       r"loads.traction\[0\].body: no body is named 'rihgt' \(did you mean "
+                       r"'right'\?\): the bodies are 'left', 'right'$"):
+        load_scene(write(tmp_path, text.replace('body = "right"', 'body = "rihgt"')))
+
+
 def test_problem_errors(tmp_path):
     text = '[problem]\nname = "vibrating-string"\n[problem.params]\nEE = 1.0\n'
     with pytest.raises(ValueError, match=r"scene.toml:4: problem.params.EE: vibrating-string "
@@ -331,17 +357,24 @@ def test_cli_syntax_error_exits_2_without_traceback(tmp_path, capsys):
 
 def test_cli_runs_a_scene_with_options_over_the_file(tmp_path, capsys):
     path = write(tmp_path, SCENE + f'vtk = "{tmp_path / "never"}"\n')
-    out, npz = tmp_path / "run.json", tmp_path / "npz"
+    out, npz, gif = tmp_path / "run.json", tmp_path / "npz", tmp_path / "run.gif"
     # slip walls, no gravity: the disks example's program (compiled above): two bodies of
     # one neo-Hookean material, the affine transfer, quadratic B-splines
     assert main(["run", str(path), "--t-end", "0.02", "--npz", str(npz), "--json", str(out),
                  "--set", "body[1].ppc=3", "--frames", "3", "--set", "domain.walls=slip",
-                 "--set", "loads.gravity=[0.0, 0.0]",
+                 "--set", "loads.gravity=[0.0, 0.0]", "--gif", str(gif),
+                 "--set", "output.width=48", "--set", "output.color=body",
                  "--threads", str(runtime.cpu_threads())]) == 0  # Taichi not restarted
     text = capsys.readouterr().out
     doc = json.loads(out.read_text())
     assert f"scene ({path}): {doc['particles']} particles, {doc['steps']} steps" in text
-    assert "compile" in text and f"wrote {npz}, {out}" in text
+    assert "compile" in text and f"wrote {npz}, {gif}, {out}" in text
+    with Image.open(gif) as im:  # Pillow merges identical frames: count their time
+        shown = 0
+        for k in range(im.n_frames):
+            im.seek(k)
+            shown += im.info["duration"]
+        assert im.size[0] == 48 and shown == 4 * round(1000 / OUTPUT["fps"].default)
     assert doc["t_end"] == pytest.approx(0.02, abs=doc["dt"])
     assert len(list(npz.glob("particles_*.npz"))) == 4 and not (tmp_path / "never").exists()
     # the override of ppc: the ball's particles at 3 per cell and axis
