@@ -23,7 +23,7 @@ LAYERS = (
     ("timpm.problems*", "timpm.scenarios*"),
     ("timpm.studies*",),
     ("timpm.output*",),
-    ("timpm.cli", "timpm.__main__"),
+    ("timpm.cli", "timpm.__main__", "timpm.scenefile"),
 )
 
 #: modules outside the layer order

@@ -15,6 +15,7 @@ from .argtypes import param, positive_int, setting
 from .basis import BASES
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
+from .scenefile import is_scene_argument
 from .solver import SimulationError
 from .studies import speed_error
 
@@ -137,7 +138,9 @@ def _parser():
                                  "machine's bounds): python benchmarks/throughput.py --help")
     ap.add_argument("--version", action="version", version=f"timpm {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="run one benchmark and compare with its exact solution")
+    about = ("run one benchmark and compare with its exact solution, or a scene file: "
+             "timpm run FILE.toml (timpm run FILE.toml --help)")
+    run = sub.add_parser("run", help=about, description=about)
     _add_common(run)
     run.add_argument("--elements", type=int, help="number of elements over the body")
     _add_fields(run, "field frames over the run, with --vtk or --npz (default 20)")
@@ -362,6 +365,10 @@ def main(argv=None):
 
 def _main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["run"] and is_scene_argument(argv[1:]):
+        from .scenefile import main as run_scene_file
+
+        return run_scene_file(argv[1:])
     args = _parser().parse_args(argv)
     if args.command == "study":
         return args.func(args)
@@ -378,6 +385,7 @@ def _main(argv=None):
                   f"dt = {p.dt_rule}, t_end = {p.t_end:g} s")
         print("bases:", ", ".join(BASES))
         print("demos: column-collapse, disks, dam-break (timpm demo NAME --out FILE.gif)")
+        print("scene files: timpm run FILE.toml (examples/, docs/scene_files.md)")
         return 0
     from . import runtime
     from .output.viz import plot_convergence
