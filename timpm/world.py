@@ -60,9 +60,10 @@ class Box:
     def __post_init__(self):
         lo, hi = _vector("Box lo", self.lo), _vector("Box hi", self.hi, len(self.lo))
         if np.any(hi <= lo):
-            raise ValueError(f"Box hi {tuple(hi)} must exceed lo {tuple(lo)} on every axis")
-        object.__setattr__(self, "lo", tuple(lo))
-        object.__setattr__(self, "hi", tuple(hi))
+            raise ValueError(f"Box hi {tuple(map(float, hi))} must exceed lo "
+                             f"{tuple(map(float, lo))} on every axis")
+        object.__setattr__(self, "lo", tuple(map(float, lo)))
+        object.__setattr__(self, "hi", tuple(map(float, hi)))
 
     @property
     def dim(self):
@@ -87,7 +88,7 @@ class Ball:
         r = float(self.radius) if np.isscalar(self.radius) else float("nan")
         if not (math.isfinite(r) and r > 0):
             raise ValueError(f"Ball radius must be positive, got {self.radius!r}")
-        object.__setattr__(self, "center", tuple(c))
+        object.__setattr__(self, "center", tuple(map(float, c)))
         object.__setattr__(self, "radius", r)
 
     @property
@@ -245,14 +246,14 @@ class World:
         if dim not in (1, 2, 3):
             raise ValueError(f"a World is 1D, 2D or 3D, got a {dim}-dimensional domain")
         if np.any(domain <= 0):
-            raise ValueError(f"domain lengths must be positive, got {tuple(domain)}")
+            raise ValueError(f"domain lengths must be positive, got {tuple(map(float, domain))}")
         if isinstance(self.cells, bool) or not isinstance(self.cells, (int, np.integer)) \
                 or self.cells < 1:
             raise ValueError(f"cells (along x) must be a positive integer, got {self.cells!r}")
         h = domain[0] / int(self.cells)
         n = np.rint(domain / h).astype(int)
         if np.any(np.abs(n * h - domain) > 1e-9 * domain):
-            raise ValueError(f"domain {tuple(domain)} is not a whole number of cells of size "
+            raise ValueError(f"domain {tuple(map(float, domain))} is not a whole number of cells of size "
                              f"h = {h:g} (domain[0] / cells) on every axis")
         basis = get_basis(self.basis)
         if not basis.nd:
@@ -269,7 +270,7 @@ class World:
             if not isinstance(b, Body):
                 raise ValueError(f"bodies[{k}] must be a Body, got {b!r}")
         object.__setattr__(self, "bodies", bodies)
-        object.__setattr__(self, "domain", tuple(domain))
+        object.__setattr__(self, "domain", tuple(map(float, domain)))
         object.__setattr__(self, "gravity", tuple(g))
         object.__setattr__(self, "basis", basis.name)
         object.__setattr__(self, "walls", walls_from(self.walls, dim, open_ok=True))
