@@ -25,6 +25,15 @@ def _die(code):
     os._exit(code)
 
 
+_STARTED = []
+
+
+def _numbered(name):
+    """``name`` and how many tasks this worker process started before it."""
+    _STARTED.append(name)
+    return name, len(_STARTED) - 1
+
+
 def _fail(message):
     raise SimulationError(message, code=5, step=7)
 
@@ -73,12 +82,29 @@ def test_a_runs_error_in_a_worker_reads_as_in_the_serial_run(capsys):
     assert "Traceback" not in err
 
 
+def test_costliest_runs_start_first_and_results_keep_their_order():
+    # one worker: it starts the calls one by one, costliest first
+    results = map_runs(_numbered, [("a",), ("b",), ("c",)], workers=1, cost=[1, 3, 2])
+    assert results == [("a", 2), ("b", 0), ("c", 1)]
+
+
 def test_a_worker_that_dies_and_a_simulation_error_there():
     with pytest.raises(SimulationError, match="^blew up$") as info:
         map_runs(_fail, [("blew up",)], workers=1)
     assert (info.value.code, info.value.step) == (5, 7)
     with pytest.raises(SweepError, match=r"a worker process died before its run finished"):
         map_runs(_die, [(3,)], workers=1)
+
+
+def test_workers_start_taichi_with_this_processes_settings():
+    from timpm import runtime
+
+    settings = runtime.settings()
+    assert settings == dict(threads=runtime.cpu_threads(), precision=runtime.precision(),
+                            arch=runtime.arch(), debug=False, pin=True)
+    started = runtime.generation()
+    runtime.init(**settings)  # the same start: nothing restarts
+    assert runtime.generation() == started and runtime.settings() == settings
 
 
 # ---- checked before any work ----------------------------------------------------------------

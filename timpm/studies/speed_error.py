@@ -284,7 +284,8 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
 
     started = time.perf_counter()
     map_runs(_configuration, [(prob, conf, settings) for conf in configurations],
-             workers=workers, dask=dask, on_result=collect)
+             workers=workers, dask=dask, on_result=collect,
+             cost=[c["elements"] * c["ppc"] for c in configurations])
     flags = pareto_front(runs)
     for rec, on in zip(runs, flags):
         rec["pareto"] = on

@@ -210,7 +210,7 @@ def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=F
             _check_options(problem, elements[0], kwargs)
             kwargs = {**kwargs, "progress": False}
         records = map_runs(_mesh_record, [(problem, n, kwargs) for n in elements],
-                           workers=workers, dask=dask)
+                           workers=workers, dask=dask, cost=list(elements))
     doc = {"problem": records[0]["problem"], "runs": records}
     errors = [r["rms_error"] for r in records]
     if all(e is not None for e in errors):

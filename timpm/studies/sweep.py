@@ -81,18 +81,22 @@ def add_arguments(parser) -> None:
                             f"{DASK_INSTALL}")
 
 
-def map_runs(task, calls, *, workers=None, dask=None, on_result=None,
+def map_runs(task, calls, *, workers=None, dask=None, on_result=None, cost=None,
              connect_timeout=CONNECT_TIMEOUT) -> list:
     """``[task(*args) for args in calls]``: in this process, or with ``workers`` /
     ``dask`` in other processes (see the module).
 
     ``task`` is a module-level function (worker processes import it by name) and ``calls``
     plain, picklable arguments.  ``on_result(i, result)`` is called for each result in
-    order, as soon as it and those before it are in.  ``connect_timeout``: seconds to wait
-    for a Dask scheduler and its first worker.
+    order, as soon as it and those before it are in.  ``cost``, a number per call (e.g.
+    its particle count), starts the costliest calls first on workers, so that the largest
+    run does not start last (the results keep the order of ``calls``).
+    ``connect_timeout``: seconds to wait for a Dask scheduler and its first worker.
     """
     check_executor(workers, dask)
     calls = [tuple(args) for args in calls]
+    if cost is not None and len(cost) != len(calls):
+        raise ValueError(f"cost must give a number per call ({len(calls)}), got {len(cost)}")
     if workers is None and dask is None:
         results = []
         for i, args in enumerate(calls):
@@ -110,9 +114,12 @@ def map_runs(task, calls, *, workers=None, dask=None, on_result=None,
     from .. import __version__, runtime
 
     job = _Job(task, runtime.settings(), __version__, own_thread=dask is not None)
+    # the order in which the calls start: costliest first (a stable sort: ties in order)
+    start = sorted(range(len(calls)), key=lambda i: -cost[i]) if cost is not None else \
+        list(range(len(calls)))
     if workers is not None:
-        return _on_pool(job, calls, min(int(workers), len(calls)), on_result)
-    return _on_dask(job, calls, dask.strip(), float(connect_timeout), on_result)
+        return _on_pool(job, calls, start, min(int(workers), len(calls)), on_result)
+    return _on_dask(job, calls, start, dask.strip(), float(connect_timeout), on_result)
 
 
 # ---- in a worker process ------------------------------------------------------------------
@@ -197,13 +204,21 @@ def _in_order(futures, on_result, what) -> list:
     return results
 
 
-def _on_pool(job, calls, workers, on_result) -> list:
+def _submitted(submit, calls, start) -> list:
+    """The futures of ``calls``, in their order, submitted in the order ``start``."""
+    futures = [None] * len(calls)
+    for rank, i in enumerate(start):
+        futures[i] = submit(calls[i], rank)
+    return futures
+
+
+def _on_pool(job, calls, start, workers, on_result) -> list:
     pool = ProcessPoolExecutor(max_workers=workers,
                                mp_context=multiprocessing.get_context("spawn"))
     done = False
     try:
         with _environment(_WORKER_ENV):  # the processes start as the runs are submitted
-            futures = [pool.submit(job, *args) for args in calls]
+            futures = _submitted(lambda args, _: pool.submit(job, *args), calls, start)
         try:
             results = _in_order(futures, on_result, lambda f: f.result())
         except BrokenProcessPool as exc:
@@ -235,7 +250,7 @@ def _cores() -> int:
         (os.cpu_count() or 1)
 
 
-def _on_dask(job, calls, address, timeout, on_result) -> list:
+def _on_dask(job, calls, start, address, timeout, on_result) -> list:
     try:
         import distributed
         from distributed.scheduler import KilledWorker
@@ -267,7 +282,8 @@ def _on_dask(job, calls, address, timeout, on_result) -> list:
             raise SweepError(f"the Dask scheduler at {address} has no workers (waited "
                              f"{timeout:g} s): start some with: dask worker {address} "
                              f"--nthreads 1") from None
-        futures = [client.submit(job, *args, pure=False) for args in calls]
+        futures = _submitted(lambda args, rank: client.submit(
+            job, *args, pure=False, priority=len(calls) - rank), calls, start)
         try:
             return _in_order(futures, on_result, lambda f: f.result())
         except KilledWorker as exc:
