@@ -11,7 +11,8 @@ Each worker process starts Taichi itself with the settings of this one
 (:func:`timpm.runtime.settings`: the same worker-thread count, precision, arch), so a
 run's ``mode="auto"`` and its scatter resolve there as here and the run computes the same
 numbers: serial (fused) runs are bit-reproducible on any thread count, and a parallel
-run's sums depend only on the thread count, which is the same.  Tasks and their results
+run's particle state depends only on the thread count, which is the same (its recorded
+energies, summed with atomic adds, vary in the last digits from run to run, serially too).  Tasks and their results
 are plain data (NumPy scalars and arrays come back as Python numbers and lists); no Taichi
 object crosses processes.  A task's own error (a ``ValueError`` or ``SimulationError`` of
 a run) is raised here as it would be in a serial sweep, for the first failing run in
@@ -29,6 +30,7 @@ import pickle
 import socket
 import sys
 import threading
+import uuid
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
@@ -168,8 +170,10 @@ def _plain(value):
     """``value`` with NumPy scalars and arrays as Python numbers and lists (exact)."""
     if isinstance(value, dict):
         return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return type(value)(_plain(v) for v in value)
+    if isinstance(value, list):
+        return [_plain(v) for v in value]
+    if isinstance(value, tuple):
+        return tuple(_plain(v) for v in value)
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):
@@ -194,22 +198,14 @@ def _environment(values):
                 os.environ[k] = v
 
 
-def _in_order(futures, on_result, what) -> list:
+def _in_order(futures, on_result) -> list:
     """The futures' results in order (the first failing one raises)."""
     results = []
     for i, future in enumerate(futures):
-        results.append(what(future))
+        results.append(future.result())
         if on_result is not None:
             on_result(i, results[-1])
     return results
-
-
-def _submitted(submit, calls, start) -> list:
-    """The futures of ``calls``, in their order, submitted in the order ``start``."""
-    futures = [None] * len(calls)
-    for rank, i in enumerate(start):
-        futures[i] = submit(calls[i], rank)
-    return futures
 
 
 def _on_pool(job, calls, start, workers, on_result) -> list:
@@ -218,9 +214,11 @@ def _on_pool(job, calls, start, workers, on_result) -> list:
     done = False
     try:
         with _environment(_WORKER_ENV):  # the processes start as the runs are submitted
-            futures = _submitted(lambda args, _: pool.submit(job, *args), calls, start)
+            futures = [None] * len(calls)
+            for i in start:
+                futures[i] = pool.submit(job, *calls[i])
         try:
-            results = _in_order(futures, on_result, lambda f: f.result())
+            results = _in_order(futures, on_result)
         except BrokenProcessPool as exc:
             raise SweepError(f"a worker process died before its run finished ({exc}); "
                              f"run the study without workers to see why (a script that "
@@ -282,12 +280,16 @@ def _on_dask(job, calls, start, address, timeout, on_result) -> list:
             raise SweepError(f"the Dask scheduler at {address} has no workers (waited "
                              f"{timeout:g} s): start some with: dask worker {address} "
                              f"--nthreads 1") from None
-        futures = _submitted(lambda args, rank: client.submit(
-            job, *args, pure=False, priority=len(calls) - rank), calls, start)
+        sweep = f"timpm-{getattr(job.task, '__name__', 'task')}-{uuid.uuid4().hex[:8]}"
+        futures = [None] * len(calls)  # keys name the sweep and the call's place in it
+        for rank, i in enumerate(start):
+            futures[i] = client.submit(job, *calls[i], key=f"{sweep}-{i}",
+                                       priority=len(calls) - rank)
         try:
-            return _in_order(futures, on_result, lambda f: f.result())
-        except KilledWorker as exc:
-            raise SweepError(f"a Dask worker died while running a task ({exc}); run the "
-                             f"study without --dask to see why") from None
-        finally:
+            return _in_order(futures, on_result)
+        except BaseException as exc:  # a failed run or an interrupt: drop the others
             client.cancel(futures)
+            if isinstance(exc, KilledWorker):
+                raise SweepError(f"a Dask worker died while running a task ({exc}); run "
+                                 f"the study without dask to see why") from None
+            raise
