@@ -17,7 +17,7 @@ from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .scenefile import is_scene_argument
 from .solver import SimulationError
-from .studies import speed_error
+from .studies import speed_error, sweep
 
 __all__ = ["main", "demo_script"]
 
@@ -165,6 +165,7 @@ def _parser():
     _add_common(conv)
     conv.add_argument("--elements", type=int, nargs="+", default=[4, 8, 16, 32, 64],
                       help="numbers of elements (default: 4 8 16 32 64)")
+    sweep.add_arguments(conv)
     cmp = sub.add_parser("compare-ulfem", help="MPM against updated-Lagrangian FEM on the "
                          "large-deformation column of A.5")
     cmp.add_argument("--elements", type=positive_int, default=30)
@@ -340,8 +341,8 @@ def _speed_error(args) -> int:
             params=dict(args.param), elements=args.elements, ppcs=args.ppc,
             placement=args.placement, t_end=args.t_end, dt_tolerance=args.dt_tolerance,
             max_halvings=args.max_halvings, repeats=args.repeats, mode=args.mode,
-            progress=None if args.quiet else progress)
-    except (ValueError, SimulationError) as exc:
+            progress=None if args.quiet else progress, workers=args.workers, dask=args.dask)
+    except (ValueError, SimulationError, sweep.SweepError) as exc:
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
     targets = args.targets or speed_error.default_targets(doc["runs"])
@@ -418,13 +419,14 @@ def _main(argv=None):
             if doc is None:
                 return 130
         else:
-            doc = convergence(args.problem, elements=args.elements, **opts)
+            doc = convergence(args.problem, elements=args.elements, workers=args.workers,
+                              dask=args.dask, **opts)
             doc["command"] = "convergence"
             if not args.quiet:
                 print(_table(doc["runs"], doc.get("rates")))
             if args.plot:
                 plot_convergence(doc, args.plot)
-    except (ValueError, SimulationError) as exc:
+    except (ValueError, SimulationError, sweep.SweepError) as exc:
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
     if args.json:

@@ -14,7 +14,7 @@ from taichi.lang.misc import is_arch_supported
 
 __all__ = ["ARCHS", "BackendUnavailable", "ForkedProcess", "WrongThread", "arch",
            "check_caller", "cpu_threads", "ensure_init", "generation", "init", "on_cpu",
-           "pin_workers", "precision", "static_cpu_blocks"]
+           "pin_workers", "precision", "settings", "static_cpu_blocks"]
 
 #: the backends ``init(arch=...)`` takes
 ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda, "vulkan": ti.vulkan, "metal": ti.metal}
@@ -273,6 +273,14 @@ def precision() -> str:
     """The default float type of the runtime: "f64" or "f32"."""
     ensure_init()
     return "f32" if impl.get_runtime().default_fp == ti.f32 else "f64"
+
+
+def settings() -> dict:
+    """The settings of the running start as :func:`init` takes them (``threads``: the
+    worker threads Taichi runs, resolved): another process started with them runs every
+    kernel as this one does (the sweeps' worker processes do)."""
+    ensure_init()
+    return dict(_state["settings"], threads=cpu_threads())
 
 
 def generation() -> int:

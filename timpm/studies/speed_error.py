@@ -69,6 +69,7 @@ from ..basis import BASES, get_basis
 from ..problems import PROBLEMS, get_problem
 from ..scene import MASS_KINDS, PLACEMENTS, STRESS_UPDATES
 from .analysis import rms_error
+from .sweep import add_arguments, check_executor, map_runs
 from .speed_error_report import (cheapest_for, default_targets, format_report, merge_studies,
                                  pareto_front, plateaus)
 
@@ -215,12 +216,15 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
                       masses=("lumped", "consistent"), elements=(4, 8, 16, 32, 64), ppcs=None,
                       placement="study", t_end=None, dt_tolerance=0.1, max_halvings=4,
                       repeats=3, mode="auto", progress=print, combos=None,
-                      stress_update="study", params=None) -> dict:
+                      stress_update="study", params=None, workers=None, dask=None) -> dict:
     """Sweep bases x masses x placements x elements x PPC; see the module docstring.
 
     ``combos``, a list of (basis, mass) pairs, replaces the product bases x masses;
     ``stress_update`` ("study" or "small") and ``params`` (physical parameters of the
-    problem, e.g. ``{"gravity": -0.981}``) are passed on to every run.
+    problem, e.g. ``{"gravity": -0.981}``) are passed on to every run.  ``workers=N``
+    runs the configurations in N worker processes, ``dask`` on a Dask cluster (an address,
+    or "local"; :mod:`timpm.studies.sweep`): the same records in the same order, but for
+    the times, which are then taken with the other runs side by side.
 
     ``ppcs`` defaults to the problem's PPC; ``placement`` may be one name or several (then
     swept too).  Invalid combinations (a basis that cannot be lumped, too few particles
@@ -228,8 +232,7 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
     ``skipped``.  Returns a JSON-ready document: ``runs`` (records, each with a ``pareto``
     flag), ``skipped``, ``dt_rule`` and the settings.
     """
-    from ..solver import SimulationError
-
+    check_executor(workers, dask)
     prob = get_problem(problem, **(params or {}))
     if stress_update not in STRESS_UPDATES:
         raise ValueError(f"unknown stress_update {stress_update!r}: choose one of "
@@ -263,70 +266,26 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
         raise ValueError("give at least one basis, mass, placement, number of elements and PPC")
     say = progress or (lambda *a, **k: None)
 
+    configurations = [dict(elements=n, ppc=ppc, basis=basis, mass=mass, placement=place)
+                      for basis, mass in combos for place in placements for ppc in ppcs
+                      for n in elements]
+    settings = dict(t_end=t_end, mode=mode, stress_update=stress_update,
+                    dt_tolerance=dt_tolerance, max_halvings=max_halvings, repeats=repeats)
     runs, skipped = [], []
     compiled = []  # compile seconds of every run, the dt trials included
+
+    def collect(_, outcome):
+        compiled.extend(outcome["compile_seconds"])
+        if "skipped" in outcome:
+            skipped.append(outcome["skipped"])
+        else:
+            runs.append(outcome["record"])
+        say(outcome["note"])
+
     started = time.perf_counter()
-    for basis, mass in combos:
-        for place in placements:
-            for ppc in ppcs:
-                for n in elements:
-                    conf = dict(elements=n, ppc=ppc, basis=basis, mass=mass, placement=place)
-                    tag = f"{basis}/{mass}/{place} {n} el x {ppc} PPC"
-                    try:
-                        crit = critical_dt(prob, **conf)
-                    except ValueError as exc:
-                        skipped.append({**conf, "reason": str(exc)})
-                        say(f"skip {tag}: {exc}")
-                        continue
-                    if not crit > 0:
-                        reason = "singular or indefinite mass matrix: no stable time step"
-                        skipped.append({**conf, "reason": reason})
-                        say(f"skip {tag}: {reason}")
-                        continue
-                    dt0 = _divides(t_end, min(prob.dt, 0.5 * crit))
-
-                    tried = []
-
-                    def run(dt, conf=conf, tried=tried):
-                        tried.append(dt)
-                        r = _Run(prob, dt=dt, t_end=t_end, mode=mode,
-                                 stress_update=stress_update, **conf)
-                        compiled.append(r.record["compile_seconds"])
-                        return r
-
-                    others = []
-                    try:
-                        accepted, info = choose_dt(run, dt0, dt_tolerance, max_halvings,
-                                                   defer_release=others)
-                    except (ValueError, SimulationError) as exc:
-                        for r in others:
-                            r.release()
-                        reason = f"run failed at dt = {tried[-1]:.4g} s: {exc}"
-                        skipped.append({**conf, "reason": reason, "dt": tried[-1]})
-                        say(f"skip {tag}: {reason}")
-                        continue
-                    try:
-                        first = accepted.record["wall_seconds"]
-                        samples = []
-                        for _ in range(repeats):
-                            try:
-                                samples.append(accepted.time_again())
-                            except SimulationError:
-                                break  # beyond t_end the run failed: keep what we have
-                        rec = {"problem": prob.name, **conf, **accepted.record, **info,
-                               "wall_seconds": min(samples) if samples else first,
-                               "wall_samples": samples, "first_run_seconds": first,
-                               "dt0": dt0, "critical_dt": crit,
-                               "stress_update": stress_update}
-                    finally:
-                        accepted.release()
-                        for r in others:
-                            r.release()
-                    rec["dt"], rec["rms_error"] = info["dt"], info["rms_error"]
-                    runs.append(rec)
-                    say(f"{tag}: dt = {rec['dt']:.4g} s ({rec['steps']} steps"
-                        f"{'' if rec['time_error_separated'] else ', time error not separated'}),"
-                        f" e = {rec['rms_error']:.3e}, wall = {rec['wall_seconds']:.4f} s")
+    map_runs(_configuration, [(prob, conf, settings) for conf in configurations],
+             workers=workers, dask=dask, on_result=collect,
+             cost=[c["elements"] * c["ppc"] for c in configurations])
     flags = pareto_front(runs)
     for rec, on in zip(runs, flags):
         rec["pareto"] = on
@@ -342,6 +301,69 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
         "sweep_seconds": time.perf_counter() - started,
         "compile_seconds": sum(compiled),
     }
+
+
+def _configuration(prob, conf, settings) -> dict:
+    """One configuration of :func:`speed_error_study` (a task of its sweep): its dt chosen
+    by the rule and its timed record, or why it was skipped.  Returns ``{"record": ...}``
+    or ``{"skipped": ...}``, with ``note`` (the progress line) and ``compile_seconds``
+    (of every run, the dt trials included)."""
+    from ..solver import SimulationError
+
+    t_end, mode, stress_update = settings["t_end"], settings["mode"], settings["stress_update"]
+    repeats = settings["repeats"]
+    tag = f"{conf['basis']}/{conf['mass']}/{conf['placement']} {conf['elements']} el x " \
+          f"{conf['ppc']} PPC"
+    compiled = []
+
+    def skip(reason, **extra):
+        return {"skipped": {**conf, "reason": reason, **extra}, "note": f"skip {tag}: {reason}",
+                "compile_seconds": compiled}
+
+    try:
+        crit = critical_dt(prob, **conf)
+    except ValueError as exc:
+        return skip(str(exc))
+    if not crit > 0:
+        return skip("singular or indefinite mass matrix: no stable time step")
+    dt0 = _divides(t_end, min(prob.dt, 0.5 * crit))
+    tried = []
+
+    def run(dt):
+        tried.append(dt)
+        r = _Run(prob, dt=dt, t_end=t_end, mode=mode, stress_update=stress_update, **conf)
+        compiled.append(r.record["compile_seconds"])
+        return r
+
+    others = []
+    try:
+        accepted, info = choose_dt(run, dt0, settings["dt_tolerance"], settings["max_halvings"],
+                                   defer_release=others)
+    except (ValueError, SimulationError) as exc:
+        for r in others:
+            r.release()
+        return skip(f"run failed at dt = {tried[-1]:.4g} s: {exc}", dt=tried[-1])
+    try:
+        first = accepted.record["wall_seconds"]
+        samples = []
+        for _ in range(repeats):
+            try:
+                samples.append(accepted.time_again())
+            except SimulationError:
+                break  # beyond t_end the run failed: keep what we have
+        rec = {"problem": prob.name, **conf, **accepted.record, **info,
+               "wall_seconds": min(samples) if samples else first,
+               "wall_samples": samples, "first_run_seconds": first,
+               "dt0": dt0, "critical_dt": crit, "stress_update": stress_update}
+    finally:
+        accepted.release()
+        for r in others:
+            r.release()
+    rec["dt"], rec["rms_error"] = info["dt"], info["rms_error"]
+    note = (f"{tag}: dt = {rec['dt']:.4g} s ({rec['steps']} steps"
+            f"{'' if rec['time_error_separated'] else ', time error not separated'}),"
+            f" e = {rec['rms_error']:.3e}, wall = {rec['wall_seconds']:.4f} s")
+    return {"record": rec, "note": note, "compile_seconds": compiled}
 
 
 # ---- command line -----------------------------------------------------------------------------
@@ -379,6 +401,7 @@ def add_parser(subparsers):
                    help="timed runs per configuration, the minimum is kept (default 3)")
     p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"])
     p.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
+    add_arguments(p)
     p.add_argument("--json", metavar="FILE", help="write runs, answers and settings as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="write the error-against-wall-time plot")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

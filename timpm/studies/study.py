@@ -1,6 +1,7 @@
 """Drivers: run a benchmark problem, compare with its exact solution, study convergence."""
 from collections import OrderedDict
 from dataclasses import dataclass, field
+import inspect
 import time
 
 import numpy as np
@@ -9,6 +10,7 @@ from ..batch import Batch
 from ..problems import get_problem
 from ..solver import Solver
 from .analysis import energy_drift, observed_rates, rms_error
+from .sweep import check_executor, map_runs
 
 __all__ = ["RunResult", "run_problem", "resume_problem", "convergence", "clear_solvers"]
 
@@ -256,24 +258,52 @@ def clear_solvers():
 
 
 def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=False,
-                **kwargs) -> dict:
+                workers=None, dask=None, **kwargs) -> dict:
     """Run the problem on each mesh; returns the records and the observed rates.
 
     ``batch=True`` runs the meshes side by side, one thread each (:class:`timpm.Batch` of
     fused serial solvers): the records' wall seconds are then the batch's, shared by all
-    runs.
+    runs.  ``workers=N`` runs them in N worker processes, ``dask`` on a Dask cluster (an
+    address, or "local"; :mod:`timpm.studies.sweep`): the records are those of this
+    serial loop, in its order, but for the times; no progress line is drawn there.
     """
     if len(elements) == 0:
         raise ValueError("give at least one number of elements")
+    check_executor(workers, dask)
+    remote = workers is not None or dask is not None
+    if batch and remote:
+        raise ValueError("batch runs the meshes side by side in this process: give batch "
+                         "or workers / dask, not both")
     if batch:
         records = [r.record for r in _batch_runs(problem, elements, **kwargs)]
     else:
-        records = [run_problem(problem, elements=n, **kwargs).record for n in elements]
+        if remote:
+            _check_options(problem, elements[0], kwargs)
+            kwargs = {**kwargs, "progress": False}
+        records = map_runs(_mesh_record, [(problem, n, kwargs) for n in elements],
+                           workers=workers, dask=dask, cost=list(elements))
     doc = {"problem": records[0]["problem"], "runs": records}
     errors = [r["rms_error"] for r in records]
     if all(e is not None for e in errors):
         doc["rates"] = observed_rates([r["elements"] for r in records], errors)
     return doc
+
+
+def _check_options(problem, elements, options) -> None:
+    """Build the scene of one mesh here (NumPy only), so that a bad option raises before
+    worker processes start."""
+    given = inspect.signature(run_problem).bind(problem, elements=elements, **options)
+    given.apply_defaults()
+    a = given.arguments
+    _plan(problem, elements, a["ppc"], a["basis"], a["mass"], a["dt"], a["t_end"],
+          a["placement"], a["stress_update"], a["damping"], a["allow_unstable_dt"],
+          a["record_every"], a["params"], a["energies"], a["projection"], a["series"],
+          a["transfer"], reuse=a["reuse"])
+
+
+def _mesh_record(problem, elements, options) -> dict:
+    """The record of one mesh of :func:`convergence` (a task of its sweep)."""
+    return run_problem(problem, elements=elements, **options).record
 
 
 def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", dt=None,
