@@ -16,7 +16,7 @@ import taichi as ti
 
 from ..runtime import ensure_init
 
-__all__ = ["Renderer", "GifWriter", "Movie", "colormap_lut"]
+__all__ = ["Renderer", "GifWriter", "Movie", "colormap_lut", "check_image"]
 
 _SHIFT = 31                 # depth key = depth level << _SHIFT | reversed particle index
 _LEVELS = (1 << 24) - 1     # depth levels across the box
@@ -185,6 +185,7 @@ class Renderer:
             radius = float("nan")
         if not (np.isfinite(radius) and radius > 0):
             raise ValueError(f"radius must be a positive number of pixels, got {radius!r}")
+        check_image(int(width), int(height))
         self.lo, self.hi, self.axes = lo, hi, axes
         self.width, self.height, self.radius = int(width), int(height), float(radius)
         self.background = _rgb("background", background)
@@ -327,21 +328,50 @@ class GifWriter:
         return False
 
 
+#: bytes a pixel takes while rendering: the depth key (8) and the RGB image (3)
+_PIXEL_BYTES = 8 + 3
+
+
+def check_image(width: int, height: int, frames: int = 0) -> None:
+    """Refuse, before allocating, an image the renderer cannot index (more than 2^31 - 1
+    pixels) or whose buffers and ``frames`` kept GIF frames (a byte a pixel) need more
+    memory than is available."""
+    from ..checks import MAX_INDEX, available_memory
+
+    pixels = width * height
+    if pixels > MAX_INDEX:
+        raise ValueError(f"an image of {width} x {height} pixels has more than the {MAX_INDEX} "
+                         "pixels the renderer can index: choose a smaller width")
+    need, free = pixels * (_PIXEL_BYTES + frames), available_memory()
+    if free is not None and need > free:
+        raise ValueError(f"{frames} frames of {width} x {height} pixels need {need / 1e9:.3g} GB, "
+                         f"more than the {free / 1e9:.3g} GB of memory available: choose a "
+                         "smaller width or fewer frames")
+
+
 class Movie:
     """A simulation's frames rendered into an animated GIF ``out`` (``width`` pixels wide,
     ``fps`` frames a second, each frame also as PNG in ``png_dir`` when given).
 
     ``start(world, color)`` fits a :class:`Renderer` to the world's domain and cells (the
     colour ``body`` gets a diverging colormap), ``add`` renders and appends one frame,
-    ``close`` writes the GIF; ``seconds`` is the time spent rendering and writing."""
+    ``close`` writes the GIF; ``seconds`` is the time spent rendering and writing.
+    ``frames``, the frames to come where known, lets ``start`` refuse a movie that would
+    not fit in memory before any is drawn."""
 
-    def __init__(self, out, fps=20, width=480, png_dir=None):
+    def __init__(self, out, fps=20, width=480, png_dir=None, frames=None):
         self.out = str(out)
         self.width = width
+        self.frames = frames
         self.writer = GifWriter(out, fps=fps, png_dir=png_dir)
         self.renderer = None
 
     def start(self, world, color=None):
+        if self.frames is not None and isinstance(self.width, (int, np.integer)) \
+                and self.width > 0:
+            ext = np.asarray(world.domain, dtype=float)
+            check_image(self.width, max(1, int(round(self.width * ext[1] / ext[0]))),
+                        self.frames)
         self.renderer = Renderer((0.0,) * world.dim, world.domain, width=self.width,
                                  radius=max(1.0, 0.8 * self.width / world.cells / 2),
                                  cmap="viridis" if color != "body" else "coolwarm")
