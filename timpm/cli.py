@@ -11,8 +11,9 @@ import sys
 import numpy as np
 
 from . import __version__
-from .argtypes import param, positive_int, setting
+from .argtypes import numbers_as_values, param, positive_float, positive_int, setting
 from .basis import BASES
+from .checks import MAX_STEPS
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .solver import SimulationError
@@ -26,8 +27,9 @@ def _add_common(p):
     p.add_argument("--ppc", type=int, help="particles per element (default: the problem's)")
     p.add_argument("--basis", default="linear", help=f"one of: {', '.join(BASES)}")
     p.add_argument("--mass", default="lumped", choices=["lumped", "consistent"])
-    p.add_argument("--dt", type=float, help="time step [s] (default: the problem's)")
-    p.add_argument("--t-end", type=float, help="end time [s] (default: the problem's)")
+    p.add_argument("--dt", type=positive_float, help="time step [s] (default: the problem's)")
+    p.add_argument("--t-end", type=positive_float,
+                   help="end time [s] (default: the problem's)")
     p.add_argument("--placement", choices=list(PLACEMENTS),
                    help="particle positions in an element (default: the problem's; the "
                         "study's problems: study, (k+1)/(ppc+1); mms-*: gauss)")
@@ -46,6 +48,7 @@ def _add_common(p):
                    help="override a physical parameter of the problem, e.g. p0=2e4")
     p.add_argument("--allow-unstable-dt", action="store_true",
                    help="run even if dt exceeds the critical time step of Eq. 2.4")
+    _add_allow_many_steps(p)
     p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"],
                    help="serial: fused steps on one thread; parallel: one launch per step; "
                         "team: many steps per launch on every thread (private scatter)")
@@ -53,6 +56,11 @@ def _add_common(p):
     p.add_argument("--json", metavar="FILE", help="write the records as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="draw a plot")
     p.add_argument("--quiet", action="store_true", help="no table on stdout")
+
+
+def _add_allow_many_steps(p):
+    p.add_argument("--allow-many-steps", action="store_true",
+                   help=f"run even if the run takes more than {MAX_STEPS:.0e} steps")
 
 
 def _add_fields(p, frames_help=None):
@@ -135,9 +143,10 @@ def _parser():
                          "large-deformation column of A.5")
     cmp.add_argument("--elements", type=positive_int, default=30)
     cmp.add_argument("--ppc", type=positive_int, default=50)
-    cmp.add_argument("--dt", type=float, default=1e-3)
-    cmp.add_argument("--t-end", type=float, default=3.0)
+    cmp.add_argument("--dt", type=positive_float, default=1e-3)
+    cmp.add_argument("--t-end", type=positive_float, default=3.0)
     cmp.add_argument("--basis", default="linear")
+    _add_allow_many_steps(cmp)
     cmp.add_argument("--json", metavar="FILE")
     cmp.add_argument("--plot", metavar="FILE.png")
     sub.add_parser("list", help="list problems, bases and demos")
@@ -150,7 +159,8 @@ def _parser():
     demo.add_argument("--color", help="colour by: speed, pressure, plastic, von-mises, body")
     demo.add_argument("--png-dir", metavar="DIR", help="also write every frame as PNG")
     _add_fields(demo)
-    demo.add_argument("--t-end", type=float, help="end time [s] (default: the demo's)")
+    demo.add_argument("--t-end", type=positive_float, help="end time [s] (default: the demo's)")
+    _add_allow_many_steps(demo)
     demo.add_argument("--param", type=setting, action="append", default=[], metavar="NAME=VALUE",
                       help="override a demo parameter, e.g. aspect=1, cells=40, transfer=musl")
     demo.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"])
@@ -162,7 +172,36 @@ def _parser():
     study = sub.add_parser("study", help="studies over many runs: speed-error")
     studies = study.add_subparsers(dest="study", required=True)
     speed_error.add_parser(studies).set_defaults(func=_speed_error)
+    for parser in (ap, *sub.choices.values(), *studies.choices.values()):
+        numbers_as_values(parser)
     return ap
+
+
+def _listing() -> str:
+    """``timpm list``: the problems with their defaults and parameters (--param), the
+    bases, the demos with their parameters."""
+    from dataclasses import fields
+
+    from .basis import MAX_BSPLINE_DEGREE
+    from .scenarios.demos import DEMOS
+
+    def params(obj):
+        shown = {f.name: getattr(obj, f.name) for f in fields(obj)}
+        return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                         for k, v in shown.items())
+
+    lines = ["problems (timpm run PROBLEM --param NAME=VALUE):"]
+    for name, cls in PROBLEMS.items():
+        p = cls()
+        lines.append(f"  {name:16s} {p.title}; defaults: {p.elements} elements, {p.ppc} PPC, "
+                     f"dt = {p.dt_rule}, t_end = {p.t_end:g} s")
+        lines.append(f"  {'':16s} parameters: {params(p)}")
+    lines.append("bases (--basis): " + ", ".join(BASES) + f"; bsplineN and uniform-bsplineN "
+                 f"for degree N = 1 to {MAX_BSPLINE_DEGREE} (clamped, padded uniform)")
+    lines.append("demos (timpm demo NAME --out FILE.gif --param NAME=VALUE):")
+    for name, cls in DEMOS.items():
+        lines.append(f"  {name:16s} parameters: {params(cls())}")
+    return "\n".join(lines)
 
 
 def _compare(args):
@@ -170,7 +209,8 @@ def _compare(args):
     from .studies.study import compare_large_column
 
     cmp = compare_large_column(elements=args.elements, ppc=args.ppc, dt=args.dt,
-                               t_end=args.t_end, basis=args.basis)
+                               t_end=args.t_end, basis=args.basis,
+                               allow_many_steps=args.allow_many_steps)
     print(f"{'':8} {'period [s]':>11} {'study [s]':>10}")
     for key in ("mpm", "ulfem"):
         print(f"{key.upper():8} {cmp[key]['period']:11.4f} {cmp['study_periods'][key]:10.3f}")
@@ -189,6 +229,7 @@ def _options(args):
     return dict(ppc=args.ppc, basis=args.basis, mass=args.mass, dt=args.dt, t_end=args.t_end,
                 placement=args.placement, stress_update=args.stress_update,
                 damping=args.damping, allow_unstable_dt=args.allow_unstable_dt,
+                allow_many_steps=args.allow_many_steps,
                 projection=args.projection, transfer=args.transfer,
                 mode=args.mode, params=dict(args.param))
 
@@ -227,10 +268,12 @@ def _demo(args):
     runtime.init(threads=args.threads)
     movie = None
     if args.out:
-        movie = Movie(args.out, fps=args.fps, width=args.width, png_dir=args.png_dir)
+        movie = Movie(args.out, fps=args.fps, width=args.width, png_dir=args.png_dir,
+                      frames=args.frames + 1)
     fields = _field_writer(args)
     result = run_demo(args.name, movie=movie, frames=args.frames, color=args.color,
-                      progress=args.progress, mode=args.mode, fields=fields, **params)
+                      progress=args.progress, mode=args.mode, fields=fields,
+                      allow_many_steps=args.allow_many_steps, **params)
     print(result.report())
     if args.plot:
         from .output.viz import plot_demo
@@ -293,12 +336,7 @@ def main(argv=None):
             print(f"timpm: error: {exc}", file=sys.stderr)
             return 2
     if args.command == "list":
-        for name, cls in PROBLEMS.items():
-            p = cls()
-            print(f"{name:18s} {p.title}; defaults: {p.elements} elements, {p.ppc} PPC, "
-                  f"dt = {p.dt_rule}, t_end = {p.t_end:g} s")
-        print("bases:", ", ".join(BASES))
-        print("demos: column-collapse, disks, dam-break (timpm demo NAME --out FILE.gif)")
+        print(_listing())
         return 0
     from . import runtime
     from .output.viz import plot_convergence, plot_series
