@@ -214,14 +214,14 @@ def _compare(args):
     print(f"{'':8} {'period [s]':>11} {'study [s]':>10}")
     for key in ("mpm", "ulfem"):
         print(f"{key.upper():8} {cmp[key]['period']:11.4f} {cmp['study_periods'][key]:10.3f}")
-    if args.plot:
-        plot_comparison(cmp, args.plot)
     if args.json:
         doc = {k: {"period": cmp[k]["period"], "t": list(map(float, cmp[k]["t"])),
                    "position": list(map(float, cmp[k]["position"]))} for k in ("mpm", "ulfem")}
         doc["mpm"]["record"] = cmp["mpm"]["record"]
         doc["study_periods"] = cmp["study_periods"]
         _write_json(args.json, doc)
+    if args.plot:
+        plot_comparison(cmp, args.plot)
     return 0
 
 
@@ -275,10 +275,6 @@ def _demo(args):
                       progress=args.progress, mode=args.mode, fields=fields,
                       allow_many_steps=args.allow_many_steps, **params)
     print(result.report())
-    if args.plot:
-        from .output.viz import plot_demo
-
-        plot_demo(result, args.plot)
     if args.json:
         doc = {k: getattr(result, k) for k in ("name", "out", "frames", "particles", "steps",
                                                "t_end", "dt", "compile_seconds",
@@ -287,6 +283,10 @@ def _demo(args):
         doc["simulated_per_wall_second"] = result.simulated_per_wall_second
         doc["series"] = {k: v.tolist() for k, v in result.series.items()}
         _write_json(args.json, doc)
+    if args.plot:
+        from .output.viz import plot_demo
+
+        plot_demo(result, args.plot)
     return 0
 
 
@@ -317,10 +317,14 @@ def _speed_error(args) -> int:
     answers = speed_error.cheapest_for(doc["runs"], targets)
     doc["targets"] = answers
     print(speed_error.format_report(doc, answers))
-    if args.plot:
-        plot_speed_error(doc, args.plot)
-    if args.json:
-        _write_json(args.json, doc)
+    try:
+        if args.json:
+            _write_json(args.json, doc)
+        if args.plot:
+            plot_speed_error(doc, args.plot)
+    except OSError as exc:
+        print(f"timpm: error: {exc}", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -332,7 +336,7 @@ def main(argv=None):
     if args.command == "demo":
         try:
             return _demo(args)
-        except (ValueError, SimulationError) as exc:
+        except (ValueError, SimulationError, OSError) as exc:
             print(f"timpm: error: {exc}", file=sys.stderr)
             return 2
     if args.command == "list":
@@ -362,6 +366,8 @@ def main(argv=None):
                     print("  ".join(f"{k} = {v:.6g}" for k, v in extra.items() if v is not None))
             series = _time_series(result)
             doc["runs"][0]["series"] = {k: v.tolist() for k, v in series.items()}
+            if args.json:  # the result first: a failing plot loses nothing else
+                _write_json(args.json, doc)
             if args.csv:
                 _write_csv(args.csv, series)
             if args.plot:
@@ -371,13 +377,13 @@ def main(argv=None):
             doc["command"] = "convergence"
             if not args.quiet:
                 print(_table(doc["runs"], doc.get("rates")))
+            if args.json:
+                _write_json(args.json, doc)
             if args.plot:
                 plot_convergence(doc, args.plot)
-    except (ValueError, SimulationError) as exc:
+    except (ValueError, SimulationError, OSError) as exc:  # OSError: an output failed
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
-    if args.json:
-        _write_json(args.json, doc)
     return 0
 
 

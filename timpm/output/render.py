@@ -313,8 +313,14 @@ class GifWriter:
         t0 = time.perf_counter()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         first, *rest = self._frames
-        first.save(self.path, save_all=True, append_images=rest, loop=0,
-                   duration=max(1, int(round(1000.0 / self.fps))), optimize=False)
+        tmp = self.path.with_name(f".{self.path.name}.tmp")  # renamed when whole
+        try:
+            first.save(tmp, format="GIF", save_all=True, append_images=rest, loop=0,
+                       duration=max(1, int(round(1000.0 / self.fps))), optimize=False)
+            os.replace(tmp, self.path)
+        finally:
+            if tmp.exists():
+                tmp.unlink()
         self._frames = []
         self.closed = True
         self.seconds += time.perf_counter() - t0
