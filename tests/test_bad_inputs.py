@@ -394,3 +394,14 @@ def test_a_failing_plot_loses_neither_the_result_nor_a_whole_file(tmp_path, caps
     assert capsys.readouterr().err == "timpm: error: [Errno 28] No space left on device\n"
     assert [r["elements"] for r in json.loads(out.read_text())["runs"]] == [4, 8]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.json"]  # no half PNG
+
+
+@pytest.mark.parametrize("args, message", [
+    (VS + ["--elements", "1000000000000"], "4e+12 particles, " + INDEX),
+    (VS + ["--dt", "1e-300", "--t-end", "1e-290"], _steps("1e+10")),
+    (["convergence", "mms-2d", "--elements", "8", "100000"], "4e+10 particles, " + INDEX),
+])
+def test_sizes_and_step_counts_are_refused_before_taichi_starts(args, message):
+    proc = _timpm(*args)
+    assert proc.returncode == 2 and message in proc.stderr
+    assert proc.stdout == "" and "Traceback" not in proc.stderr  # no banner: Taichi not started

@@ -13,7 +13,7 @@ import numpy as np
 from . import __version__
 from .argtypes import numbers_as_values, param, positive_float, positive_int, setting
 from .basis import BASES
-from .checks import MAX_STEPS
+from .checks import MAX_STEPS, step_count
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .solver import SimulationError
@@ -104,6 +104,16 @@ def _check_output_files(args):
     for flag in ("json", "csv", "plot", "out"):
         if getattr(args, flag, None):
             check_output_file(getattr(args, flag), f"--{flag}")
+
+
+def _refuse_early(problem, elements, ppc, dt=None, t_end=None, allow_many_steps=False):
+    """The sizes of these meshes and, with dt given, the step count, checked before Taichi
+    starts (the runs check them again)."""
+    for n in elements:
+        problem.check_size(problem.elements if n is None else n,
+                           problem.ppc if ppc is None else ppc)
+    if dt is not None:
+        step_count(problem.t_end if t_end is None else t_end, dt, allow_many_steps)
 
 
 def _write_json(path, doc):
@@ -301,7 +311,8 @@ def _speed_error(args) -> int:
     try:
         if args.max_halvings < 0:
             raise ValueError(f"--max-halvings must be non-negative, got {args.max_halvings}")
-        get_problem(args.problem, **dict(args.param))
+        problem = get_problem(args.problem, **dict(args.param))
+        _refuse_early(problem, [max(args.elements)], max(args.ppc or [problem.ppc]))
         _check_output_files(args)
         runtime.init(threads=args.threads)
         doc = speed_error.speed_error_study(
@@ -349,8 +360,12 @@ def main(argv=None):
     try:
         if args.command == "compare-ulfem":
             _check_output_files(args)
+            _refuse_early(get_problem("large-column"), [args.elements], args.ppc, args.dt,
+                          args.t_end, args.allow_many_steps)
             return _compare(args)
-        get_problem(args.problem, **dict(args.param))
+        problem = get_problem(args.problem, **dict(args.param))
+        meshes = args.elements if args.command == "convergence" else [args.elements]
+        _refuse_early(problem, meshes, args.ppc, args.dt, args.t_end, args.allow_many_steps)
         _check_output_files(args)
         runtime.init(threads=args.threads)
         opts = _options(args)
