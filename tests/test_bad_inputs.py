@@ -20,6 +20,8 @@ from timpm.cli import _parser, main
 
 #: the memory the size checks see in these tests (the machine's varies)
 MEMORY = 8 << 30
+#: what the machine reports
+AVAILABLE_MEMORY = checks.available_memory
 VS = ["run", "vibrating-string"]
 SE = ["study", "speed-error", "vibrating-string"]
 
@@ -405,3 +407,14 @@ def test_sizes_and_step_counts_are_refused_before_taichi_starts(args, message):
     proc = _timpm(*args)
     assert proc.returncode == 2 and message in proc.stderr
     assert proc.stdout == "" and "Traceback" not in proc.stderr  # no banner: Taichi not started
+
+
+def test_available_memory_is_bounded_by_the_control_groups_limit(tmp_path, monkeypatch):
+    limit, unlimited = tmp_path / "memory.max", tmp_path / "unlimited"
+    limit.write_text("1000000\n")
+    unlimited.write_text("max\n")
+    monkeypatch.setattr(checks, "_CGROUP_LIMITS", (str(unlimited),))
+    machine = AVAILABLE_MEMORY()
+    assert machine is None or machine > 1000000
+    monkeypatch.setattr(checks, "_CGROUP_LIMITS", (str(tmp_path / "absent"), str(limit)))
+    assert AVAILABLE_MEMORY() == 1000000

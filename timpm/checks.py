@@ -94,20 +94,38 @@ def check_steps(steps, dt, allow_many_steps=False, t_end=None) -> None:
         "run, or pass allow_many_steps=True (--allow-many-steps) to run it anyway")
 
 
+#: the memory limit of this process's control group (v2, v1), where one is set
+_CGROUP_LIMITS = ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes")
+
+
 def available_memory():
-    """Bytes of memory this process may still take (Linux: MemAvailable of
-    /proc/meminfo; else the free physical pages), or None where neither is known."""
+    """Bytes of memory this process may still take: MemAvailable of /proc/meminfo (else
+    the free physical pages), at most the memory limit of its control group (a
+    container's); None where neither is known."""
+    free = None
     try:
         with open("/proc/meminfo") as f:
             for line in f:
                 if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
+                    free = int(line.split()[1]) * 1024
+                    break
     except (OSError, ValueError, IndexError):
         pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, OSError, ValueError):
-        return None
+    if free is None:
+        try:
+            free = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (AttributeError, OSError, ValueError):
+            pass
+    for path in _CGROUP_LIMITS:
+        try:
+            with open(path) as f:
+                limit = int(f.read())  # "max" (no limit) is no int
+        except (OSError, ValueError):
+            continue
+        if limit < 1 << 60:  # v1 writes no limit as a huge number
+            free = limit if free is None else min(free, limit)
+        break
+    return free
 
 
 def state_bytes(particles: int, nodes: int, dim: int) -> int:
