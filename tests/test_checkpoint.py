@@ -88,6 +88,7 @@ def test_ctrl_c_stops_the_run_saves_it_and_exits_130(tmp_path):
     saved, record = tmp_path / "run.npz", tmp_path / "run.json"
     run = subprocess.Popen(
         [sys.executable, "-m", "timpm", "run", "vibrating-string", "--t-end", "1e5",
+         "--allow-many-steps",
          "--checkpoint", str(saved), "--checkpoint-every", "20000", "--json", str(record)],
         env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120

@@ -363,7 +363,7 @@ def test_cli_runs_a_scene_with_options_over_the_file(tmp_path, capsys):
     assert main(["run", str(path), "--t-end", "0.02", "--npz", str(npz), "--json", str(out),
                  "--set", "body[1].ppc=3", "--frames", "3", "--set", "domain.walls=slip",
                  "--set", "loads.gravity=[0.0, 0.0]", "--gif", str(gif),
-                 "--set", "output.width=48", "--set", "output.color=body",
+                 "--set", "output.width=320", "--set", "output.color=body",
                  "--threads", str(runtime.cpu_threads())]) == 0  # Taichi not restarted
     text = capsys.readouterr().out
     doc = json.loads(out.read_text())
@@ -374,7 +374,7 @@ def test_cli_runs_a_scene_with_options_over_the_file(tmp_path, capsys):
         for k in range(im.n_frames):
             im.seek(k)
             shown += im.info["duration"]
-        assert im.size[0] == 48 and shown == 4 * round(1000 / OUTPUT["fps"].default)
+        assert im.size[0] == 320 and shown == 4 * round(1000 / OUTPUT["fps"].default)
     assert doc["t_end"] == pytest.approx(0.02, abs=doc["dt"])
     assert len(list(npz.glob("particles_*.npz"))) == 4 and not (tmp_path / "never").exists()
     # the override of ppc: the ball's particles at 3 per cell and axis

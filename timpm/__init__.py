@@ -6,8 +6,9 @@ import os
 # hands to NumPy are small: one BLAS thread is the right choice (set before NumPy loads).
 for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
-from .basis import BASES, Basis, Linear, get_basis
+# runtime first: it imports Taichi without its banner (printed when Taichi starts)
 from .runtime import init
+from .basis import BASES, Basis, Linear, get_basis
 from .scene import (Constant, Grid1D, Material, Ramp, Scene, Sine, Traction,
                     critical_time_step, equidistant_particles)
 from .materials import (DruckerPrager, LinearElastic, NeoHookean, WeaklyCompressibleFluid,

@@ -1,8 +1,21 @@
 """argparse value types shared by the command-line entry points."""
 import argparse
 import math
+import re
 
-__all__ = ["param", "setting", "positive_int", "positive_float"]
+__all__ = ["param", "setting", "positive_int", "positive_float", "non_negative_int",
+           "numbers_as_values"]
+
+#: what argparse takes for a negative number, not an option: -4, -.5, -1e-4, -inf, -nan
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$",
+                              re.IGNORECASE)
+
+
+def numbers_as_values(parser):
+    """Let ``parser`` read every negative number as a value, so that the option's type
+    refuses it clearly (argparse takes -1e-4 for an option: "expected one argument")."""
+    parser._negative_number_matcher = _NEGATIVE_NUMBER
+    return parser
 
 
 def param(text):
@@ -36,6 +49,16 @@ def positive_int(text):
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be a positive integer, got {value}")
+    return value
+
+
+def non_negative_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {value}")
     return value
 
 

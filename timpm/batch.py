@@ -199,8 +199,11 @@ class Batch:
             return np.array([[n, 0] for n in steps])
         return self.status.to_numpy()
 
-    def run(self, t_end: float | None = None, n_steps: int | None = None, progress=None):
-        """Advance every member to ``t_end`` (or by ``n_steps``); returns self.
+    def run(self, t_end: float | None = None, n_steps: int | None = None, progress=None,
+            allow_many_steps: bool = False):
+        """Advance every member to ``t_end`` (or by ``n_steps``); returns self.  A member's
+        run of more than :data:`~timpm.checks.MAX_STEPS` steps is refused unless
+        ``allow_many_steps``.
 
         Raises :class:`SimulationError` naming the member at the first invalid state.
         """
@@ -211,7 +214,7 @@ class Batch:
         remaining = []
         for k, s in enumerate(self.solvers):
             try:
-                remaining.append(s.steps_to(t_end, n_steps))
+                remaining.append(s.steps_to(t_end, n_steps, allow_many_steps))
             except ValueError as err:
                 raise ValueError(f"batch member {k}: {err}") from None
         self.compile()

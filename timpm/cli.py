@@ -11,8 +11,9 @@ import sys
 import numpy as np
 
 from . import __version__
-from .argtypes import param, positive_int, setting
+from .argtypes import numbers_as_values, param, positive_float, positive_int, setting
 from .basis import BASES
+from .checks import MAX_STEPS, step_count
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .scenefile import is_scene_argument
@@ -30,8 +31,9 @@ def _add_common(p):
     p.add_argument("--ppc", type=int, help="particles per element (default: the problem's)")
     p.add_argument("--basis", default="linear", help=f"one of: {', '.join(BASES)}")
     p.add_argument("--mass", default="lumped", choices=["lumped", "consistent"])
-    p.add_argument("--dt", type=float, help="time step [s] (default: the problem's)")
-    p.add_argument("--t-end", type=float, help="end time [s] (default: the problem's)")
+    p.add_argument("--dt", type=positive_float, help="time step [s] (default: the problem's)")
+    p.add_argument("--t-end", type=positive_float,
+                   help="end time [s] (default: the problem's)")
     p.add_argument("--placement", choices=list(PLACEMENTS),
                    help="particle positions in an element (default: the problem's; the "
                         "study's problems: study, (k+1)/(ppc+1); mms-*: gauss)")
@@ -50,6 +52,7 @@ def _add_common(p):
                    help="override a physical parameter of the problem, e.g. p0=2e4")
     p.add_argument("--allow-unstable-dt", action="store_true",
                    help="run even if dt exceeds the critical time step of Eq. 2.4")
+    _add_allow_many_steps(p)
     p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"],
                    help="serial: fused steps on one thread; parallel: one launch per step; "
                         "team: many steps per launch on every thread (private scatter)")
@@ -57,6 +60,11 @@ def _add_common(p):
     p.add_argument("--json", metavar="FILE", help="write the records as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="draw a plot")
     p.add_argument("--quiet", action="store_true", help="no table on stdout")
+
+
+def _add_allow_many_steps(p):
+    p.add_argument("--allow-many-steps", action="store_true",
+                   help=f"run even if the run takes more than {MAX_STEPS:.0e} steps")
 
 
 def _add_fields(p, frames_help=None):
@@ -115,6 +123,16 @@ def _check_output_files(args):
             check_output_file(getattr(args, flag), f"--{flag}")
 
 
+def _refuse_early(problem, elements, ppc, dt=None, t_end=None, allow_many_steps=False):
+    """The sizes of these meshes and, with dt given, the step count, checked before Taichi
+    starts (the runs check them again)."""
+    for n in elements:
+        problem.check_size(problem.elements if n is None else n,
+                           problem.ppc if ppc is None else ppc)
+    if dt is not None:
+        step_count(problem.t_end if t_end is None else t_end, dt, allow_many_steps)
+
+
 def _write_json(path, doc):
     """The document under a temporary name, then renamed: a file on disk is whole."""
     tmp = f"{path}.tmp"
@@ -150,7 +168,8 @@ def _parser():
     resume = sub.add_parser("resume", help="continue a run saved by --checkpoint (or by "
                             "Ctrl-C) to a later time, bit for bit as if never stopped")
     resume.add_argument("saved", metavar="FILE", help="a checkpoint file (.npz)")
-    resume.add_argument("--t-end", type=float, required=True, help="end time [s]")
+    resume.add_argument("--t-end", type=positive_float, required=True, help="end time [s]")
+    _add_allow_many_steps(resume)
     resume.add_argument("--mode", choices=["auto", "serial", "parallel", "team"],
                         help="run mode (default: the saved run's)")
     resume.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
@@ -170,9 +189,10 @@ def _parser():
                          "large-deformation column of A.5")
     cmp.add_argument("--elements", type=positive_int, default=30)
     cmp.add_argument("--ppc", type=positive_int, default=50)
-    cmp.add_argument("--dt", type=float, default=1e-3)
-    cmp.add_argument("--t-end", type=float, default=3.0)
+    cmp.add_argument("--dt", type=positive_float, default=1e-3)
+    cmp.add_argument("--t-end", type=positive_float, default=3.0)
     cmp.add_argument("--basis", default="linear")
+    _add_allow_many_steps(cmp)
     cmp.add_argument("--json", metavar="FILE")
     cmp.add_argument("--plot", metavar="FILE.png")
     sub.add_parser("list", help="list problems, bases and demos")
@@ -186,7 +206,8 @@ def _parser():
     demo.add_argument("--color", help="colour by: speed, pressure, plastic, von-mises, body")
     demo.add_argument("--png-dir", metavar="DIR", help="also write every frame as PNG")
     _add_fields(demo)
-    demo.add_argument("--t-end", type=float, help="end time [s] (default: the demo's)")
+    demo.add_argument("--t-end", type=positive_float, help="end time [s] (default: the demo's)")
+    _add_allow_many_steps(demo)
     demo.add_argument("--param", type=setting, action="append", default=[], metavar="NAME=VALUE",
                       help="override a demo parameter, e.g. aspect=1, cells=40, transfer=musl")
     demo.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"])
@@ -198,7 +219,36 @@ def _parser():
     study = sub.add_parser("study", help="studies over many runs: speed-error")
     studies = study.add_subparsers(dest="study", required=True)
     speed_error.add_parser(studies).set_defaults(func=_speed_error)
+    for parser in (ap, *sub.choices.values(), *studies.choices.values()):
+        numbers_as_values(parser)
     return ap
+
+
+def _listing() -> str:
+    """``timpm list``: the problems with their defaults and parameters (--param), the
+    bases, the demos with their parameters."""
+    from dataclasses import fields
+
+    from .basis import MAX_BSPLINE_DEGREE
+    from .scenarios.demos import DEMOS
+
+    def params(obj):
+        shown = {f.name: getattr(obj, f.name) for f in fields(obj)}
+        return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                         for k, v in shown.items())
+
+    lines = ["problems (timpm run PROBLEM --param NAME=VALUE):"]
+    for name, cls in PROBLEMS.items():
+        p = cls()
+        lines.append(f"  {name:16s} {p.title}; defaults: {p.elements} elements, {p.ppc} PPC, "
+                     f"dt = {p.dt_rule}, t_end = {p.t_end:g} s")
+        lines.append(f"  {'':16s} parameters: {params(p)}")
+    lines.append("bases (--basis): " + ", ".join(BASES) + f"; bsplineN and uniform-bsplineN "
+                 f"for degree N = 1 to {MAX_BSPLINE_DEGREE} (clamped, padded uniform)")
+    lines.append("demos (timpm demo NAME --out FILE.gif --param NAME=VALUE):")
+    for name, cls in DEMOS.items():
+        lines.append(f"  {name:16s} parameters: {params(cls())}")
+    return "\n".join(lines)
 
 
 def _compare(args):
@@ -206,18 +256,19 @@ def _compare(args):
     from .studies.study import compare_large_column
 
     cmp = compare_large_column(elements=args.elements, ppc=args.ppc, dt=args.dt,
-                               t_end=args.t_end, basis=args.basis)
+                               t_end=args.t_end, basis=args.basis,
+                               allow_many_steps=args.allow_many_steps)
     print(f"{'':8} {'period [s]':>11} {'study [s]':>10}")
     for key in ("mpm", "ulfem"):
         print(f"{key.upper():8} {cmp[key]['period']:11.4f} {cmp['study_periods'][key]:10.3f}")
-    if args.plot:
-        plot_comparison(cmp, args.plot)
     if args.json:
         doc = {k: {"period": cmp[k]["period"], "t": list(map(float, cmp[k]["t"])),
                    "position": list(map(float, cmp[k]["position"]))} for k in ("mpm", "ulfem")}
         doc["mpm"]["record"] = cmp["mpm"]["record"]
         doc["study_periods"] = cmp["study_periods"]
         _write_json(args.json, doc)
+    if args.plot:
+        plot_comparison(cmp, args.plot)
     return 0
 
 
@@ -253,6 +304,8 @@ def _run(args, start):
             print("  ".join(f"{k} = {v:.6g}" for k, v in extra.items() if v is not None))
     series = _time_series(result)
     doc["runs"][0]["series"] = {k: v.tolist() for k, v in series.items()}
+    if args.json:  # the result first: a failing plot loses nothing else
+        _write_json(args.json, doc)
     if args.csv:
         _write_csv(args.csv, series)
     if args.plot:
@@ -264,6 +317,7 @@ def _options(args):
     return dict(ppc=args.ppc, basis=args.basis, mass=args.mass, dt=args.dt, t_end=args.t_end,
                 placement=args.placement, stress_update=args.stress_update,
                 damping=args.damping, allow_unstable_dt=args.allow_unstable_dt,
+                allow_many_steps=args.allow_many_steps,
                 projection=args.projection, transfer=args.transfer,
                 mode=args.mode, params=dict(args.param))
 
@@ -301,16 +355,14 @@ def _demo(args):
     _check_output_files(args)
     movie = None
     if args.out:
-        movie = Movie(args.out, fps=args.fps, width=args.width, png_dir=args.png_dir)
+        movie = Movie(args.out, fps=args.fps, width=args.width, png_dir=args.png_dir,
+                      frames=args.frames + 1)
     runtime.init(threads=args.threads)
     fields = _field_writer(args)
     result = run_demo(args.name, movie=movie, frames=args.frames, color=args.color,
-                      progress=args.progress, mode=args.mode, fields=fields, **params)
+                      progress=args.progress, mode=args.mode, fields=fields,
+                      allow_many_steps=args.allow_many_steps, **params)
     print(result.report())
-    if args.plot:
-        from .output.viz import plot_demo
-
-        plot_demo(result, args.plot)
     if args.json:
         doc = {k: getattr(result, k) for k in ("name", "out", "frames", "particles", "steps",
                                                "t_end", "dt", "compile_seconds",
@@ -319,6 +371,10 @@ def _demo(args):
         doc["simulated_per_wall_second"] = result.simulated_per_wall_second
         doc["series"] = {k: v.tolist() for k, v in result.series.items()}
         _write_json(args.json, doc)
+    if args.plot:
+        from .output.viz import plot_demo
+
+        plot_demo(result, args.plot)
     return 0
 
 
@@ -333,7 +389,8 @@ def _speed_error(args) -> int:
     try:
         if args.max_halvings < 0:
             raise ValueError(f"--max-halvings must be non-negative, got {args.max_halvings}")
-        get_problem(args.problem, **dict(args.param))
+        problem = get_problem(args.problem, **dict(args.param))
+        _refuse_early(problem, [max(args.elements)], max(args.ppc or [problem.ppc]))
         _check_output_files(args)
         runtime.init(threads=args.threads)
         doc = speed_error.speed_error_study(
@@ -349,10 +406,14 @@ def _speed_error(args) -> int:
     answers = speed_error.cheapest_for(doc["runs"], targets)
     doc["targets"] = answers
     print(speed_error.format_report(doc, answers))
-    if args.plot:
-        plot_speed_error(doc, args.plot)
-    if args.json:
-        _write_json(args.json, doc)
+    try:
+        if args.json:
+            _write_json(args.json, doc)
+        if args.plot:
+            plot_speed_error(doc, args.plot)
+    except OSError as exc:
+        print(f"timpm: error: {exc}", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -376,16 +437,11 @@ def _main(argv=None):
     if args.command == "demo":
         try:
             return _demo(args)
-        except (ValueError, SimulationError) as exc:
+        except (ValueError, SimulationError, OSError) as exc:
             print(f"timpm: error: {exc}", file=sys.stderr)
             return 2
     if args.command == "list":
-        for name, cls in PROBLEMS.items():
-            p = cls()
-            print(f"{name:18s} {p.title}; defaults: {p.elements} elements, {p.ppc} PPC, "
-                  f"dt = {p.dt_rule}, t_end = {p.t_end:g} s")
-        print("bases:", ", ".join(BASES))
-        print("demos: column-collapse, disks, dam-break (timpm demo NAME --out FILE.gif)")
+        print(_listing())
         print("scene files: timpm run FILE.toml (examples/, docs/scene_files.md)")
         return 0
     from . import runtime
@@ -395,6 +451,8 @@ def _main(argv=None):
     try:
         if args.command == "compare-ulfem":
             _check_output_files(args)
+            _refuse_early(get_problem("large-column"), [args.elements], args.ppc, args.dt,
+                          args.t_end, args.allow_many_steps)
             return _compare(args)
         if args.command == "resume":
             from .studies.study import resume_problem
@@ -402,14 +460,12 @@ def _main(argv=None):
             _check_output_files(args)
             runtime.init(threads=args.threads)
             mode = {} if args.mode is None else {"mode": args.mode}
-            doc = _run(args, lambda **out: resume_problem(args.saved, args.t_end,
-                                                          **mode, **out))
-            if doc is None:
-                return 130
-            if args.json:
-                _write_json(args.json, doc)
-            return 0
-        get_problem(args.problem, **dict(args.param))
+            doc = _run(args, lambda **out: resume_problem(
+                args.saved, args.t_end, allow_many_steps=args.allow_many_steps, **mode, **out))
+            return 130 if doc is None else 0
+        problem = get_problem(args.problem, **dict(args.param))
+        meshes = args.elements if args.command == "convergence" else [args.elements]
+        _refuse_early(problem, meshes, args.ppc, args.dt, args.t_end, args.allow_many_steps)
         _check_output_files(args)
         runtime.init(threads=args.threads)
         opts = _options(args)
@@ -424,13 +480,13 @@ def _main(argv=None):
             doc["command"] = "convergence"
             if not args.quiet:
                 print(_table(doc["runs"], doc.get("rates")))
+            if args.json:
+                _write_json(args.json, doc)
             if args.plot:
                 plot_convergence(doc, args.plot)
-    except (ValueError, SimulationError, sweep.SweepError) as exc:
+    except (ValueError, SimulationError, sweep.SweepError, OSError) as exc:  # OSError: output
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
-    if args.json:
-        _write_json(args.json, doc)
     return 0
 
 

@@ -2,13 +2,12 @@
 study's traction on one particle (3.5), body forces b(X, t) given as Python functions and
 surface tractions on the faces of 2D and 3D bodies."""
 import inspect
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 import taichi as ti
 
-from .checks import positive
+from .checks import finite, positive, whole
 
 __all__ = ["Constant", "Sine", "Ramp", "Traction", "BodyForce", "SurfaceTraction",
            "field_function", "time_function", "TIME_FUNCTIONS"]
@@ -39,7 +38,7 @@ class Sine:
     """f(t) = sin(omega t)."""
 
     def __init__(self, omega: float):
-        self.omega = float(omega)
+        self.omega = finite("Sine omega", omega)
 
     def __call__(self, t):
         return np.sin(self.omega * np.asarray(t, dtype=float))
@@ -100,8 +99,8 @@ class Traction:
     time_function: object = field(default_factory=Constant)
 
     def __post_init__(self):
-        if not math.isfinite(float(self.amplitude)):
-            raise ValueError(f"traction amplitude must be finite, got {self.amplitude!r}")
+        object.__setattr__(self, "particle", whole("traction particle", self.particle, 0))
+        object.__setattr__(self, "amplitude", finite("traction amplitude", self.amplitude))
         time_function("traction time_function", self.time_function)
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .basis import get_basis
-from .checks import positive, positive_int, vector
+from .checks import check_size, positive, positive_int, vector
 from .loads import BodyForce, field_function, time_function
 from .materials import Material
 
@@ -242,6 +242,8 @@ class Model:
                                  f"elements, the grid has {e}" + (f" along axis {k}" if dim > 1
                                                                   else ""))
         self._check_particles(dim)
+        check_size(f"the model {self.name!r}", len(self.positions),
+                   np.prod([float(n) for n in self.nodes]), dim)
         self._check_materials(dim)
         self._check_scheme(dim, basis)
         self._check_boundaries(dim, basis)

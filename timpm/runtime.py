@@ -5,10 +5,22 @@ import ctypes
 import functools
 import numbers
 import os
+import sys
 import textwrap
 import threading
 
-import taichi as ti
+# Taichi prints its banner when imported: timpm imports it quietly and prints the banner
+# when it starts Taichi (timpm --help, timpm list and refused arguments print none), unless
+# Taichi was imported before or ENABLE_TAICHI_HEADER_PRINT says otherwise
+_BANNER_VAR = "ENABLE_TAICHI_HEADER_PRINT"
+_banner_deferred = "taichi" not in sys.modules and _BANNER_VAR not in os.environ
+if _banner_deferred:
+    os.environ[_BANNER_VAR] = "False"
+try:
+    import taichi as ti
+finally:
+    if _banner_deferred:
+        del os.environ[_BANNER_VAR]
 from taichi.lang import impl
 from taichi.lang.misc import is_arch_supported
 
@@ -172,6 +184,18 @@ def _memoize_source_positions() -> None:
             setattr(kernel_impl, name, functools.lru_cache(maxsize=None)(original_lookup))
 
 
+def _print_banner() -> None:
+    """Taichi's banner (version, LLVM, commit), once, at the first start."""
+    global _banner_deferred
+    if _banner_deferred:
+        _banner_deferred = False
+        try:
+            from taichi._lib.utils import _print_taichi_header
+        except ImportError:  # another Taichi version: no banner
+            return
+        _print_taichi_header()
+
+
 def _start(settings: dict) -> None:
     """``ti.init`` with ``settings``; the calling thread becomes the owner."""
     _state.pop("settings", None)
@@ -181,6 +205,7 @@ def _start(settings: dict) -> None:
                   default_fp=fp, log_level=ti.WARN)
     if settings["threads"]:
         kwargs["cpu_max_num_threads"] = settings["threads"]
+    _print_banner()
     ti.init(**kwargs)
     _memoize_source_positions()
     _state.update(settings=settings, owner=threading.get_ident(),

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .basis import get_basis
-from .checks import positive as _positive, positive_int as _positive_int
+from .checks import check_size, finite, positive as _positive, positive_int as _positive_int
 from .loads import Constant, Ramp, Sine, Traction
 from .materials import Hypoelastic1D
 from .model import MASS_KINDS, PROJECTIONS, Model, walls_from
@@ -111,10 +111,12 @@ def equidistant_particles(n_elements: int, ppc: int, h: float, start: float = 0.
     gaps between neighbours and to the element edges; this is the spacing that reproduces
     the study's Table 3.2.  ``"centered"`` uses ``(k + 1/2) / ppc`` (each particle in the
     middle of an equal sub-cell), ``"gauss"`` the Gauss-Legendre points with their weights
-    as volumes.  Volumes sum to the filled length in every case.
+    as volumes.  Volumes sum to the filled length in every case.  A size that cannot be
+    indexed or held in memory is refused first (:func:`timpm.checks.check_size`).
     """
     n_elements = _positive_int("number of elements", n_elements)
     ppc = _positive_int("particles per element", ppc)
+    check_size(f"{n_elements} elements of {ppc} particles", n_elements * ppc, n_elements + 1, 1)
     h = _positive("element size h", h)
     if placement not in PLACEMENTS:
         raise ValueError(f"unknown placement {placement!r}: choose one of {', '.join(PLACEMENTS)}")
@@ -261,8 +263,7 @@ class Scene:
                 raise ValueError(f"fixed node {i!r} must be a whole number (a node index)")
         fixed_nodes = (dict(self.fixed_nodes) if isinstance(self.fixed_nodes, dict)
                        else tuple(self.fixed_nodes))
-        if not math.isfinite(float(self.gravity)):
-            raise ValueError(f"gravity must be finite, got {self.gravity!r}")
+        finite("gravity", self.gravity)
         walls = None if self.walls is None else walls_from(self.walls, 1, default=None,
                                                              open_ok=True)
         model = Model(basis=basis, origin=(self.grid.origin,), h=self.grid.h,

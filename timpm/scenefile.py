@@ -204,6 +204,9 @@ TYPES = {
     "vector": ("an array of numbers, one per axis",
                lambda v: isinstance(v, list) and all(_is_number(c) for c in v)),
     "table": ("a table", lambda v: isinstance(v, dict)),
+    "range": ("two increasing numbers [low, high]",
+              lambda v: isinstance(v, list) and len(v) == 2 and all(_is_number(c) for c in v)
+              and v[0] < v[1]),
 }
 
 
@@ -298,8 +301,11 @@ OUTPUT = {
     "gif": Key("string", None, doc="animated GIF of the run (2D and 3D worlds)"),
     "color": Key("string", "speed", doc="colour of the GIF's particles",
                  choices=("speed", "pressure", "plastic", "von-mises", "body")),
+    "color_range": Key("range", None, doc="the colour bar's range, fixed for the run "
+                       "(default: from the scene: speed to max(v0, sqrt(2 g H)), stresses to "
+                       "rho g H or rho c v0, plastic strain to 1)"),
     "fps": Key("count", 20, doc="GIF frames per second"),
-    "width": Key("count", 480, unit="px", doc="GIF width"),
+    "width": Key("count", 640, unit="px", doc="GIF width (320 to 8192)"),
 }
 #: the output keys a problem run writes
 PROBLEM_OUTPUT = ("frames", "vtk", "npz", "json")
@@ -860,6 +866,30 @@ def _run_problem(scene, fields_writer, progress) -> SceneResult:
                        simulation_seconds=rec["wall_seconds"], record=rec, series=series)
 
 
+def _color_range(world, color, output):
+    """The GIF's colour range for the whole run, its label and unit: ``output.color_range``
+    or a scale from the scene (H the domain's height along gravity, v0 the largest initial
+    speed, rho and c the densest material's density and the fastest wave speed)."""
+    labels = {"speed": ("speed", "m/s"), "pressure": ("pressure", "Pa"),
+              "von-mises": ("von Mises stress", "Pa"), "plastic": ("plastic strain", ""),
+              "body": ("body", "")}
+    label, unit = labels[color]
+    if output.get("color_range") is not None:
+        return tuple(float(v) for v in output["color_range"]), label, unit
+    gravity = np.asarray(world.model.gravity, dtype=float)
+    g = float(np.linalg.norm(gravity))
+    axis = int(np.argmax(np.abs(gravity))) if g > 0 else 0
+    height = float(world.domain[axis])
+    v0 = float(np.max(np.linalg.norm(world.velocity, axis=1), initial=0.0))
+    speed = max(v0, np.sqrt(2.0 * g * height)) or 1.0
+    density = max(m.density for m in world.materials)
+    wave = max(m.wave_speed for m in world.materials)
+    stress = density * g * height if g > 0 else density * wave * v0
+    scale = {"speed": speed, "pressure": stress or 1.0, "von-mises": stress or 1.0,
+             "plastic": 1.0, "body": float(max(1, len(world.bodies) - 1))}[color]
+    return (0.0, scale), label, unit
+
+
 def _run_world(scene, fields_writer, movie, progress) -> SceneResult:
     from .progress import Progress
     from .scenarios.demos import quantity
@@ -875,7 +905,9 @@ def _run_world(scene, fields_writer, movie, progress) -> SceneResult:
                 quantity(solver, color)  # a colour the scene lacks fails before the run
             except ValueError as err:
                 raise scene.error(("output", "color"), str(err)) from None
-            movie.start(world, color)
+            value_range, label, unit = _color_range(world, color, scene.output)
+            movie.start(world, color, value_range=value_range, label=label, unit=unit,
+                        title=scene.name)
         bar = Progress(frames, progress)
         solver.compile()
         for k in range(frames + 1):
@@ -884,8 +916,7 @@ def _run_world(scene, fields_writer, movie, progress) -> SceneResult:
             if fields_writer is not None:
                 fields_writer.write(solver)
             if movie is not None:
-                values, lo, hi = quantity(solver, color)
-                movie.add(solver.positions(), values, lo, hi)
+                movie.add(solver.positions(), quantity(solver, color), t=solver.t)
             bar.update(k)
         bar.close()
         if movie is not None:

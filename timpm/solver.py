@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from . import interrupt, runtime
+from .checks import check_steps, step_count
 from .engine.features import SCATTERS, auto_mode, plan
 from .engine.program import program_for
 from .engine.state import State
@@ -63,13 +64,17 @@ class Solver:
                  grid_displacement: bool = False, small_mass: float = 1e-3,
                  scatter: str = "auto", check_every: int = 16,
                  volume_range: tuple | None = (1e-2, 1e2)):
-        runtime.ensure_init()
-        self._generation = runtime.generation()  # the Taichi start that holds the fields
+        if isinstance(track, (str, bytes)) or not hasattr(track, "__iter__"):
+            raise ValueError(f"track must be a sequence of particle indices, got {track!r}")
         track = [_index("tracked particle", p) for p in track]
         record_every = _count("record_every", record_every)
-        self.check_every = _count("check_every", check_every)
+        check_every = _count("check_every", check_every)
         if history_chunk is not None:
             history_chunk = _count("history_chunk", history_chunk)
+        _check_options(energies, energy_guard, serial_threshold, small_mass)
+        runtime.ensure_init()
+        self._generation = runtime.generation()  # the Taichi start that holds the fields
+        self.check_every = check_every
         self.features, self.layout = plan(
             scene, track=track, energies=energies, mode=mode,
             serial_threshold=serial_threshold, history_chunk=history_chunk,
@@ -163,7 +168,10 @@ class Solver:
         prog = self._program()
         if not hasattr(prog, name) or name.startswith("_"):
             raise KeyError(f"this solver has no state field {name!r}")
-        self.state.write(prog, name, np.asarray(values))
+        try:
+            self.state.write(prog, name, np.asarray(values))
+        except ValueError as exc:  # a wrong shape: NumPy's reshape names both
+            raise ValueError(f"write({name!r}): {exc}") from None
 
     # ---- snapshot and restore (checkpoints) ----------------------------------------------------
     def fingerprint(self) -> dict:
@@ -258,11 +266,10 @@ class Solver:
     def t(self) -> float:
         return float(self._program().time[None])
 
-    def steps_for(self, t_end: float) -> int:
-        """Number of steps of size dt that reach ``t_end`` (rounded to the nearest step)."""
-        if not np.isfinite(t_end) or t_end < 0:
-            raise ValueError(f"t_end must be a non-negative finite time, got {t_end!r}")
-        return int(round(t_end / self.dt))
+    def steps_for(self, t_end: float, allow_many_steps: bool = False) -> int:
+        """Number of steps of size dt that reach ``t_end`` (rounded to the nearest step);
+        more than :data:`~timpm.checks.MAX_STEPS` are refused unless ``allow_many_steps``."""
+        return step_count(t_end, self.dt, allow_many_steps)
 
     def compile(self):
         """Compile the kernels this run needs (timed apart as ``compile_seconds``); a
@@ -287,9 +294,12 @@ class Solver:
             self.compile_seconds += time.perf_counter() - t0
         self._compiled = True
 
-    def run(self, t_end: float | None = None, n_steps: int | None = None, progress=None):
+    def run(self, t_end: float | None = None, n_steps: int | None = None, progress=None,
+            allow_many_steps: bool = False):
         """Advance to ``t_end`` (or by ``n_steps``); returns self.
 
+        A run of more than :data:`~timpm.checks.MAX_STEPS` (1e8) steps is refused before
+        it starts (a mistaken dt or t_end) unless ``allow_many_steps``.
         Raises :class:`SimulationError` at the first step whose state is invalid.  A
         progress line is drawn on stderr for runs that last more than two seconds when
         stderr is a terminal (``progress=True`` forces it, ``False`` turns it off).
@@ -299,8 +309,8 @@ class Solver:
         half a second) with :class:`~timpm.interrupt.RunInterrupted`; the state is whole
         and can be saved (:meth:`snapshot`).
         """
+        total = self.steps_to(t_end, n_steps, allow_many_steps)
         prog = self._program()
-        total = self.steps_to(t_end, n_steps)
         if self.mode != "serial":
             runtime.ensure_pinned()  # the workers, one per core, before they first wake
         self.compile()
@@ -368,13 +378,19 @@ class Solver:
             X = self.read("x").reshape(self.n_particles, self.dim)
         prog.set_body_force(np.ascontiguousarray(force(X, step * self.dt)))
 
-    def steps_to(self, t_end, n_steps) -> int:
+    def steps_to(self, t_end, n_steps, allow_many_steps=False) -> int:
         """Steps a run to ``t_end`` (or of ``n_steps``) takes from here."""
         if (t_end is None) == (n_steps is None):
             raise ValueError("give exactly one of t_end and n_steps")
-        total = self.steps_for(t_end) - self.step if n_steps is None else int(n_steps)
+        if n_steps is not None:
+            if not _whole(n_steps) or n_steps < 0:
+                raise ValueError(f"n_steps must be a non-negative integer, got {n_steps!r}")
+            check_steps(n_steps, self.dt, allow_many_steps)
+            return int(n_steps)
+        total = self.steps_for(t_end, allow_many_steps=True) - self.step
         if total < 0:
             raise ValueError(f"t_end = {t_end} lies before the current time {self.t}")
+        check_steps(total, self.dt, allow_many_steps, t_end=t_end)
         return total
 
     def fused_chunk(self, n: int) -> int:
@@ -540,10 +556,15 @@ class Solver:
         if not self.apic:
             raise RuntimeError(f"the {self.transfer} transfer keeps no affine velocity")
         shape = (self.n_particles, self.dim, self.dim)
-        C = np.asarray(C, dtype=np.float64)
+        try:
+            C = np.asarray(C, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"set_affine takes numbers, got {C!r}") from None
         if C.shape not in (shape, shape[1:]):
             raise ValueError(f"set_affine takes one {self.dim}x{self.dim} matrix or {shape} "
                              f"matrices, got an array of shape {C.shape}")
+        if not np.all(np.isfinite(C)):
+            raise ValueError("set_affine takes finite values, got NaN or infinity")
         C = np.broadcast_to(C, shape).copy()
         if self.basis.support == 2:
             C = C * self._inertia()[:, None, :]
@@ -618,6 +639,24 @@ def _whole(value) -> bool:
     """An integer, or a float with an integral value (not a bool, a string, 2.5)."""
     return (not isinstance(value, bool) and isinstance(value, numbers.Real)
             and float(value).is_integer())
+
+
+def _check_options(energies, energy_guard, serial_threshold, small_mass):
+    """The Solver's flags and numbers, each error naming the option."""
+    if not isinstance(energies, (bool, np.bool_)):
+        raise ValueError(f"energies must be True or False, got {energies!r}")
+    if energy_guard is not None:
+        if isinstance(energy_guard, bool) or not isinstance(energy_guard, numbers.Real) \
+                or not (1.0 <= energy_guard < np.inf):
+            raise ValueError(f"energy_guard must be a finite number >= 1 (the factor by which "
+                             f"kinetic + strain energy may exceed the energy supplied) or "
+                             f"None, got {energy_guard!r}")
+    if not _whole(serial_threshold) or serial_threshold < 0:
+        raise ValueError(f"serial_threshold must be a non-negative integer (particles), got "
+                         f"{serial_threshold!r}")
+    if isinstance(small_mass, bool) or not isinstance(small_mass, numbers.Real) \
+            or not (0.0 <= small_mass < np.inf):
+        raise ValueError(f"small_mass must be a finite number >= 0, got {small_mass!r}")
 
 
 def _count(name, value) -> int:

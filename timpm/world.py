@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .basis import get_basis
-from .checks import positive as _positive, vector as _vector
+from .checks import check_size, positive as _positive, vector as _vector
 from .loads import field_function
 from .materials import MATERIALS, Material, get_material
 from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Wall, check_scheme,
@@ -325,7 +325,24 @@ class World:
     def origin(self) -> tuple:
         return (-self.padding * self.h,) * self.dim
 
+    def _check_size(self, dim, h, domain):
+        """The grid and the lattices the bodies are filled from, checked before either is
+        allocated (:func:`timpm.checks.check_size`)."""
+        basis = self.basis_class
+        nodes = np.prod([float(basis.n_nodes(e)) for e in self.grid_elements])
+        particles = 0.0
+        for body in self.bodies:
+            if isinstance(body.shape, Points):
+                particles += len(body.shape.positions)
+            elif body.shape.dim == dim:  # else _fill names the mismatch
+                lo, hi = body.shape.bounds()
+                lo, hi = np.maximum(lo, 0.0), np.minimum(hi, domain)
+                dx = h / body.ppc
+                particles += float(np.prod(np.maximum(np.ceil(hi / dx) - np.floor(lo / dx), 0)))
+        check_size(f"a World of {self.cells} cells along x", particles, nodes, dim)
+
     def _fill(self, dim, h, domain):
+        self._check_size(dim, h, domain)
         xs, vs, vols, mats, ids = [], [], [], [], []
         materials = []
         for k, body in enumerate(self.bodies):

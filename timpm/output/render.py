@@ -20,7 +20,7 @@ from ..runtime import ensure_init
 from .decorations import (DEFAULT_WIDTH, OPEN_SIDE_COLOR, ROUGH_WALL_COLOR, TEXT_COLOR,
                           WALL_COLOR, FrameLayout, check_width)
 
-__all__ = ["Renderer", "GifWriter", "Movie", "colormap_lut", "gif_palette"]
+__all__ = ["Renderer", "GifWriter", "Movie", "colormap_lut", "gif_palette", "check_image"]
 
 _SHIFT = 31                 # depth key = depth level << _SHIFT | reversed particle index
 _LEVELS = (1 << 24) - 1     # depth levels across the box
@@ -189,6 +189,7 @@ class Renderer:
             radius = float("nan")
         if not (np.isfinite(radius) and radius > 0):
             raise ValueError(f"radius must be a positive number of pixels, got {radius!r}")
+        check_image(int(width), int(height))
         self.lo, self.hi, self.axes = lo, hi, axes
         self.width, self.height, self.radius = int(width), int(height), float(radius)
         self.background = _rgb("background", background)
@@ -350,8 +351,14 @@ class GifWriter:
         t0 = time.perf_counter()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         first, *rest = self._frames
-        first.save(self.path, save_all=True, append_images=rest, loop=0,
-                   duration=max(1, int(round(1000.0 / self.fps))), optimize=False)
+        tmp = self.path.with_name(f".{self.path.name}.tmp")  # renamed when whole
+        try:
+            first.save(tmp, format="GIF", save_all=True, append_images=rest, loop=0,
+                       duration=max(1, int(round(1000.0 / self.fps))), optimize=False)
+            os.replace(tmp, self.path)
+        finally:
+            if tmp.exists():
+                tmp.unlink()
         self._frames = []
         self.closed = True
         self.seconds += time.perf_counter() - t0
@@ -365,6 +372,27 @@ class GifWriter:
         return False
 
 
+#: bytes a pixel takes while rendering: the depth key (8) and the RGB image (3)
+_PIXEL_BYTES = 8 + 3
+
+
+def check_image(width: int, height: int, frames: int = 0) -> None:
+    """Refuse, before allocating, an image the renderer cannot index (more than 2^31 - 1
+    pixels) or whose buffers and ``frames`` kept GIF frames (a byte a pixel) need more
+    memory than is available."""
+    from ..checks import MAX_INDEX, available_memory
+
+    pixels = width * height
+    if pixels > MAX_INDEX:
+        raise ValueError(f"an image of {width} x {height} pixels has more than the {MAX_INDEX} "
+                         "pixels the renderer can index: choose a smaller width")
+    need, free = pixels * (_PIXEL_BYTES + frames), available_memory()
+    if free is not None and need > free:
+        raise ValueError(f"{frames} frames of {width} x {height} pixels need {need / 1e9:.3g} GB, "
+                         f"more than the {free / 1e9:.3g} GB of memory available: choose a "
+                         "smaller width or fewer frames")
+
+
 class Movie:
     """A simulation's frames rendered into an animated GIF ``out`` (``width`` pixels wide,
     ``MIN_WIDTH`` to ``MAX_WIDTH`` of :mod:`timpm.output.decorations`; ``fps`` frames a
@@ -375,11 +403,14 @@ class Movie:
     (vmin, vmax), fixed for the whole run; the colour ``body`` gets a diverging colormap)
     and fits a :class:`Renderer` into its plot; ``add(positions, values, t)`` renders
     and appends one frame with the simulated time ``t``; ``close`` writes the GIF;
-    ``seconds`` is the time spent rendering, composing and writing."""
+    ``seconds`` is the time spent rendering, composing and writing.  ``frames``, the
+    frames to come where known, lets ``start`` refuse a movie that would not fit in
+    memory before any is drawn."""
 
-    def __init__(self, out, fps=20, width=DEFAULT_WIDTH, png_dir=None):
+    def __init__(self, out, fps=20, width=DEFAULT_WIDTH, png_dir=None, frames=None):
         self.out = str(out)
         self.width = check_width(width)
+        self.frames = frames
         self.writer = GifWriter(out, fps=fps, png_dir=png_dir)
         self.renderer = self.layout = self.value_range = None
         self._seconds = 0.0   # laying out and composing frames
@@ -397,6 +428,8 @@ class Movie:
         lo, hi = (0.0,) * world.dim, world.domain
         self.layout = FrameLayout(self.width, lo, hi, walls=world.walls, colorbar=colorbar,
                                   title=world.name if title is None else title)
+        if self.frames is not None:
+            check_image(self.width, self.layout.height, self.frames)
         _, _, pw, ph = self.layout.plot_box
         self.renderer = Renderer(lo, hi, width=pw, height=ph, cmap=cmap,
                                  radius=max(1.0, 0.8 * pw / world.cells / 2))

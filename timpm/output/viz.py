@@ -4,6 +4,8 @@ comparison, displacement fields, speed against error, and the demos' diagnostics
 
 The data come in as arguments (records, documents, demo results); the few reference
 curves the plots draw are imported from the layers below (scenarios, studies)."""
+import os
+
 import numpy as np
 
 __all__ = ["plot_convergence", "plot_series", "plot_comparison", "plot_fields", "plot_demo",
@@ -20,11 +22,20 @@ def _pyplot():
 
 
 def save(fig, path):
-    """Lay out, write to ``path`` (PNG at 120 dpi) and close a figure; returns ``path``."""
+    """Lay out, write to ``path`` (PNG at 120 dpi, or the format its suffix names) and close
+    a figure; returns ``path``.  Written under a temporary name, then renamed: a file on
+    disk is whole."""
     plt = _pyplot()
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    suffix = os.path.splitext(str(path))[1].lstrip(".").lower()
+    tmp = f"{path}.tmp"
+    try:
+        fig.savefig(tmp, dpi=120, format=suffix or "png")
+        os.replace(tmp, path)
+    finally:
+        plt.close(fig)
+        if os.path.exists(tmp):
+            os.remove(tmp)
     return path
 
 

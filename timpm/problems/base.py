@@ -4,6 +4,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from ..basis import get_basis
+from ..checks import check_size
 from ..scene import Grid1D, Material, Scene, equidistant_particles
 
 __all__ = ["Problem", "ProblemScene", "lattice"]
@@ -27,19 +28,40 @@ class Problem:
     t_end = 1.0
     #: particle positions in an element (``timpm.scene.PLACEMENTS``)
     placement = "study"
+    #: dimensions of its scenes
+    dim = 1
     has_exact = True
     #: the body's end at x = L is free: the grid reaches beyond it so that the end may
     #: move out without leaving the grid, and away from the boundary-fitted basis there
     free_end = False
 
     def with_params(self, **params):
-        """A copy with some physical parameters changed (names are checked)."""
-        known = {f.name for f in fields(self)}
-        unknown = set(params) - known
+        """A copy with some physical parameters changed (names are checked; a whole
+        number given for an integer parameter, 4000.0 from a command line, is taken as
+        an int; the problem refuses a fraction)."""
+        known = {f.name: f for f in fields(self)}
+        unknown = set(params) - set(known)
         if unknown:
             raise ValueError(f"{self.name} has no parameter {', '.join(sorted(unknown))}; "
                              f"its parameters are {', '.join(sorted(known))}")
+        params = {k: int(v) if known[k].type in (int, "int") and isinstance(v, float)
+                  and v.is_integer() else v for k, v in params.items()}
         return replace(self, **params)
+
+    def check_size(self, elements, ppc) -> None:
+        """Refuse, before anything is allocated, a discretisation too large to index or
+        for the memory available (:func:`timpm.checks.check_size`): ``elements`` elements
+        along each axis of the body, ``ppc`` particles per element and axis."""
+        if all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v > 0
+               for v in (elements, ppc)):
+            cells = self.cells(int(elements))
+            check_size(f"{self.name} with {elements} elements and {ppc} particles per element",
+                       np.prod([float(c) * ppc for c in cells]),
+                       np.prod([float(c) + 1 for c in cells]), self.dim)
+
+    def cells(self, elements: int) -> tuple:
+        """Elements along each axis of the body for ``elements`` along its length."""
+        return (elements,) * self.dim
 
     @property
     def material(self) -> Material:
@@ -73,6 +95,7 @@ class Problem:
         ppc = self.ppc if ppc is None else ppc
         placement = self.placement if placement is None else placement
         basis_cls = get_basis(basis)
+        self.check_size(elements, ppc)
         if isinstance(ppc, (int, np.integer)) and 0 < ppc < basis_cls.min_ppc:
             raise ValueError(f"the {basis_cls.name} basis needs at least {basis_cls.min_ppc} "
                              f"particles per element for its quadrature, got ppc = {ppc}")
@@ -135,7 +158,10 @@ def check_positive(problem, *names):
 def lattice(cells, ppc, h, placement):
     """Positions (n, dim) and volumes of ``ppc`` particles per cell and axis, placed by
     ``placement`` (``timpm.scene.PLACEMENTS``) in ``cells[k]`` cells of size h from 0
-    along axis k: tensor products of the 1D placement."""
+    along axis k: tensor products of the 1D placement (its size checked first)."""
+    check_size(f"a lattice of {' x '.join(map(str, cells))} cells, {ppc} particles per cell "
+               "and axis", np.prod([float(c) * ppc for c in cells]),
+               np.prod([float(c) + 1 for c in cells]), len(cells))
     xs, vs = zip(*(equidistant_particles(c, ppc, h, placement=placement) for c in cells))
     X = np.stack([a.ravel() for a in np.meshgrid(*xs, indexing="ij")], axis=1)
     volume = np.prod(np.stack([v.ravel() for v in np.meshgrid(*vs, indexing="ij")], axis=1),

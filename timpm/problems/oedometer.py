@@ -44,6 +44,9 @@ class Oedometer(Problem):
         check_positive(self, "density", "E", "H")
         if self.p0 < 0 or not np.isfinite(self.p0):
             raise ValueError(f"load p0 must be a non-negative (compressive) load, got {self.p0!r}")
+        if not (np.isfinite(self.ramp) and self.ramp >= 0):
+            raise ValueError(f"{self.name}: parameter ramp must be a duration >= 0 (0: a step "
+                             f"load), got {self.ramp!r}")
 
 
     def domain_length(self):

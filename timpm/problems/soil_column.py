@@ -5,7 +5,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene import Constant, Traction
+from ..checks import whole
 from .base import Problem, ProblemScene, check_positive, last_below, lattice
+
+#: the most terms of the series solution (default 4000): every evaluation sums them all
+MAX_TERMS = 10 ** 6
 
 
 @dataclass(frozen=True)
@@ -36,8 +40,12 @@ class SoilColumn(Problem):
     free_end = True
 
     def __post_init__(self):
-        check_positive(self, "density", "E", "H", "n_terms")
-
+        check_positive(self, "density", "E", "H")
+        n_terms = whole(f"{self.name}: parameter n_terms", self.n_terms)
+        if n_terms > MAX_TERMS:
+            raise ValueError(f"{self.name}: parameter n_terms must be at most {MAX_TERMS} (every "
+                             f"evaluation of the series sums them all), got {self.n_terms!r}")
+        object.__setattr__(self, "n_terms", n_terms)
 
     def domain_length(self):
         return self.H
@@ -121,13 +129,18 @@ class SoilColumn2D(SoilColumn):
     title = "Soil column under self-weight, plane strain (3.4 in 2D)"
     section = "3.4"
     elements = 40
+    dim = 2
+
+    def cells(self, elements):
+        return (self.width, elements)
 
     def __post_init__(self):
         super().__post_init__()
-        if isinstance(self.width, bool) or not isinstance(self.width, (int, np.integer)) \
-                or self.width < 1:
+        try:
+            object.__setattr__(self, "width", whole("width", self.width))
+        except ValueError:
             raise ValueError(f"{self.name}: width must be a positive number of cells, got "
-                             f"{self.width!r}")
+                             f"{self.width!r}") from None
         if self.p0 != 0.0:
             raise ValueError(f"{self.name}: the top load p0 acts in 1D only (soil-column)")
 

@@ -17,6 +17,7 @@ Each demo's ``observe`` collects its diagnostic series per frame.  The plots of 
 diagnostics are :func:`timpm.output.viz.plot_demo` and :func:`timpm.output.viz.plot_runout`.
 """
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -24,7 +25,7 @@ import numpy as np
 
 from ..materials import DruckerPrager, NeoHookean, WeaklyCompressibleFluid
 from ..progress import Progress
-from ..checks import positive as _positive
+from ..checks import positive as _positive, step_count, whole
 from ..solver import Solver
 from ..world import Ball, Body, Box, Wall, World
 
@@ -70,6 +71,15 @@ class Demo:
     t_end: float | None = None
     transfer: str = "mls-mpm"
     basis: str = "uniform-bspline2"
+
+    def __post_init__(self):
+        # counts (cells, particles per cell, dim) are whole numbers: 34.0 from a command
+        # line is 34, 2.5 or 0 is refused
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.type in (int, "int") or (f.type in ("int | None", int | None)
+                                          and value is not None):
+                setattr(self, f.name, whole(f"{self.name}: {f.name}", value))
 
     def world(self) -> World:
         raise NotImplementedError
@@ -395,7 +405,7 @@ class DemoResult:
 
 
 def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto",
-             fields=None, **params) -> DemoResult:
+             fields=None, allow_many_steps=False, **params) -> DemoResult:
     """Run demo ``name`` (``DEMOS``), drawing its frames into ``movie`` (None: no images).
 
     ``frames`` frames are spread evenly over the run (plus the initial state); ``params``
@@ -405,7 +415,8 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
     :func:`color_range`, fixed for the run), ``movie.add(positions, values, t)`` at every
     frame, ``movie.close()`` after it; its ``out`` and ``seconds`` go into the result.
     ``fields`` (a :class:`timpm.output.fields.FieldWriter`) gets the particle fields at
-    every frame.
+    every frame.  A run of more than :data:`~timpm.checks.MAX_STEPS` steps (a time step
+    the CFL limit shrank) is refused before it starts unless ``allow_many_steps``.
     """
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise ValueError(f"frames must be a positive integer, got {frames!r}")
@@ -413,6 +424,7 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
     world = demo.world()
     color = color or demo.color
     t_end = demo.end_time()
+    step_count(t_end, world.dt, allow_many_steps)
     solver = Solver(world, mode=mode, energies=True,
                     record_every=max(1, int(round(t_end / world.dt / 200))))
     quantity(solver, color)  # an unknown or unavailable colour fails before the run
@@ -425,7 +437,7 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
     solver.compile()
     for k in range(frames + 1):
         if k:
-            solver.run(t_end=t_end * k / frames, progress=False)
+            solver.run(t_end=t_end * k / frames, progress=False, allow_many_steps=True)
         for key, value in demo.observe(solver, solver.t).items():
             series.setdefault(key, []).append(value)
         series.setdefault("t", []).append(solver.t)

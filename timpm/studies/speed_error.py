@@ -64,7 +64,8 @@ import time
 
 import numpy as np
 
-from ..argtypes import param, positive_float, positive_int
+from ..argtypes import non_negative_int, param, positive_float, positive_int
+from ..checks import whole
 from ..basis import BASES, get_basis
 from ..problems import PROBLEMS, get_problem
 from ..scene import MASS_KINDS, PLACEMENTS, STRESS_UPDATES
@@ -239,12 +240,10 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
                          f"{', '.join(STRESS_UPDATES)}")
     if not prob.has_exact:
         raise ValueError(f"{prob.name} has no exact solution: no error to measure")
-    if repeats < 1:
-        raise ValueError(f"repeats must be at least 1, got {repeats!r}")
-    if not 0 < dt_tolerance:
+    repeats = whole("repeats", repeats)
+    if not 0 < dt_tolerance < math.inf:
         raise ValueError(f"dt_tolerance must be positive, got {dt_tolerance!r}")
-    if max_halvings < 0:
-        raise ValueError(f"max_halvings must be non-negative, got {max_halvings!r}")
+    max_halvings = whole("max_halvings", max_halvings, 0)
     t_end = float(prob.t_end if t_end is None else t_end)
     if not (math.isfinite(t_end) and t_end > 0):
         raise ValueError(f"t_end must be a positive time, got {t_end!r}")
@@ -260,10 +259,16 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
     for p in placements:
         if p not in PLACEMENTS:
             raise ValueError(f"unknown placement {p!r}: choose one of {', '.join(PLACEMENTS)}")
-    elements = tuple(int(n) for n in _as_tuple(elements))
-    ppcs = (prob.ppc,) if ppcs is None else tuple(int(p) for p in _as_tuple(ppcs))
+    elements = tuple(whole("number of elements", n) for n in _as_tuple(elements))
+    ppcs = ((prob.ppc,) if ppcs is None else
+            tuple(whole("particles per element", p) for p in _as_tuple(ppcs)))
     if not elements or not ppcs or not combos or not placements:
         raise ValueError("give at least one basis, mass, placement, number of elements and PPC")
+    for name, values in (("elements", elements), ("ppcs", ppcs)):
+        repeated = sorted({v for v in values if values.count(v) > 1})
+        if repeated:
+            raise ValueError(f"{name} lists {', '.join(map(str, repeated))} more than once")
+    prob.check_size(max(elements), max(ppcs))  # the largest run, before any is made
     say = progress or (lambda *a, **k: None)
 
     configurations = [dict(elements=n, ppc=ppc, basis=basis, mass=mass, placement=place)
@@ -396,7 +401,8 @@ def add_parser(subparsers):
                    help="target errors to answer for (default: decades within the sweep)")
     p.add_argument("--dt-tolerance", type=positive_float, default=0.1,
                    help="accept dt when |e(dt) - e(dt/2)| <= TOL e(dt/2) (default 0.1)")
-    p.add_argument("--max-halvings", type=int, default=4, help="most halvings of dt (default 4)")
+    p.add_argument("--max-halvings", type=non_negative_int, default=4,
+                   help="most halvings of dt (default 4)")
     p.add_argument("--repeats", type=positive_int, default=3,
                    help="timed runs per configuration, the minimum is kept (default 3)")
     p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"])

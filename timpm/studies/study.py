@@ -7,6 +7,7 @@ import time
 import numpy as np
 
 from ..batch import Batch
+from ..checks import finite, step_count, whole
 from ..problems import get_problem
 from ..solver import Solver
 from .analysis import energy_drift, observed_rates, rms_error
@@ -37,7 +38,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                 progress=None, params=None, energies=True, projection="standard",
                 series=True, reuse=True, transfer="musl", fields=None,
                 frames=20, checkpoint=None, checkpoint_every=None,
-                interrupted_to=None, resume=None) -> RunResult:
+                interrupted_to=None, resume=None, allow_many_steps=False) -> RunResult:
     """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
 
     Unset numerical values take the problem's defaults (``placement`` too: the study's
@@ -51,7 +52,9 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     :func:`clear_solvers`).  Solvers of one feature set share their compiled program, so
     a run after the first of its kind compiles nothing.  ``fields`` (a
     :class:`timpm.output.fields.FieldWriter`) receives the particle fields at ``frames``
-    times spread evenly over the run, and at its start.
+    times spread evenly over the run, and at its start.  A ``t_end`` shorter than half a
+    step is refused, and so is a run of more than :data:`~timpm.checks.MAX_STEPS` steps
+    unless ``allow_many_steps``.
 
     ``checkpoint`` (a file name) receives the whole state and the run's description every
     ``checkpoint_every`` steps, at the end, and when Ctrl-C stops the run inside
@@ -86,6 +89,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                            record_every=run.every, params=dict(params or {}),
                            energies=bool(energies), projection=projection,
                            series=bool(series), transfer=transfer)
+    step_count(run.t_end, run.scene.dt, allow_many_steps)
     t_build = time.perf_counter()
     solver = Solver(run.scene, track=run.track, record_every=run.every, energies=energies,
                     mode=mode)
@@ -93,7 +97,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     try:
         if resume is not None:
             solver.restore(resume)
-        steps = solver.steps_for(run.t_end)
+        steps = solver.steps_for(run.t_end, allow_many_steps)
         if steps < solver.step:
             raise ValueError(f"t_end = {run.t_end:g} s lies before the saved run's time "
                              f"{solver.t:g} s (step {solver.step})")
@@ -108,7 +112,8 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
             stops.update(saves)
         try:
             for stop in sorted(s for s in stops if s > solver.step):
-                solver.run(n_steps=stop - solver.step, progress=progress)
+                solver.run(n_steps=stop - solver.step, progress=progress,
+                           allow_many_steps=allow_many_steps)
                 if fields is not None:
                     fields.write(solver)
                 if checkpoint is not None and stop in saves:
@@ -140,7 +145,7 @@ def resume_problem(path, t_end, **options) -> RunResult:
                          "was written from Python without one): build the solver of the "
                          "same scene and call solver.restore(load_checkpoint(...))")
     allowed = {"fields", "frames", "checkpoint", "checkpoint_every", "interrupted_to",
-               "progress", "mode"}
+               "progress", "mode", "allow_many_steps"}
     unknown = set(options) - allowed
     if unknown:
         raise ValueError(f"resume_problem takes only {sorted(allowed)}, got {sorted(unknown)}")
@@ -180,7 +185,9 @@ class _Run:
         self.prob = prob = get_problem(problem, **(params or {}))
         self.elements = prob.elements if elements is None else elements
         self.ppc = prob.ppc if ppc is None else ppc
-        self.t_end = prob.t_end if t_end is None else float(t_end)
+        self.t_end = prob.t_end if t_end is None else finite("t_end", t_end)
+        if not self.t_end > 0:
+            raise ValueError(f"t_end must be a positive time, got {t_end!r}")
         placement = prob.placement if placement is None else placement
         self.placement, self.stress_update, self.projection = placement, stress_update, projection
         self.energies, self.series = bool(energies), bool(series)
@@ -191,8 +198,12 @@ class _Run:
         self.x0 = self.scene.positions.copy()
         self.monitor = prob.monitored_particle(self.x0)
         self.track = [self.monitor] if series else []
-        steps = int(round(self.t_end / self.scene.dt))
-        self.every = _default_record_every(steps) if record_every is None else int(record_every)
+        steps = step_count(self.t_end, self.scene.dt, allow_many_steps=True)
+        if steps == 0:
+            raise ValueError(f"t_end = {self.t_end:g} s is shorter than half a time step "
+                             f"(dt = {self.scene.dt:g} s): the run would take no step")
+        self.every = (_default_record_every(steps) if record_every is None
+                      else whole("record_every", record_every))
 
     def result(self, solver, build_seconds, state=None) -> RunResult:
         """The run's result from the solver, or from its ``state`` read by the batch."""
@@ -274,6 +285,10 @@ def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=F
     if batch and remote:
         raise ValueError("batch runs the meshes side by side in this process: give batch "
                          "or workers / dask, not both")
+    repeated = sorted({n for n in elements if list(elements).count(n) > 1})
+    if repeated:
+        raise ValueError(f"elements lists {', '.join(map(str, repeated))} more than once: "
+                         "give each mesh once (a rate compares two different meshes)")
     if batch:
         records = [r.record for r in _batch_runs(problem, elements, **kwargs)]
     else:
@@ -310,7 +325,7 @@ def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", d
                 t_end=None, placement=None, stress_update="study", damping=None,
                 allow_unstable_dt=False, record_every=None, progress=None, params=None,
                 energies=True, projection="standard", series=True, mode="serial",
-                reuse=True, transfer="musl"):
+                reuse=True, transfer="musl", allow_many_steps=False):
     if mode != "serial":
         raise ValueError("a batch runs fused serial solvers: mode must be 'serial'")
     runs = [_plan(problem, n, ppc, basis, mass, dt, t_end, placement, stress_update, damping,
@@ -319,12 +334,14 @@ def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", d
             for n in elements]
     if len({r.t_end for r in runs}) != 1:
         raise ValueError("the runs of a batch share t_end")
+    for r in runs:
+        step_count(r.t_end, r.scene.dt, allow_many_steps)
     t_build = time.perf_counter()
     batch = Batch([Solver(r.scene, track=r.track, record_every=r.every, energies=energies,
                           mode="serial") for r in runs])
     build_seconds = time.perf_counter() - t_build
     try:
-        batch.run(runs[0].t_end, progress=progress)
+        batch.run(runs[0].t_end, progress=progress, allow_many_steps=allow_many_steps)
         states = batch.states() or [None] * len(runs)
         return [r.result(s, build_seconds, state)
                 for r, s, state in zip(runs, batch.solvers, states)]
@@ -335,7 +352,7 @@ def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", d
 
 
 def compare_large_column(elements=30, ppc=50, dt=1e-3, t_end=3.0, basis="linear",
-                         mass="lumped") -> dict:
+                         mass="lumped", allow_many_steps=False) -> dict:
     """MPM against the updated-Lagrangian FEM on the large-deformation column of A.5.
 
     Returns the position over time of the point initially at y = 0.5 m from both (the MPM
@@ -346,7 +363,8 @@ def compare_large_column(elements=30, ppc=50, dt=1e-3, t_end=3.0, basis="linear"
     from .ulfem import large_column, period_from_maxima
 
     mpm = run_problem("large-column", elements=elements, ppc=ppc, dt=dt, t_end=t_end,
-                      basis=basis, mass=mass, record_every=1)
+                      basis=basis, mass=mass, record_every=1,
+                      allow_many_steps=allow_many_steps)
     fem = large_column(n_elements=elements, dt=dt, t_end=t_end)
     en = mpm.energies
     potential = en["strain"] + en["gravity"]
