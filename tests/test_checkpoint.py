@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from timpm.checkpoint import load_checkpoint, save_checkpoint
 from timpm.cli import main
 from timpm.scenarios.demos import get_demo
 
+ROOT = Path(__file__).resolve().parents[1]
 ENV = dict(os.environ, TIMPM_THREADS="1", ENABLE_TAICHI_HEADER_PRINT="false",
            TI_LOG_LEVEL="warn")
 
@@ -147,3 +149,31 @@ def test_checkpoint_path_checked_before_the_run(tmp_path, capsys):
     assert _cli("run", "vibrating-string", "--checkpoint", tmp_path / "no" / "c.npz") == 2
     err = capsys.readouterr().err
     assert "--checkpoint" in err and "does not exist" in err
+
+
+def test_ctrl_c_stops_a_scene_file_run_and_keeps_its_frames(tmp_path):
+    """A world described by a scene file: Ctrl-C keeps the frames written, the partial
+    JSON record and the state (in timpm-interrupted.npz), exits 130 with one line."""
+    frames = tmp_path / "frames"
+    run = subprocess.Popen(
+        [sys.executable, "-m", "timpm", "run", str(ROOT / "examples" / "disks.toml"),
+         "--set", "domain.cells=16", "--t-end", "1000", "--frames", "100000",
+         "--npz", str(frames), "--json", str(tmp_path / "run.json")],
+        cwd=tmp_path, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while len(list(frames.glob("particles_*.npz"))) < 3:  # running: frames on disk
+        assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+        time.sleep(0.1)
+    run.send_signal(signal.SIGINT)
+    out, err = run.communicate(timeout=60)
+    assert run.returncode == 130, err
+    lines = [line for line in err.splitlines() if line.startswith("timpm")]
+    assert len(lines) == 1 and "interrupted at step" in lines[0], err
+    assert "Traceback" not in err
+    doc = json.loads((tmp_path / "run.json").read_text())
+    saved = load_checkpoint(tmp_path / "timpm-interrupted.npz")
+    assert doc["interrupted"] is True and doc["steps"] == saved["step"] > 0
+    last = np.load(sorted(frames.glob("particles_*.npz"))[-1])
+    assert int(last["step"]) <= saved["step"]
+    # timpm resume cannot rebuild a scene file's run: it says so
+    assert _cli("resume", tmp_path / "timpm-interrupted.npz", "--t-end", 2000) == 2

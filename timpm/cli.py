@@ -22,9 +22,6 @@ from .studies import speed_error, sweep
 
 __all__ = ["main", "demo_script"]
 
-#: where Ctrl-C saves a run given no --checkpoint (in the working directory)
-INTERRUPTED_CHECKPOINT = "timpm-interrupted.npz"
-
 
 def _add_common(p):
     p.add_argument("problem", help=f"one of: {', '.join(PROBLEMS)}")
@@ -283,7 +280,7 @@ def _run(args, start):
         with interrupt.deferred_sigint():
             result = start(fields=_field_writer(args), frames=args.frames,
                            checkpoint=args.checkpoint, checkpoint_every=args.checkpoint_every,
-                           interrupted_to=args.checkpoint or INTERRUPTED_CHECKPOINT)
+                           interrupted_to=args.checkpoint or interrupt.INTERRUPTED_CHECKPOINT)
     except interrupt.RunInterrupted as stop:
         doc = {"command": args.command, "runs": [stop.result.record]} if stop.result else None
         if doc and args.json:

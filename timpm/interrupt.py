@@ -10,7 +10,11 @@ import contextlib
 import signal
 import threading
 
-__all__ = ["deferred_sigint", "requested", "active", "RunInterrupted"]
+__all__ = ["deferred_sigint", "requested", "active", "RunInterrupted",
+           "INTERRUPTED_CHECKPOINT"]
+
+#: where the command line saves a run that Ctrl-C stopped, given no --checkpoint
+INTERRUPTED_CHECKPOINT = "timpm-interrupted.npz"
 
 _state = {"active": False, "requested": False}
 

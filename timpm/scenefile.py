@@ -42,6 +42,8 @@ except ModuleNotFoundError:  # pragma: no cover - Python < 3.11: the tomli backp
     import tomli as tomllib
 
 from .basis import get_basis
+from .checkpoint import save_checkpoint
+from .interrupt import INTERRUPTED_CHECKPOINT, RunInterrupted, deferred_sigint
 from .loads import Ramp, SurfaceTraction
 from .materials import MATERIALS, get_material
 from .model import ND_BASES, SIDES, TRANSFERS, WALL_KINDS, MASS_KINDS, PROJECTIONS
@@ -766,6 +768,7 @@ class SceneResult:
     files: list = field(default_factory=list)
     record: dict | None = None
     series: dict = field(default_factory=dict)
+    interrupted: bool = False
 
     def report(self) -> str:
         rate = self.particles * self.steps / max(self.simulation_seconds, 1e-12) / 1e6
@@ -788,6 +791,8 @@ class SceneResult:
                                             "render_seconds", "files")}
         if self.record is not None:
             doc["record"] = self.record
+        if self.interrupted:
+            doc["interrupted"] = True
         doc["series"] = {k: np.asarray(v).tolist() for k, v in self.series.items()}
         return doc
 
@@ -839,23 +844,42 @@ def run_scene(scene, progress=None) -> SceneResult:
                           f"but Taichi was started in {runtime.precision()}: call "
                           f"timpm.init(precision={scene.precision!r}) first")
     fields_writer, movie = _writers(scene)
-    result = (_run_problem(scene, fields_writer, progress) if scene.problem is not None
-              else _run_world(scene, fields_writer, movie, progress))
+    try:
+        result = (_run_problem(scene, fields_writer, progress) if scene.problem is not None
+                  else _run_world(scene, fields_writer, movie, progress))
+    except RunInterrupted as stop:  # Ctrl-C: the partial record, then on to the caller
+        if stop.result is not None and scene.output.get("json") is not None:
+            _write_document(scene.output["json"], stop.result)
+        raise
     result.files = _files(fields_writer, movie)
     if scene.output.get("json") is not None:
         result.files.append(scene.output["json"])
-        tmp = f"{scene.output['json']}.tmp"
-        with open(tmp, "w") as fh:
-            json.dump(result.document(), fh, indent=2)
-        os.replace(tmp, scene.output["json"])
+        _write_document(scene.output["json"], result)
     return result
+
+
+def _write_document(path, result):
+    tmp = f"{path}.tmp"
+    with open(tmp, "w") as fh:
+        json.dump(result.document(), fh, indent=2)
+    os.replace(tmp, path)
 
 
 def _run_problem(scene, fields_writer, progress) -> SceneResult:
     from .studies.study import run_problem
 
-    run = run_problem(**scene.problem, fields=fields_writer, frames=scene.output["frames"],
-                      progress=progress)
+    try:
+        run = run_problem(**scene.problem, fields=fields_writer,
+                          frames=scene.output["frames"], progress=progress,
+                          interrupted_to=INTERRUPTED_CHECKPOINT)
+    except RunInterrupted as stop:
+        stop.result = _problem_result(scene, stop.result)
+        stop.result.interrupted = True
+        raise
+    return _problem_result(scene, run)
+
+
+def _problem_result(scene, run) -> SceneResult:
     rec = run.record
     series = {k: v for k, v in run.series.items() if np.ndim(v) == 1}
     if run.energies is not None:
@@ -910,25 +934,40 @@ def _run_world(scene, fields_writer, movie, progress) -> SceneResult:
                         title=scene.name)
         bar = Progress(frames, progress)
         solver.compile()
-        for k in range(frames + 1):
-            if k:
-                solver.run(t_end=t_end * k / frames, progress=False)
-            if fields_writer is not None:
-                fields_writer.write(solver)
+        try:
+            for k in range(frames + 1):
+                if k:
+                    solver.run(t_end=t_end * k / frames, progress=False)
+                if fields_writer is not None:
+                    fields_writer.write(solver)
+                if movie is not None:
+                    movie.add(solver.positions(), quantity(solver, color), t=solver.t)
+                bar.update(k)
+        except RunInterrupted as stop:  # Ctrl-C: keep the state, the frames so far
+            bar.close()
             if movie is not None:
-                movie.add(solver.positions(), quantity(solver, color), t=solver.t)
-            bar.update(k)
+                movie.close()
+            stop.checkpoint = save_checkpoint(INTERRUPTED_CHECKPOINT, solver,
+                                              {"scene_file": str(scene.path)})
+            stop.result = _world_result(scene, solver, movie)
+            stop.result.interrupted = True
+            raise
         bar.close()
         if movie is not None:
             movie.close()
-        return SceneResult(name=scene.name, path=scene.path, particles=world.n_particles,
-                           steps=solver.step, dt=world.dt, t_end=solver.t,
-                           compile_seconds=solver.compile_seconds,
-                           simulation_seconds=solver.run_seconds,
-                           render_seconds=movie.seconds if movie is not None else 0.0,
-                           series=solver.energies())
+        return _world_result(scene, solver, movie)
     finally:
         solver.release()
+
+
+def _world_result(scene, solver, movie) -> SceneResult:
+    world = scene.world
+    return SceneResult(name=scene.name, path=scene.path, particles=world.n_particles,
+                       steps=solver.step, dt=world.dt, t_end=solver.t,
+                       compile_seconds=solver.compile_seconds,
+                       simulation_seconds=solver.run_seconds,
+                       render_seconds=movie.seconds if movie is not None else 0.0,
+                       series=solver.energies())
 
 
 # ---- the command line --------------------------------------------------------------------
@@ -1011,7 +1050,14 @@ def main(argv) -> int:
         form = "problem" if "problem" in data else "simulation"
         scene = load_scene(args.file, _command_line_overrides(args, form))
         runtime.init(threads=args.threads, precision=scene.precision or "f64")
-        result = run_scene(scene, progress=args.progress)
+        with deferred_sigint():
+            result = run_scene(scene, progress=args.progress)
+    except RunInterrupted as stop:
+        saved = f"; state saved to {stop.checkpoint}" if stop.checkpoint else ""
+        record = scene.output.get("json")
+        print(f"timpm: interrupted at step {stop.step} (t = {stop.t:g} s){saved}"
+              + (f"; partial record {record}" if record else ""), file=sys.stderr)
+        return 130
     except (ValueError, SimulationError) as exc:
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2

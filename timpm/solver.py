@@ -320,7 +320,8 @@ class Solver:
         loads = self.features.body_force  # b(X, t) evaluated in Python before every step
         first_step = self.step if loads else 0
         start = time.perf_counter()
-        while done < total:
+        # Ctrl-C (deferred): stop at the next step boundary, the state whole
+        while done < total and not interrupt.requested():
             if loads:
                 self._upload_loads(prog, first_step + done)
             if self.mode == "serial":
@@ -359,12 +360,10 @@ class Solver:
                 self.check()
                 self._record_step(prog)
             bar.update(done)
-            if interrupt.requested() and done < total:
-                break  # Ctrl-C: stop here, at a step boundary, the state whole
         bar.close()
         self.record_end()
         self.run_seconds += time.perf_counter() - start
-        if done < total:
+        if interrupt.requested():
             raise interrupt.RunInterrupted(self.step, self.t)
         return self
 

@@ -144,6 +144,11 @@ def resume_problem(path, t_end, **options) -> RunResult:
         raise ValueError(f"checkpoint {path}: it holds no description of its run (it "
                          "was written from Python without one): build the solver of the "
                          "same scene and call solver.restore(load_checkpoint(...))")
+    if "problem" not in saved["run"]:
+        raise ValueError(f"checkpoint {path}: it holds a run of the scene file "
+                         f"{saved['run'].get('scene_file')!r}, which timpm resume cannot "
+                         "rebuild yet: build its World and call solver.restore("
+                         "load_checkpoint(...)) from Python")
     allowed = {"fields", "frames", "checkpoint", "checkpoint_every", "interrupted_to",
                "progress", "mode", "allow_many_steps"}
     unknown = set(options) - allowed
