@@ -1,6 +1,7 @@
 """Checkpoints and Ctrl-C: a saved run goes on bit for bit (in this process and in a new
 one), Ctrl-C stops a run at a step boundary with exit code 130 and keeps its record, and
 bad checkpoints are refused clearly."""
+import contextlib
 import json
 import os
 import signal
@@ -20,6 +21,17 @@ from timpm.scenarios.demos import get_demo
 ROOT = Path(__file__).resolve().parents[1]
 ENV = dict(os.environ, TIMPM_THREADS="1", ENABLE_TAICHI_HEADER_PRINT="false",
            TI_LOG_LEVEL="warn")
+
+
+@contextlib.contextmanager
+def _killed_at_exit(process):
+    """A failed wait leaves no run behind."""
+    try:
+        yield process
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
 
 
 def _state(solver):
@@ -93,14 +105,15 @@ def test_ctrl_c_stops_the_run_saves_it_and_exits_130(tmp_path):
          "--allow-many-steps",
          "--checkpoint", str(saved), "--checkpoint-every", "20000", "--json", str(record)],
         env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while not saved.exists():  # running: its first checkpoint is on disk
-        assert run.poll() is None and time.monotonic() < deadline, run.communicate()
-        time.sleep(0.1)
-    sent = time.monotonic()
-    run.send_signal(signal.SIGINT)
-    out, err = run.communicate(timeout=60)
-    took = time.monotonic() - sent
+    with _killed_at_exit(run):
+        deadline = time.monotonic() + 120
+        while not saved.exists():  # running: its first checkpoint is on disk
+            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+            time.sleep(0.1)
+        sent = time.monotonic()
+        run.send_signal(signal.SIGINT)
+        out, err = run.communicate(timeout=60)
+        took = time.monotonic() - sent
     assert run.returncode == 130, err
     assert took < 10  # the next step boundary: about half a second, here a loaded machine
     lines = [line for line in err.splitlines() if line.startswith("timpm")]
@@ -160,12 +173,13 @@ def test_ctrl_c_stops_a_scene_file_run_and_keeps_its_frames(tmp_path):
          "--set", "domain.cells=16", "--t-end", "1000", "--frames", "100000",
          "--npz", str(frames), "--json", str(tmp_path / "run.json")],
         cwd=tmp_path, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while len(list(frames.glob("particles_*.npz"))) < 3:  # running: frames on disk
-        assert run.poll() is None and time.monotonic() < deadline, run.communicate()
-        time.sleep(0.1)
-    run.send_signal(signal.SIGINT)
-    out, err = run.communicate(timeout=60)
+    with _killed_at_exit(run):
+        deadline = time.monotonic() + 120
+        while len(list(frames.glob("particles_*.npz"))) < 3:  # running: frames on disk
+            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+            time.sleep(0.1)
+        run.send_signal(signal.SIGINT)
+        out, err = run.communicate(timeout=60)
     assert run.returncode == 130, err
     lines = [line for line in err.splitlines() if line.startswith("timpm")]
     assert len(lines) == 1 and "interrupted at step" in lines[0], err
