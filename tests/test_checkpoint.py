@@ -144,6 +144,11 @@ def test_resume_refuses_a_numpy_file_without_a_header(tmp_path, capsys):
     np.savez(path, x=np.zeros(3))
     assert _cli("resume", path, "--t-end", 1) == 2
     assert "no timpm header" in capsys.readouterr().err
+    damaged = tmp_path / "damaged.npz"
+    np.savez(damaged, header=np.array(json.dumps({"format": "timpm-checkpoint", "version": 1,
+                                                  "step": 3})))
+    assert _cli("resume", damaged, "--t-end", 1) == 2
+    assert "its header lacks t, fingerprint, columns" in capsys.readouterr().err
 
 
 def test_resume_refuses_an_earlier_end_and_a_python_checkpoint(tmp_path, capsys):

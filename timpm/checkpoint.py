@@ -21,6 +21,8 @@ __all__ = ["save_checkpoint", "load_checkpoint", "FORMAT", "VERSION"]
 
 FORMAT = "timpm-checkpoint"
 VERSION = 1
+#: what a version-1 header holds besides format and version
+HEADER_KEYS = ("step", "t", "fingerprint", "columns", "energy_input", "run_seconds")
 
 
 def save_checkpoint(path, solver, run=None) -> str:
@@ -69,6 +71,10 @@ def load_checkpoint(path) -> dict:
     if header.get("version") != VERSION:
         raise ValueError(f"checkpoint {path}: format version {header.get('version')!r}, "
                          f"this timpm reads version {VERSION}")
+    missing = [k for k in HEADER_KEYS if k not in header]
+    if missing:
+        raise ValueError(f"checkpoint {path}: its header lacks {', '.join(missing)} (a damaged "
+                         "or hand-edited file)")
     state = {k.split("/", 1)[1]: v for k, v in contents.items() if k.startswith("state/")}
     history = {k.split("/", 1)[1]: v for k, v in contents.items()
                if k.startswith("history/")}
