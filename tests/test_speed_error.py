@@ -264,3 +264,13 @@ def test_plateaus_and_merge():
     assert [r["pareto"] for r in m["runs"]] == pareto_front(recs)
     with pytest.raises(ValueError):
         merge_studies([a, dict(b, t_end=2.0)])
+
+
+def test_a_study_whose_every_configuration_is_skipped_is_an_error(capsys):
+    from timpm.cli import main
+
+    assert main(["study", "speed-error", "vibrating-string", "--bases", "bspline3",
+                 "--masses", "lumped", "--elements", "4", "8", "--ppc", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert ("every one of the 2 configurations was skipped, nothing to report (bspline3/lumped/4 "
+            "elements: the bspline3 basis needs at least 2 particles per element") in err

@@ -399,6 +399,14 @@ def _speed_error(args) -> int:
     except (ValueError, SimulationError, sweep.SweepError) as exc:
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
+    if not doc["runs"]:
+        skipped = doc["skipped"]
+        reasons = "; ".join(f"{c['basis']}/{c['mass']}/{c['elements']} elements: {c['reason']}"
+                            for c in skipped[:3])
+        print(f"timpm: error: every one of the {len(skipped)} configurations was skipped, "
+              f"nothing to report ({reasons}{'; ...' if len(skipped) > 3 else ''})",
+              file=sys.stderr)
+        return 2
     targets = args.targets or speed_error.default_targets(doc["runs"])
     answers = speed_error.cheapest_for(doc["runs"], targets)
     doc["targets"] = answers
