@@ -130,6 +130,17 @@ def _refuse_early(problem, elements, ppc, dt=None, t_end=None, allow_many_steps=
         step_count(problem.t_end if t_end is None else t_end, dt, allow_many_steps)
 
 
+def _start_taichi(threads):
+    """Taichi with ``--threads``; without it, as it runs already where it was started (a
+    notebook or a test calling ``main``: no restart, no recompilation), else the defaults."""
+    from . import runtime
+
+    if threads is None:
+        runtime.ensure_init()
+    else:
+        runtime.init(threads=threads)
+
+
 def _write_json(path, doc):
     """The document under a temporary name, then renamed: a file on disk is whole."""
     tmp = f"{path}.tmp"
@@ -342,7 +353,6 @@ def _or_dash(value):
 
 
 def _demo(args):
-    from . import runtime
     from .output.render import Movie
     from .scenarios.demos import run_demo
 
@@ -354,7 +364,7 @@ def _demo(args):
     if args.out:
         movie = Movie(args.out, fps=args.fps, width=args.width, png_dir=args.png_dir,
                       frames=args.frames + 1)
-    runtime.init(threads=args.threads)
+    _start_taichi(args.threads)
     fields = _field_writer(args)
     result = run_demo(args.name, movie=movie, frames=args.frames, color=args.color,
                       progress=args.progress, mode=args.mode, fields=fields,
@@ -377,7 +387,6 @@ def _demo(args):
 
 def _speed_error(args) -> int:
     """``timpm study speed-error``: run the sweep, print the report, write plot and JSON."""
-    from . import runtime
     from .output.viz import plot_speed_error
 
     def progress(msg):
@@ -389,7 +398,7 @@ def _speed_error(args) -> int:
         problem = get_problem(args.problem, **dict(args.param))
         _refuse_early(problem, [max(args.elements)], max(args.ppc or [problem.ppc]))
         _check_output_files(args)
-        runtime.init(threads=args.threads)
+        _start_taichi(args.threads)
         doc = speed_error.speed_error_study(
             args.problem, bases=args.bases, masses=args.masses, stress_update=args.stress_update,
             params=dict(args.param), elements=args.elements, ppcs=args.ppc,
@@ -449,7 +458,6 @@ def _main(argv=None):
         print(_listing())
         print("scene files: timpm run FILE.toml (examples/, docs/scene_files.md)")
         return 0
-    from . import runtime
     from .output.viz import plot_convergence
     from .studies.study import convergence, run_problem
 
@@ -463,7 +471,7 @@ def _main(argv=None):
             from .studies.study import resume_problem
 
             _check_output_files(args)
-            runtime.init(threads=args.threads)
+            _start_taichi(args.threads)
             mode = {} if args.mode is None else {"mode": args.mode}
             doc = _run(args, lambda **out: resume_problem(
                 args.saved, args.t_end, allow_many_steps=args.allow_many_steps, **mode, **out))
@@ -472,7 +480,7 @@ def _main(argv=None):
         meshes = args.elements if args.command == "convergence" else [args.elements]
         _refuse_early(problem, meshes, args.ppc, args.dt, args.t_end, args.allow_many_steps)
         _check_output_files(args)
-        runtime.init(threads=args.threads)
+        _start_taichi(args.threads)
         opts = _options(args)
         if args.command == "run":
             doc = _run(args, lambda **out: run_problem(args.problem, elements=args.elements,
