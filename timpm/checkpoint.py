@@ -6,8 +6,7 @@ its records so far, and a JSON header: the format version, the solver's fingerpr
 the restoring solver must match) and, when a driver knows it, the description of the run
 (``run``: the arguments that rebuild its scene, e.g. :func:`timpm.studies.study.run_problem`'s).
 
-``save_checkpoint(path, solver, run=...)`` writes it under a temporary name and renames it,
-so a file on disk is always whole; ``load_checkpoint(path)`` reads and checks it;
+``save_checkpoint(path, solver, run=...)`` writes it whole (:func:`timpm.files.replacing`); ``load_checkpoint(path)`` reads and checks it;
 ``solver.restore(checkpoint)`` continues from it bit for bit (one thread, the same mode).
 """
 import datetime
@@ -16,6 +15,8 @@ import os
 import zipfile
 
 import numpy as np
+
+from .files import replacing
 
 __all__ = ["save_checkpoint", "load_checkpoint", "FORMAT", "VERSION"]
 
@@ -44,10 +45,8 @@ def save_checkpoint(path, solver, run=None) -> str:
     arrays = {f"state/{k}": v for k, v in snap["arrays"].items()}
     arrays.update({f"history/{k}": v for k, v in snap["history"].items()})
     arrays["header"] = np.array(text)
-    tmp = f"{path}.tmp"
-    with open(tmp, "wb") as fh:
+    with replacing(path) as tmp, open(tmp, "wb") as fh:
         np.savez(fh, **arrays)
-    os.replace(tmp, path)
     return str(path)
 
 

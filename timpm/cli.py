@@ -4,8 +4,6 @@ The top layer: it may import every other module of the package (``tests/test_lay
 The throughput benchmark is not part of the package: ``python benchmarks/throughput.py``.
 """
 import argparse
-import json
-import os
 import sys
 
 import numpy as np
@@ -14,6 +12,7 @@ from . import __version__
 from .argtypes import numbers_as_values, param, positive_float, positive_int, setting
 from .basis import BASES
 from .checks import MAX_STEPS, step_count
+from .files import replacing, write_json as _write_json
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .scenefile import is_scene_argument
@@ -141,20 +140,11 @@ def _start_taichi(threads):
         runtime.init(threads=threads)
 
 
-def _write_json(path, doc):
-    """The document under a temporary name, then renamed: a file on disk is whole."""
-    tmp = f"{path}.tmp"
-    with open(tmp, "w") as fh:
-        json.dump(doc, fh, indent=2)
-    os.replace(tmp, path)
-
-
 def _write_csv(path, series):
     names = list(series)
     table = np.column_stack([series[k] for k in names])
-    tmp = f"{path}.tmp"
-    np.savetxt(tmp, table, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
-    os.replace(tmp, path)
+    with replacing(path) as tmp:
+        np.savetxt(tmp, table, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
 
 
 def _parser():

@@ -43,6 +43,7 @@ except ModuleNotFoundError:  # pragma: no cover - Python < 3.11: the tomli backp
 
 from .basis import get_basis
 from .checkpoint import save_checkpoint
+from .files import write_json
 from .interrupt import INTERRUPTED_CHECKPOINT, RunInterrupted, deferred_sigint
 from .loads import Ramp, SurfaceTraction
 from .materials import MATERIALS, get_material
@@ -849,20 +850,13 @@ def run_scene(scene, progress=None) -> SceneResult:
                   else _run_world(scene, fields_writer, movie, progress))
     except RunInterrupted as stop:  # Ctrl-C: the partial record, then on to the caller
         if stop.result is not None and scene.output.get("json") is not None:
-            _write_document(scene.output["json"], stop.result)
+            write_json(scene.output["json"], stop.result.document())
         raise
     result.files = _files(fields_writer, movie)
     if scene.output.get("json") is not None:
         result.files.append(scene.output["json"])
-        _write_document(scene.output["json"], result)
+        write_json(scene.output["json"], result.document())
     return result
-
-
-def _write_document(path, result):
-    tmp = f"{path}.tmp"
-    with open(tmp, "w") as fh:
-        json.dump(result.document(), fh, indent=2)
-    os.replace(tmp, path)
 
 
 def _run_problem(scene, fields_writer, progress) -> SceneResult:

@@ -5,7 +5,7 @@ the particles' data: ``particles_00000.vtu`` (VTK unstructured points, written b
 pyevtk) and the time series ``particles.pvd`` that ParaView opens (rewritten after every
 frame, so an interrupted run leaves a readable series); ``format="npz"`` writes
 ``particles_00000.npz`` (NumPy) instead.  Every file is written under a temporary name
-and renamed: a frame on disk is whole.
+and renamed (:func:`timpm.files.replacing`): a frame on disk is whole.
 
 The fields (:func:`particle_fields`): position (as the VTK points), displacement,
 velocity, volume, mass, the Cauchy stress (``stress_xx``, ``stress_xy``, ... in the VTK
@@ -23,6 +23,8 @@ import os
 from pathlib import Path
 
 import numpy as np
+
+from ..files import replacing
 
 __all__ = ["FORMATS", "FieldWriter", "particle_fields", "grid_fields",
            "check_output_directory", "check_output_file"]
@@ -143,24 +145,23 @@ class FieldWriter:
         grid = grid_fields(solver) if self.grid else None
         index = len(self.frames)
         name = f"{self.prefix}_{index:05d}"
+        # pyevtk appends the suffix to the name it is given: the temporary names keep it
         if self.format == "npz":
             path = self.directory / f"{name}.npz"
-            tmp = self.directory / f".{name}.tmp.npz"
             extra = {f"grid_{k}": v for k, v in grid.items()} if grid else {}
-            np.savez(tmp, t=solver.t, step=solver.step, **fields, **extra)
+            with replacing(path, self.directory / f".{name}.tmp.npz") as tmp:
+                np.savez(tmp, t=solver.t, step=solver.step, **fields, **extra)
         else:
             path = self.directory / f"{name}.vtu"
-            tmp = self.directory / f".{name}.tmp.vtu"
-            _write_vtu(str(tmp)[:-len(".vtu")], fields)
-        os.replace(tmp, path)
+            with replacing(path, self.directory / f".{name}.tmp.vtu") as tmp:
+                _write_vtu(tmp[:-len(".vtu")], fields)
         self.frames.append((path.name, float(solver.t)))
         if self.format == "vtk":
             _write_series(self.directory, self.frames, self.series)
             if grid is not None:
                 image = self.directory / f"grid_{index:05d}.vti"
-                tmp = self.directory / f".grid_{index:05d}.tmp"
-                _write_vti(str(tmp), grid)
-                os.replace(f"{tmp}.vti", image)
+                with replacing(image, self.directory / f".grid_{index:05d}.tmp.vti") as tmp:
+                    _write_vti(tmp[:-len(".vti")], grid)
                 self.grid_frames.append((image.name, float(solver.t)))
                 _write_series(self.directory, self.grid_frames, self.grid_series)
         return path
@@ -170,12 +171,11 @@ def _write_series(directory, frames, series):
     """The ``.pvd`` collection of ``frames`` ((file name, time), ...) at ``series``."""
     from pyevtk.vtk import VtkGroup
 
-    tmp = directory / f".{series.stem}.tmp"
-    group = VtkGroup(str(tmp))
-    for name, t in frames:
-        group.addFile(str(directory / name), sim_time=t)
-    group.save()
-    os.replace(f"{tmp}.pvd", series)
+    with replacing(series, directory / f".{series.stem}.tmp.pvd") as tmp:
+        group = VtkGroup(tmp[:-len(".pvd")])
+        for name, t in frames:
+            group.addFile(str(directory / name), sim_time=t)
+        group.save()
 
 
 def _write_vti(base, grid):

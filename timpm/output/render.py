@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import taichi as ti
 
+from ..files import replacing
 from ..runtime import ensure_init
 from .decorations import (DEFAULT_WIDTH, OPEN_SIDE_COLOR, ROUGH_WALL_COLOR, TEXT_COLOR,
                           WALL_COLOR, FrameLayout, check_width)
@@ -351,14 +352,9 @@ class GifWriter:
         t0 = time.perf_counter()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         first, *rest = self._frames
-        tmp = self.path.with_name(f".{self.path.name}.tmp")  # renamed when whole
-        try:
+        with replacing(self.path, self.path.with_name(f".{self.path.name}.tmp")) as tmp:
             first.save(tmp, format="GIF", save_all=True, append_images=rest, loop=0,
                        duration=max(1, int(round(1000.0 / self.fps))), optimize=False)
-            os.replace(tmp, self.path)
-        finally:
-            if tmp.exists():
-                tmp.unlink()
         self._frames = []
         self.closed = True
         self.seconds += time.perf_counter() - t0

@@ -8,6 +8,8 @@ import os
 
 import numpy as np
 
+from ..files import replacing
+
 __all__ = ["plot_convergence", "plot_series", "plot_comparison", "plot_fields", "plot_demo",
            "plot_runout", "plot_speed_error"]
 
@@ -28,14 +30,11 @@ def save(fig, path):
     plt = _pyplot()
     fig.tight_layout()
     suffix = os.path.splitext(str(path))[1].lstrip(".").lower()
-    tmp = f"{path}.tmp"
     try:
-        fig.savefig(tmp, dpi=120, format=suffix or "png")
-        os.replace(tmp, path)
+        with replacing(path) as tmp:
+            fig.savefig(tmp, dpi=120, format=suffix or "png")
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.remove(tmp)
     return path
 
 
