@@ -884,33 +884,47 @@ def _problem_result(scene, run) -> SceneResult:
                        simulation_seconds=rec["wall_seconds"], record=rec, series=series)
 
 
+class _WorldScales:
+    """The colour scales of a scene file's world, as a demo gives them
+    (:func:`timpm.scenarios.demos.color_range`): H the domain's height along gravity, v0
+    the largest initial speed, rho and c the densest material's density and the fastest
+    wave speed."""
+
+    def __init__(self, world):
+        gravity = np.asarray(world.model.gravity, dtype=float)
+        g = float(np.linalg.norm(gravity))
+        height = float(world.domain[int(np.argmax(np.abs(gravity))) if g > 0 else 0])
+        v0 = float(np.max(np.linalg.norm(world.velocity, axis=1), initial=0.0))
+        density = max(m.density for m in world.materials)
+        wave = max(m.wave_speed for m in world.materials)
+        self.speed = max(v0, np.sqrt(2.0 * g * height)) or 1.0
+        self.stress = (density * g * height if g > 0 else density * wave * v0) or 1.0
+
+    def speed_scale(self) -> float:
+        """max(v0, sqrt(2 g H))."""
+        return self.speed
+
+    def stress_scale(self) -> float:
+        """rho g H, or without gravity rho c v0."""
+        return self.stress
+
+    def strain_scale(self) -> float:
+        return 1.0
+
+
 def _color_range(world, color, output):
     """The GIF's colour range for the whole run, its label and unit: ``output.color_range``
-    or a scale from the scene (H the domain's height along gravity, v0 the largest initial
-    speed, rho and c the densest material's density and the fastest wave speed)."""
-    labels = {"speed": ("speed", "m/s"), "pressure": ("pressure", "Pa"),
-              "von-mises": ("von Mises stress", "Pa"), "plastic": ("plastic strain", ""),
-              "body": ("body", "")}
-    label, unit = labels[color]
+    or the world's scales (:class:`_WorldScales`)."""
+    from .scenarios.demos import color_range
+
+    value_range, label, unit = color_range(_WorldScales(world), color, len(world.bodies))
     if output.get("color_range") is not None:
-        return tuple(float(v) for v in output["color_range"]), label, unit
-    gravity = np.asarray(world.model.gravity, dtype=float)
-    g = float(np.linalg.norm(gravity))
-    axis = int(np.argmax(np.abs(gravity))) if g > 0 else 0
-    height = float(world.domain[axis])
-    v0 = float(np.max(np.linalg.norm(world.velocity, axis=1), initial=0.0))
-    speed = max(v0, np.sqrt(2.0 * g * height)) or 1.0
-    density = max(m.density for m in world.materials)
-    wave = max(m.wave_speed for m in world.materials)
-    stress = density * g * height if g > 0 else density * wave * v0
-    scale = {"speed": speed, "pressure": stress or 1.0, "von-mises": stress or 1.0,
-             "plastic": 1.0, "body": float(max(1, len(world.bodies) - 1))}[color]
-    return (0.0, scale), label, unit
+        value_range = tuple(float(v) for v in output["color_range"])
+    return value_range, label, unit
 
 
 def _run_world(scene, fields_writer, movie, progress) -> SceneResult:
-    from .progress import Progress
-    from .scenarios.demos import quantity
+    from .scenarios.demos import quantity, run_frames
     from .solver import Solver
 
     world, frames, t_end = scene.world, scene.output["frames"], scene.t_end
@@ -926,19 +940,10 @@ def _run_world(scene, fields_writer, movie, progress) -> SceneResult:
             value_range, label, unit = _color_range(world, color, scene.output)
             movie.start(world, color, value_range=value_range, label=label, unit=unit,
                         title=scene.name)
-        bar = Progress(frames, progress)
-        solver.compile()
         try:
-            for k in range(frames + 1):
-                if k:
-                    solver.run(t_end=t_end * k / frames, progress=False)
-                if fields_writer is not None:
-                    fields_writer.write(solver)
-                if movie is not None:
-                    movie.add(solver.positions(), quantity(solver, color), t=solver.t)
-                bar.update(k)
+            run_frames(solver, t_end, frames, movie=movie, color=color, fields=fields_writer,
+                       progress=progress)
         except RunInterrupted as stop:  # Ctrl-C: keep the state, the frames so far
-            bar.close()
             if movie is not None:
                 movie.close()
             stop.checkpoint = save_checkpoint(INTERRUPTED_CHECKPOINT, solver,
@@ -946,7 +951,6 @@ def _run_world(scene, fields_writer, movie, progress) -> SceneResult:
             stop.result = _world_result(scene, solver, movie)
             stop.result.interrupted = True
             raise
-        bar.close()
         if movie is not None:
             movie.close()
         return _world_result(scene, solver, movie)

@@ -29,7 +29,7 @@ from ..checks import positive as _positive, step_count, whole
 from ..solver import Solver
 from ..world import Ball, Body, Box, Wall, World
 
-__all__ = ["DEMOS", "get_demo", "run_demo", "DemoResult", "ColumnCollapse", "Disks", "DamBreak",
+__all__ = ["DEMOS", "get_demo", "run_demo", "run_frames", "DemoResult", "ColumnCollapse", "Disks", "DamBreak",
            "QUANTITIES", "color_range", "lube_runout", "lajeunesse_runout", "MARTIN_MOYCE_N2_2"]
 
 #: colour quantities
@@ -404,6 +404,35 @@ class DemoResult:
         return "\n".join(lines)
 
 
+def run_frames(solver, t_end, frames, movie=None, color=None, fields=None, progress=None,
+               observe=None, allow_many_steps=False) -> dict:
+    """Run ``solver`` to ``t_end`` in ``frames`` equal parts; at the start and after each
+    part ``movie`` gets the particles coloured by ``color``, ``fields`` the particle fields
+    and ``observe(solver, t)`` a dict of values.  Returns those values' series (with ``t``)
+    as arrays.  A Ctrl-C (:class:`~timpm.interrupt.RunInterrupted`) leaves at a frame's
+    step boundary; the frames so far are written."""
+    series = {}
+    bar = Progress(frames, progress)
+    solver.compile()
+    try:
+        for k in range(frames + 1):
+            if k:
+                solver.run(t_end=t_end * k / frames, progress=False,
+                           allow_many_steps=allow_many_steps)
+            if observe is not None:
+                for key, value in observe(solver, solver.t).items():
+                    series.setdefault(key, []).append(value)
+            series.setdefault("t", []).append(solver.t)
+            if movie is not None:
+                movie.add(solver.positions(), quantity(solver, color), t=solver.t)
+            if fields is not None:
+                fields.write(solver)
+            bar.update(k)
+    finally:
+        bar.close()
+    return {k: np.asarray(v) for k, v in series.items()}
+
+
 def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto",
              fields=None, allow_many_steps=False, **params) -> DemoResult:
     """Run demo ``name`` (``DEMOS``), drawing its frames into ``movie`` (None: no images).
@@ -432,21 +461,8 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
         value_range, label, unit = color_range(demo, color, len(world.bodies))
         movie.start(world, color, value_range=value_range, label=label, unit=unit,
                     title=demo.title())
-    series = {}
-    bar = Progress(frames, progress)
-    solver.compile()
-    for k in range(frames + 1):
-        if k:
-            solver.run(t_end=t_end * k / frames, progress=False, allow_many_steps=True)
-        for key, value in demo.observe(solver, solver.t).items():
-            series.setdefault(key, []).append(value)
-        series.setdefault("t", []).append(solver.t)
-        if movie is not None:
-            movie.add(solver.positions(), quantity(solver, color), t=solver.t)
-        if fields is not None:
-            fields.write(solver)
-        bar.update(k)
-    bar.close()
+    series = run_frames(solver, t_end, frames, movie=movie, color=color, fields=fields,
+                        progress=progress, observe=demo.observe, allow_many_steps=True)
     if movie is not None:
         movie.close()
     render_seconds = movie.seconds if movie is not None else 0.0
@@ -454,8 +470,7 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
                         particles=world.n_particles, steps=solver.step, t_end=solver.t,
                         dt=world.dt, compile_seconds=solver.compile_seconds,
                         simulation_seconds=solver.run_seconds, render_seconds=render_seconds,
-                        series={k: np.asarray(v) for k, v in series.items()},
-                        memory=solver.memory())
+                        series=series, memory=solver.memory())
     result.summary = demo.summary(solver, result.series)
     result.solver = solver
     return result
