@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from . import interrupt, runtime
-from .checks import check_steps, step_count
+from .checks import check_steps, step_count, whole
 from .engine.features import SCATTERS, auto_mode, plan
 from .engine.program import program_for
 from .engine.state import State
@@ -67,10 +67,10 @@ class Solver:
         if isinstance(track, (str, bytes)) or not hasattr(track, "__iter__"):
             raise ValueError(f"track must be a sequence of particle indices, got {track!r}")
         track = [_index("tracked particle", p) for p in track]
-        record_every = _count("record_every", record_every)
-        check_every = _count("check_every", check_every)
+        record_every = whole("record_every", record_every)
+        check_every = whole("check_every", check_every)
         if history_chunk is not None:
-            history_chunk = _count("history_chunk", history_chunk)
+            history_chunk = whole("history_chunk", history_chunk)
         _check_options(energies, energy_guard, serial_threshold, small_mass)
         runtime.ensure_init()
         self._generation = runtime.generation()  # the Taichi start that holds the fields
@@ -656,13 +656,6 @@ def _check_options(energies, energy_guard, serial_threshold, small_mass):
     if isinstance(small_mass, bool) or not isinstance(small_mass, numbers.Real) \
             or not (0.0 <= small_mass < np.inf):
         raise ValueError(f"small_mass must be a finite number >= 0, got {small_mass!r}")
-
-
-def _count(name, value) -> int:
-    """A positive integer option (bools, strings and non-integral numbers refused)."""
-    if not _whole(value) or int(value) < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
 
 
 def _index(name, value) -> int:

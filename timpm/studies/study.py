@@ -89,7 +89,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                            record_every=run.every, params=dict(params or {}),
                            energies=bool(energies), projection=projection,
                            series=bool(series), transfer=transfer)
-    step_count(run.t_end, run.scene.dt, allow_many_steps)
+    steps = step_count(run.t_end, run.scene.dt, allow_many_steps)  # before any is built
     t_build = time.perf_counter()
     solver = Solver(run.scene, track=run.track, record_every=run.every, energies=energies,
                     mode=mode)
@@ -97,7 +97,6 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     try:
         if resume is not None:
             solver.restore(resume)
-        steps = solver.steps_for(run.t_end, allow_many_steps)
         if steps < solver.step:
             raise ValueError(f"t_end = {run.t_end:g} s lies before the saved run's time "
                              f"{solver.t:g} s (step {solver.step})")
