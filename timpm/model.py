@@ -69,13 +69,7 @@ class Wall:
             if self.kind != "sticky":
                 raise ValueError(f"a {self.kind} wall takes no velocity: a moving wall is "
                                  "sticky (it drives the material touching it)")
-            try:
-                v = tuple(float(c) for c in np.atleast_1d(self.velocity))
-            except (TypeError, ValueError):
-                raise ValueError(f"wall velocity must be a vector of numbers, got "
-                                 f"{self.velocity!r}") from None
-            if not all(math.isfinite(c) for c in v):
-                raise ValueError(f"wall velocity must be finite, got {self.velocity!r}")
+            v = tuple(float(c) for c in vector("wall velocity", self.velocity))
             object.__setattr__(self, "velocity", v if any(v) else None)
 
     @property
