@@ -10,9 +10,12 @@ import os
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
+import taichi as ti
+from taichi.lang.misc import is_arch_supported
 
 import timpm
 from timpm import checks, runtime
@@ -23,6 +26,7 @@ MEMORY = 8 << 30
 #: what the machine reports
 AVAILABLE_MEMORY = checks.available_memory
 VS = ["run", "vibrating-string"]
+ROOT = Path(__file__).resolve().parent.parent
 SE = ["study", "speed-error", "vibrating-string"]
 
 
@@ -375,6 +379,25 @@ def test_a_bad_TIMPM_THREADS_exits_2_without_a_traceback(value):
     assert proc.stderr.strip() == (f"timpm: error: the environment variable TIMPM_THREADS must "
                                    f"be a positive integer (worker threads), got {value!r}")
     assert "[Taichi]" not in proc.stdout  # refused before Taichi started
+
+
+def test_a_bad_TIMPM_ARCH_exits_2_without_a_traceback():
+    proc = _timpm(*VS, "--elements", "4", env={"TIMPM_ARCH": "gpu"})
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == ("timpm: error: the environment variable TIMPM_ARCH must "
+                                   "name a backend: cpu, cuda, vulkan, metal; got 'gpu'")
+
+
+@pytest.mark.skipif(is_arch_supported(ti.cuda), reason="this machine has CUDA")
+@pytest.mark.parametrize("command", [VS, ["run", str(ROOT / "examples" / "disks.toml")]])
+def test_a_missing_gpu_backend_exits_2_not_a_cpu_run(command):
+    """--arch cuda without CUDA: one line, exit 2, nothing run on the CPU instead."""
+    proc = _timpm(*command, "--arch", "cuda", "--quiet")
+    assert proc.returncode == 2
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith("timpm: error: timpm cannot run on the cuda backend: it is not "
+                           "available on this machine (available: cpu")
+    assert "--arch cpu" in last and "Traceback" not in proc.stderr
 
 
 def test_a_failing_plot_loses_neither_the_result_nor_a_whole_file(tmp_path, capsys,

@@ -31,6 +31,7 @@ def run(scene, scatter, steps):
         s.release()
 
 
+@pytest.mark.cpu_only("the private scatter and the team are CPU strategies")
 @pytest.mark.parametrize("transfer", ["mls-mpm", "musl"])
 def test_scatter_strategies_agree_in_2d(transfer):
     """Same positions and velocities after 60 steps of a collapsing column, whichever way
@@ -48,6 +49,7 @@ def test_scatter_strategies_agree_in_2d(transfer):
         assert np.abs(v - ref[2]).max() < 1e-10 * vmax
 
 
+@pytest.mark.cpu_only("the private scatter and the team are CPU strategies")
 def test_scatter_strategies_agree_in_1d():
     """Serial scatters sum a run of particles in one element in registers first (the
     fused serial mode too): the same run to round-off."""
@@ -63,6 +65,7 @@ def test_scatter_strategies_agree_in_1d():
     fused.release()
 
 
+@pytest.mark.cpu_only("the private scatter and the team are CPU strategies")
 def test_private_scatter_needs_a_lumped_mass():
     scene = get_problem("vibrating-string").scene(elements=16, mass="consistent")
     with pytest.raises(ValueError, match="private scatter needs a lumped mass"):
@@ -77,6 +80,7 @@ def test_unknown_scatter():
 
 
 
+@pytest.mark.cpu_only("the private scatter and the team are CPU strategies")
 @pytest.mark.parametrize("transfer, scattered", [("mls-mpm", 1 + 2), ("musl", 1 + 2 + 2)])
 def test_memory_counts_the_private_copies(transfer, scattered):
     """The private scatter's grid copies (mass, momentum and, for MUSL, force: one per
@@ -98,6 +102,7 @@ def test_auto_mode_fuses_small_scenes_and_every_scene_on_one_thread():
     assert auto_mode(4097, 4096, 2) == "parallel"
     assert auto_mode(10**6, 4096, 1) == "serial"  # one thread: no pool to hand loops to
     assert auto_mode(10**6, 4096, 0) == "parallel"  # off the CPU
+    assert auto_mode(16, 4096, 0) == "parallel"  # at any size (serial: one GPU thread)
 
 
 def _two_threads():
@@ -107,6 +112,7 @@ def _two_threads():
         pytest.skip("a team needs two CPU threads")
 
 
+@pytest.mark.cpu_only("the private scatter and the team are CPU strategies")
 @pytest.mark.parametrize("transfer", ["mls-mpm", "apic", "musl", "musl-damped", "1d"])
 def test_team_mode_gives_the_parallel_run_bit_for_bit(transfer):
     """The team's threads run the same per-particle and per-node code on the same blocks
@@ -135,6 +141,7 @@ def test_team_mode_gives_the_parallel_run_bit_for_bit(transfer):
         team.release()
 
 
+@pytest.mark.cpu_only("the private scatter and the team are CPU strategies")
 def test_auto_mode_picks_a_team_where_the_private_scatter_runs():
     _two_threads()
     for transfer in ("mls-mpm", "apic", "musl"):
@@ -154,6 +161,7 @@ def test_auto_mode_picks_a_team_where_the_private_scatter_runs():
         Solver(sand_column("mls-mpm"), mode="team", scatter="serial")
 
 
+@pytest.mark.cpu_only("the private scatter and the team are CPU strategies")
 def test_team_stops_at_a_nan_naming_step_and_particle():
     """A NaN velocity: the team stops after the step it appeared in (the first barrier of
     the next step), naming that step and a particle next to the one it was put in."""

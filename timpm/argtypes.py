@@ -4,7 +4,7 @@ import math
 import re
 
 __all__ = ["param", "setting", "positive_int", "positive_float", "non_negative_int",
-           "numbers_as_values"]
+           "numbers_as_values", "add_runtime_arguments"]
 
 #: what argparse takes for a negative number, not an option: -4, -.5, -1e-4, -inf, -nan
 _NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$",
@@ -70,3 +70,12 @@ def positive_float(text):
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
     return value
+
+
+def add_runtime_arguments(parser):
+    """``--threads`` and ``--arch``: where Taichi runs (see :func:`timpm.runtime.init`)."""
+    parser.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
+    parser.add_argument("--arch", choices=["cpu", "cuda", "vulkan", "metal"],
+                        help="Taichi's backend (default: TIMPM_ARCH, else cpu); a GPU "
+                             "backend the machine lacks is an error, never a silent "
+                             "fallback to the CPU")

@@ -9,7 +9,8 @@ import sys
 import numpy as np
 
 from . import __version__
-from .argtypes import numbers_as_values, param, positive_float, positive_int, setting
+from .argtypes import (add_runtime_arguments, numbers_as_values, param, positive_float,
+                       positive_int, setting)
 from .basis import BASES
 from .checks import MAX_STEPS, step_count
 from .files import replacing, write_json as _write_json
@@ -52,7 +53,7 @@ def _add_common(p):
     p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"],
                    help="serial: fused steps on one thread; parallel: one launch per step; "
                         "team: many steps per launch on every thread (private scatter)")
-    p.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
+    add_runtime_arguments(p)
     p.add_argument("--json", metavar="FILE", help="write the records as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="draw a plot")
     p.add_argument("--quiet", action="store_true", help="no table on stdout")
@@ -129,15 +130,20 @@ def _refuse_early(problem, elements, ppc, dt=None, t_end=None, allow_many_steps=
         step_count(problem.t_end if t_end is None else t_end, dt, allow_many_steps)
 
 
-def _start_taichi(threads):
-    """Taichi with ``--threads``; without it, as it runs already where it was started (a
-    notebook or a test calling ``main``: no restart, no recompilation), else the defaults."""
+def _start_taichi(args):
+    """Taichi with ``--threads`` and ``--arch``; without them, as it runs already where it
+    was started (a notebook or a test calling ``main``: no restart, no recompilation),
+    else the defaults."""
     from . import runtime
 
-    if threads is None:
-        runtime.ensure_init()
-    else:
-        runtime.init(threads=threads)
+    threads, arch = getattr(args, "threads", None), getattr(args, "arch", None)
+    try:
+        if threads is None and arch is None:
+            runtime.ensure_init()
+        else:
+            runtime.init(threads=threads, arch=arch)
+    except runtime.BackendUnavailable as exc:  # printed as the other argument errors
+        raise ValueError(str(exc)) from None
 
 
 def _write_csv(path, series):
@@ -170,7 +176,7 @@ def _parser():
     _add_allow_many_steps(resume)
     resume.add_argument("--mode", choices=["auto", "serial", "parallel", "team"],
                         help="run mode (default: the saved run's)")
-    resume.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
+    add_runtime_arguments(resume)
     resume.add_argument("--json", metavar="FILE", help="write the records as JSON")
     resume.add_argument("--plot", metavar="FILE.png", help="draw a plot")
     resume.add_argument("--quiet", action="store_true", help="no table on stdout")
@@ -209,7 +215,7 @@ def _parser():
     demo.add_argument("--param", type=setting, action="append", default=[], metavar="NAME=VALUE",
                       help="override a demo parameter, e.g. aspect=1, cells=40, transfer=musl")
     demo.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"])
-    demo.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
+    add_runtime_arguments(demo)
     demo.add_argument("--plot", metavar="FILE.png", help="plot the demo's diagnostic")
     demo.add_argument("--json", metavar="FILE", help="write times, summary and series as JSON")
     demo.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
@@ -354,7 +360,7 @@ def _demo(args):
     if args.out:
         movie = Movie(args.out, fps=args.fps, width=args.width, png_dir=args.png_dir,
                       frames=args.frames + 1)
-    _start_taichi(args.threads)
+    _start_taichi(args)
     fields = _field_writer(args)
     result = run_demo(args.name, movie=movie, frames=args.frames, color=args.color,
                       progress=args.progress, mode=args.mode, fields=fields,
@@ -388,7 +394,7 @@ def _speed_error(args) -> int:
         problem = get_problem(args.problem, **dict(args.param))
         _refuse_early(problem, [max(args.elements)], max(args.ppc or [problem.ppc]))
         _check_output_files(args)
-        _start_taichi(args.threads)
+        _start_taichi(args)
         doc = speed_error.speed_error_study(
             args.problem, bases=args.bases, masses=args.masses, stress_update=args.stress_update,
             params=dict(args.param), elements=args.elements, ppcs=args.ppc,
@@ -461,7 +467,7 @@ def _main(argv=None):
             from .studies.study import resume_problem
 
             _check_output_files(args)
-            _start_taichi(args.threads)
+            _start_taichi(args)
             mode = {} if args.mode is None else {"mode": args.mode}
             doc = _run(args, lambda **out: resume_problem(
                 args.saved, args.t_end, allow_many_steps=args.allow_many_steps, **mode, **out))
@@ -470,7 +476,7 @@ def _main(argv=None):
         meshes = args.elements if args.command == "convergence" else [args.elements]
         _refuse_early(problem, meshes, args.ppc, args.dt, args.t_end, args.allow_many_steps)
         _check_output_files(args)
-        _start_taichi(args.threads)
+        _start_taichi(args)
         opts = _options(args)
         if args.command == "run":
             doc = _run(args, lambda **out: run_problem(args.problem, elements=args.elements,

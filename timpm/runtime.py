@@ -68,10 +68,24 @@ def _threads(threads):
     return int(threads)
 
 
-def _settings(threads=None, debug=False, precision="f64", pin=True, arch="cpu") -> dict:
-    """The settings of a start, checked before Taichi is touched."""
+def _arch(arch):
+    """``arch`` checked, or ``TIMPM_ARCH`` when None ("cpu" if that is unset too)."""
+    if arch is None:
+        text = os.environ.get("TIMPM_ARCH", "").strip()
+        if not text:
+            return "cpu"
+        if text.lower() not in ARCHS:
+            raise ValueError(f"the environment variable TIMPM_ARCH must name a backend: "
+                             f"{', '.join(ARCHS)}; got {text!r}")
+        return text.lower()
     if arch not in ARCHS:
         raise ValueError(f"unknown arch {arch!r}: choose one of {', '.join(ARCHS)}")
+    return arch
+
+
+def _settings(threads=None, debug=False, precision="f64", pin=True, arch=None) -> dict:
+    """The settings of a start, checked before Taichi is touched."""
+    arch = _arch(arch)
     if precision not in ("f64", "f32"):
         raise ValueError(f"precision must be 'f64' or 'f32', got {precision!r}")
     return dict(threads=_threads(threads), debug=bool(debug), precision=precision,
@@ -87,14 +101,15 @@ def _unavailable(name: str, why: str = "it is not available on this machine") ->
     available = ", ".join(n for n, a in ARCHS.items() if _supported(a))
     return BackendUnavailable(f"timpm cannot run on the {name} backend: {why} (available: "
                               f"{available}); timpm does not fall back to the CPU silently: "
-                              f"use timpm.init(arch='cpu')")
+                              f"use timpm.init(arch='cpu') (on the command line: --arch cpu)")
 
 
 def init(threads: int | None = None, debug: bool = False, precision: str = "f64",
-         pin: bool = True, arch: str = "cpu") -> None:
+         pin: bool = True, arch: str | None = None) -> None:
     """Start Taichi, on the CPU unless ``arch`` names a GPU backend.
 
-    ``arch``: "cpu" (default), "cuda", "vulkan" or "metal"; a backend this machine lacks
+    ``arch``: "cpu", "cuda", "vulkan" or "metal" (default: ``TIMPM_ARCH``, else "cpu"; a
+    GPU backend scatters with atomic adds, on one launch per step); a backend this machine lacks
     raises :class:`BackendUnavailable`, not Taichi's silent fallback to the CPU (the
     runtime stays as it was, or restarts with the last settings or the defaults).
     ``threads`` caps the CPU worker threads (a positive integer; default: ``TIMPM_THREADS``
@@ -112,6 +127,14 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     previous = _state.get("settings")
     if previous == settings:
         return
+    arch = settings["arch"]
+    if arch != "cpu" and threading.current_thread() is not threading.main_thread():
+        # the interpreter's exit frees the runtime from the main thread, where the GPU
+        # context started here is not current: CUDA aborts the process (seen on an H100)
+        raise WrongThread(f"timpm starts a GPU backend ({arch}) from the main thread only, "
+                          f"not from {threading.current_thread().name!r}: the runtime is "
+                          f"freed from the main thread at exit, which another thread's GPU "
+                          f"context would abort")
     if not _supported(ARCHS[arch]):
         raise _unavailable(arch)
     failure = None

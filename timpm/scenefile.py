@@ -993,7 +993,7 @@ def _setting(text):
 
 
 def _parser():
-    from .argtypes import positive_float, positive_int
+    from .argtypes import add_runtime_arguments, positive_float, positive_int
 
     p = argparse.ArgumentParser(prog="timpm run", description="Run a scene file (TOML): a "
                                 "world of bodies or a benchmark problem; see "
@@ -1012,7 +1012,7 @@ def _parser():
     p.add_argument("--set", type=_setting, action="append", default=[], metavar="KEY=VALUE",
                    dest="settings", help="set any key, e.g. domain.cells=64, body[0].ppc=3, "
                    "simulation.transfer=musl; KEY= removes it")
-    p.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
+    add_runtime_arguments(p)
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar (default: on a terminal, for runs over 2 s)")
     p.add_argument("--quiet", action="store_true", help="no summary on stdout")
@@ -1047,7 +1047,8 @@ def main(argv) -> int:
         _, data = read_toml(args.file)
         form = "problem" if "problem" in data else "simulation"
         scene = load_scene(args.file, _command_line_overrides(args, form))
-        runtime.init(threads=args.threads, precision=scene.precision or "f64")
+        runtime.init(threads=args.threads, arch=args.arch,
+                     precision=scene.precision or "f64")
         with deferred_sigint():
             result = run_scene(scene, progress=args.progress)
     except RunInterrupted as stop:
@@ -1056,7 +1057,7 @@ def main(argv) -> int:
         print(f"timpm: interrupted at step {stop.step} (t = {stop.t:g} s){saved}"
               + (f"; partial record {record}" if record else ""), file=sys.stderr)
         return 130
-    except (ValueError, SimulationError) as exc:
+    except (ValueError, SimulationError, runtime.BackendUnavailable) as exc:
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
     if not args.quiet:

@@ -36,7 +36,10 @@ def auto_mode(n_particles: int, serial_threshold: int, cpu_threads: int) -> str:
     """The mode ``mode="auto"`` picks: fused serial steps up to ``serial_threshold``
     particles, and at any size on one CPU thread (``cpu_threads``: 0 off the CPU), where a
     parallel loop only hands its work to Taichi's pool and waits to be woken (0.1-0.4 ms
-    per step on a 2-vCPU machine, at any particle count)."""
+    per step on a 2-vCPU machine, at any particle count); off the CPU, parallel launches
+    (a serialized loop there runs on one GPU thread)."""
+    if cpu_threads == 0:
+        return "parallel"
     return "serial" if n_particles <= serial_threshold or cpu_threads == 1 else "parallel"
 
 
@@ -168,6 +171,10 @@ class Layout:
 def _scatter_choice(scatter, mode, private_ok):
     if scatter not in SCATTERS:
         raise ValueError(f"unknown scatter {scatter!r}: choose one of {', '.join(SCATTERS)}")
+    if scatter == "private" and not runtime.on_cpu():
+        raise ValueError(f"the private scatter (a grid copy per CPU thread) runs on the CPU "
+                         f"only, not on {runtime.arch()}: use scatter='atomic' (the default "
+                         f"there)")
     if scatter == "private" and not private_ok:
         raise ValueError("the private scatter needs a lumped mass without the MLS "
                          "projection; use scatter='serial' or 'atomic'")

@@ -64,7 +64,7 @@ import time
 
 import numpy as np
 
-from ..argtypes import non_negative_int, param, positive_float, positive_int
+from ..argtypes import add_runtime_arguments, non_negative_int, param, positive_float, positive_int
 from ..checks import whole
 from ..basis import BASES, get_basis
 from ..problems import PROBLEMS, get_problem
@@ -406,7 +406,7 @@ def add_parser(subparsers):
     p.add_argument("--repeats", type=positive_int, default=3,
                    help="timed runs per configuration, the minimum is kept (default 3)")
     p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"])
-    p.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
+    add_runtime_arguments(p)
     add_arguments(p)
     p.add_argument("--json", metavar="FILE", help="write runs, answers and settings as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="write the error-against-wall-time plot")
