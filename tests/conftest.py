@@ -10,6 +10,36 @@ os.environ.setdefault("TI_LOG_LEVEL", "warn")
 import timpm  # noqa: E402
 
 
+#: the backend the tests run on: the CPU unless TIMPM_ARCH names another (e.g. cuda on a
+#: GPU machine: the whole suite then runs there)
+ARCH = os.environ.get("TIMPM_ARCH", "").strip().lower() or "cpu"
+
+
+def pytest_collection_modifyitems(config, items):
+    """Off the CPU, skip the tests marked ``cpu_only``: the CPU's own strategies (private
+    scatter, team, pinned workers) and runs compared bit for bit (a GPU's atomic adds
+    add in another order each run)."""
+    if ARCH == "cpu":
+        return
+    for item in items:
+        marker = item.get_closest_marker("cpu_only")
+        if marker is not None:
+            reason = marker.args[0] if marker.args else "runs on the CPU only"
+            item.add_marker(pytest.mark.skip(reason=f"{reason} (tests on {ARCH})"))
+
+
+def assert_same_run(actual, desired):
+    """Bit for bit on the CPU; on a GPU, to round-off of the largest value (atomic adds
+    there add in another order)."""
+    import numpy as np
+
+    if ARCH == "cpu":
+        np.testing.assert_array_equal(actual, desired)
+    else:
+        np.testing.assert_allclose(actual, desired, rtol=0,
+                                   atol=1e-12 * max(1.0, float(np.abs(desired).max())))
+
+
 def pytest_configure(config):
     # the process that runs tests starts Taichi (with pytest-xdist, each worker does; the
     # controller only distributes the test files); two threads at most: CI machines have

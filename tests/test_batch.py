@@ -69,6 +69,7 @@ def test_reset_repeats_a_2d_affine_run_bit_for_bit():
         s.release()
 
 
+@pytest.mark.cpu_only("compared bit for bit")
 def test_batch_members_match_their_runs_alone():
     """Side by side on the threads, each member's run is its run alone, bit for bit: the
     same positions, energies, tracked series and grid crossings."""
@@ -170,6 +171,7 @@ def test_batch_refuses_what_it_cannot_run():
     par.release()
 
 
+@pytest.mark.cpu_only("compared bit for bit")
 def test_meshes_after_the_first_compile_nothing_and_a_batch_gives_the_same_table():
     """Solvers of one feature set share one compiled program: a second run of the same
     scene, and a run on another mesh, compile nothing."""
@@ -201,6 +203,7 @@ def test_meshes_after_the_first_compile_nothing_and_a_batch_gives_the_same_table
         clear_solvers()
 
 
+@pytest.mark.cpu_only("CPU worker threads")
 def test_workers_are_pinned_one_per_core():
     """With two threads or more on two cores or more, timpm binds Taichi's workers to
     distinct cores (runtime.init's default)."""

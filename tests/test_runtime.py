@@ -42,7 +42,9 @@ def _script(tmp_path, body, env=None):
     timeout: a hung pool worker must not outlive the test); returns (rc, stdout, stderr)."""
     path = tmp_path / "script.py"
     path.write_text(PRELUDE + textwrap.dedent(body))
-    full_env = {**os.environ, "TIMPM_THREADS": "1", **(env or {})}
+    # the CPU's runtime, whatever backend the test session runs on (tests/test_gpu.py)
+    full_env = {k: v for k, v in os.environ.items() if k != "TIMPM_ARCH"}
+    full_env.update({"TIMPM_THREADS": "1", **(env or {})})
     proc = subprocess.Popen([sys.executable, str(path)], env=full_env, cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
@@ -96,6 +98,7 @@ def test_TIMPM_THREADS_sets_the_default(tmp_path):
 
 # ---- backends -------------------------------------------------------------------------
 
+@pytest.mark.cpu_only("describes a CPU runtime")
 def test_helpers_describe_the_session_runtime():
     cfg = impl.current_cfg()
     assert runtime.arch() == "cpu" and runtime.on_cpu()

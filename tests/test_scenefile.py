@@ -132,6 +132,7 @@ def test_the_3d_example_builds_a_3d_world():
     np.testing.assert_allclose(world.mass_per_particle, 1000.0 * dx ** 3, rtol=1e-15)
 
 
+@pytest.mark.cpu_only("compared bit for bit")
 def test_problem_scene_gives_the_record_of_run_problem(tmp_path):
     scene = load_scene(ROOT / "examples" / "vibrating_string.toml",
                        {"problem.t_end": 0.002, "output.json": None})
