@@ -3,9 +3,10 @@
 :func:`run_mpm88` executes ``examples/simulation/mpm88.py`` of the installed taichi
 package in a fresh process, its code unchanged except for the particle count (a
 constant of the script, for the 128k runs): only ``ti.GUI`` is replaced by a headless
-stand-in that times the frames (50 substeps each) and records the particles.  The CPU
-backend and the thread count come from Taichi's own environment variables (``TI_ARCH``,
-``TI_CPU_MAX_NUM_THREADS``), so ``ti.init`` in the script is untouched.
+stand-in that times the frames (50 substeps each) and records the particles.  The
+backend (the CPU unless asked) and the thread count come from Taichi's own environment
+variables (``TI_ARCH``, ``TI_CPU_MAX_NUM_THREADS``), so ``ti.init`` in the script is
+untouched.
 
 The same physics in timpm is :func:`timpm.scenarios.mpm88.mpm88_world`.
 """
@@ -94,9 +95,11 @@ def _worker(n_particles, frames, out, pin=False):
              dtype=str(namespace["x"].dtype), pinned=record["pinned"])
 
 
-def run_mpm88(n_particles=8192, frames=4, threads=None, pin=False, timeout=900) -> dict:
-    """Run the installed mpm88 headless in a subprocess (CPU backend, ``threads`` threads;
-    ``pin``: Taichi's workers bound one per core, as :func:`timpm.runtime.init` does).
+def run_mpm88(n_particles=8192, frames=4, threads=None, pin=False, timeout=900,
+              arch="x64") -> dict:
+    """Run the installed mpm88 headless in a subprocess (``arch``: Taichi's backend name,
+    the CPU by default, with ``threads`` threads; ``pin``: Taichi's workers bound one per
+    core, as :func:`timpm.runtime.init` does).
 
     Returns the particle-substeps per second of the fastest frame after the first (which
     compiles; ``mpss_mean``: over all of them), the initial positions and the positions
@@ -104,7 +107,7 @@ def run_mpm88(n_particles=8192, frames=4, threads=None, pin=False, timeout=900) 
     """
     if int(frames) < 2:
         raise ValueError(f"frames must be at least 2 (the first compiles), got {frames!r}")
-    env = dict(os.environ, TI_ARCH="x64")
+    env = dict(os.environ, TI_ARCH=arch)
     if threads:
         env["TI_CPU_MAX_NUM_THREADS"] = str(int(threads))
     with tempfile.TemporaryDirectory() as tmp:
