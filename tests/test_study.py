@@ -68,3 +68,68 @@ def test_oedometer_large_load_strain_with_damping(p0):
     assert r.record["strain_relative_error"] < 0.01
     # and it is the large-deformation answer, not the small one
     assert abs(r.record["strain"] + p0 / 1e5) > 0.05 * p0 / 1e5
+
+
+def test_oedometer_comes_to_rest_with_a_pic_share():
+    """The study's FLIP update leaves the oedometer's 640 particles on 11 nodes with
+    velocities of tenths of m/s at rest (a particle-velocity mode the grid does not see,
+    untouched by local damping on grid forces); the oedometer's 1% PIC share damps it:
+    every particle at rest to round-off at t = 6 s, and the strain closer to exact."""
+    from timpm.problems import get_problem
+    from timpm.solver import Solver
+
+    prob = get_problem("oedometer")
+    speeds = {}
+    for b in (0.0, None):  # None: the problem's default, 1% PIC
+        scene = prob.scene(pic_fraction=b)
+        s = Solver(scene, energies=False)
+        s.run(t_end=prob.t_end)
+        speeds[b] = float(np.abs(s.velocities()).max())
+        s.release()
+    assert prob.scene().model.pic_fraction == 0.01
+    assert speeds[0.0] > 0.1  # FLIP: the mode is there
+    assert speeds[None] < 1e-9  # the load's ramp ended 5 s before: at rest
+    flip = run_problem("oedometer", pic_fraction=0.0)
+    blend = run_problem("oedometer")
+    assert blend.record["strain_relative_error"] < flip.record["strain_relative_error"]
+
+
+@pytest.mark.parametrize("b", [0.3, 1.0])
+def test_a_pic_share_conserves_momentum_and_mass(b):
+    """v_p = (1 - b)(v_p + dt sum phi a) + b sum phi (v_i + dt a_i): with the lumped mass
+    both parts carry the grid's momentum, so a body in free flight (no walls, no gravity)
+    keeps its momentum to round-off whatever b, here two bodies colliding."""
+    from timpm import Body, Box, World
+    from timpm.materials import NeoHookean
+    from timpm.solver import Solver
+
+    rubber = NeoHookean(E=1e4, nu=0.3, density=1000.0)
+    bodies = [Body(Box((0.2, 0.3), (0.45, 0.5)), rubber, velocity=(2.0, 0.0)),
+              Body(Box((0.5, 0.35), (0.7, 0.6)), rubber, velocity=(-1.0, 0.5))]
+    world = World(domain=(1.0, 1.0), cells=16, bodies=bodies, transfer="musl",
+                  basis="uniform-bspline2", gravity=(0.0, 0.0), walls=None, pic_fraction=b)
+    s = Solver(world, energies=False)
+    m = s.read("m")
+    p0 = (m[:, None] * s.velocities()).sum(axis=0)
+    first = s.velocities()[:, 0] > 1.5  # the body moving right at 2 m/s
+    s.run(t_end=0.05)  # they meet after about 0.017 s
+    v = s.velocities()
+    p1 = (m[:, None] * v).sum(axis=0)
+    s.release()
+    assert v[first, 0].mean() < 1.5  # the collision slowed it
+    np.testing.assert_allclose(p1, p0, rtol=0, atol=1e-12 * (m[:, None] * np.abs(v)).sum())
+
+
+def test_pic_fraction_is_checked():
+    from timpm.problems import get_problem
+
+    prob = get_problem("vibrating-string")
+    with pytest.raises(ValueError, match=r"pic_fraction must lie in \[0, 1\] \(0: FLIP, the "
+                                         r"study's update; 1: PIC\), got 1.5"):
+        prob.scene(pic_fraction=1.5)
+    with pytest.raises(ValueError, match="pic_fraction blends PIC into the musl transfer's FLIP "
+                                         "update with the lumped mass and the standard "
+                                         "projection, not musl with consistent mass"):
+        prob.scene(pic_fraction=0.1, mass="consistent", basis="bspline2")
+    with pytest.raises(ValueError, match="apic and mls-mpm carry the velocity as PIC already"):
+        prob.scene(pic_fraction=0.1, transfer="apic")

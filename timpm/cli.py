@@ -39,6 +39,9 @@ def _add_common(p):
                         "*-exact: the same law integrated exactly over each step (no "
                         "drifting mean stress on long runs; strain energy W(F) V0)")
     p.add_argument("--damping", type=float, help="local damping factor alpha (A.4)")
+    p.add_argument("--pic-fraction", type=float, metavar="B",
+                   help="PIC share b of the musl velocity update, v_p = (1-b) FLIP + b PIC "
+                        "(default: the problem's, 0 but for the oedometer)")
     p.add_argument("--projection", default="standard", choices=list(PROJECTIONS),
                    help="mls: velocity, density and stress reconstructed by moving least "
                         "squares, forces at Gauss points (4.4)")
@@ -320,7 +323,8 @@ def _run(args, start):
 def _options(args):
     return dict(ppc=args.ppc, basis=args.basis, mass=args.mass, dt=args.dt, t_end=args.t_end,
                 placement=args.placement, stress_update=args.stress_update,
-                damping=args.damping, allow_unstable_dt=args.allow_unstable_dt,
+                damping=args.damping, pic_fraction=args.pic_fraction,
+                allow_unstable_dt=args.allow_unstable_dt,
                 allow_many_steps=args.allow_many_steps,
                 projection=args.projection, transfer=args.transfer,
                 mode=args.mode, params=dict(args.param))

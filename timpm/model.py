@@ -108,9 +108,9 @@ def walls_from(spec, dim: int, default="slip", open_ok=False):
 
 
 def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standard",
-                 damping=0.0):
-    """The basis, transfer, mass matrix, projection and damping of a ``dim``-dimensional
-    model go together (an error names the conflict)."""
+                 damping=0.0, pic_fraction=0.0):
+    """The basis, transfer, mass matrix, projection, damping and PIC fraction of a
+    ``dim``-dimensional model go together (an error names the conflict)."""
     basis = get_basis(basis)
     if dim > 1 and not basis.nd:
         raise ValueError(f"the {basis.name} basis is 1D only: 2D/3D grids take "
@@ -153,6 +153,19 @@ def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standar
         raise ValueError("local damping (A.4) acts on the grid forces of the musl transfer; "
                          f"the {transfer} transfer folds them into the momentum: use "
                          "transfer='musl' or damping=0")
+    given = pic_fraction
+    try:
+        pic_fraction = float(pic_fraction)
+    except (TypeError, ValueError):
+        pic_fraction = float("nan")
+    if not (0.0 <= pic_fraction <= 1.0):
+        raise ValueError(f"pic_fraction must lie in [0, 1] (0: FLIP, the study's update; 1: "
+                         f"PIC), got {given!r}")
+    if pic_fraction and (transfer != "musl" or mass != "lumped" or projection != "standard"):
+        raise ValueError(f"pic_fraction blends PIC into the musl transfer's FLIP update with "
+                         f"the lumped mass and the standard projection, not {transfer} with "
+                         f"{mass} mass and the {projection} projection (apic and mls-mpm "
+                         f"carry the velocity as PIC already)")
 
 
 def _index_array(name, value, n, limit):
@@ -179,7 +192,10 @@ class Model:
     lumped mass, standard projection);
     ``gravity`` the acceleration per axis; ``body_force`` a :class:`~timpm.loads.BodyForce`
     b(X, t) per unit mass (a Python function, vectorised); ``traction`` the study's load
-    on one particle (1D); ``damping`` the local damping factor alpha of A.4.
+    on one particle (1D); ``damping`` the local damping factor alpha of A.4;
+    ``pic_fraction`` b blends the MUSL particle velocity update: v_p = (1 - b)(v_p + dt
+    sum phi_i a_i) + b sum phi_i (v_i + dt a_i) (0: FLIP, the study's; 1: PIC, which damps
+    the particle-velocity modes the grid cannot see).
     ``velocity`` is an (n, dim) array or a function v0(X) of the (n, dim) positions.
     ``displacement`` a function u0(X) (vectorised like v0): the body starts deformed, its
     particles at x = X + u0(X) with F = I + grad u0 (central differences of u0, step
@@ -207,6 +223,7 @@ class Model:
     projection: str = "standard"
     gravity: tuple | None = None
     damping: float = 0.0
+    pic_fraction: float = 0.0
     walls: tuple | None = None
     wall_cells: tuple | None = None
     fixed_nodes: tuple = ()
@@ -360,10 +377,11 @@ class Model:
 
     def _check_scheme(self, dim, basis):
         check_scheme(dim, basis, self.transfer, self.mass_matrix, self.projection,
-                     self.damping)
+                     self.damping, self.pic_fraction)
         g = (0.0,) * dim if self.gravity is None else self.gravity
         object.__setattr__(self, "gravity", tuple(float(c) for c in vector("gravity", g, dim)))
         object.__setattr__(self, "damping", float(self.damping))
+        object.__setattr__(self, "pic_fraction", float(self.pic_fraction))
 
     def _check_boundaries(self, dim, basis):
         set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731

@@ -224,7 +224,8 @@ class Scene:
     coefficient, a :class:`~timpm.model.Wall`) or a dict ``{"left": ..., "right": ...}``,
     None for no wall (lumped mass, standard projection); ``gravity`` the signed
     acceleration along x (negative points down); ``damping`` the local damping factor
-    alpha of A.4; ``projection`` the particle-to-grid projection (``PROJECTIONS``);
+    alpha of A.4; ``pic_fraction`` the PIC share of the MUSL velocity update (see
+    :class:`~timpm.model.Model`); ``projection`` the particle-to-grid projection (``PROJECTIONS``);
     ``transfer`` the particle-grid transfer (the study's ``"musl"``, or the affine
     ``"apic"`` and ``"mls-mpm"`` with uniformly spaced nodes); ``displacement`` a function
     u0(X) the body starts displaced by (see :class:`~timpm.model.Model`).
@@ -242,6 +243,7 @@ class Scene:
     traction: Traction | None = None
     fixed_nodes: tuple = ()
     damping: float = 0.0
+    pic_fraction: float = 0.0
     projection: str = "standard"
     walls: object = None
     allow_unstable_dt: bool = False
@@ -271,7 +273,8 @@ class Scene:
                       volume=self.volume, velocity=self.velocity,
                       materials=(self.material.law(),), dt=self.dt, transfer=self.transfer,
                       mass_matrix=self.mass, projection=self.projection,
-                      gravity=(float(self.gravity),), damping=self.damping, walls=walls,
+                      gravity=(float(self.gravity),), damping=self.damping,
+                      pic_fraction=self.pic_fraction, walls=walls,
                       fixed_nodes=fixed_nodes, fixed_time=self.fixed_time,
                       traction=self.traction, name=self.name,
                       displacement=self.displacement)

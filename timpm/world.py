@@ -234,6 +234,7 @@ class World:
     allow_overlap: bool = False
     allow_unstable_dt: bool = False
     damping: float = 0.0
+    pic_fraction: float = 0.0
     fixed_nodes: tuple = ()
     fixed_time: object = None
     tractions: tuple = ()
@@ -259,7 +260,8 @@ class World:
         if not basis.nd:
             raise ValueError(f"the {basis.name} basis is 1D only: a World's grid takes "
                              f"{', '.join(ND_BASES)} (a Scene takes every basis)")
-        check_scheme(dim, basis, self.transfer, damping=self.damping)
+        check_scheme(dim, basis, self.transfer, damping=self.damping,
+                     pic_fraction=self.pic_fraction)
         g = np.zeros(dim) if self.gravity is None else _vector("gravity", self.gravity, dim)
         if self.gravity is None:
             g[min(1, dim - 1)] = -9.81  # down y in 2D and 3D, down x in 1D
@@ -284,7 +286,7 @@ class World:
                       velocity=part["velocity"], materials=part["materials"],
                       material_index=part["material_index"], body_index=part["body_index"],
                       dt=self.dt, transfer=self.transfer, gravity=tuple(g),
-                      damping=self.damping, walls=self.walls,
+                      damping=self.damping, pic_fraction=self.pic_fraction, walls=self.walls,
                       wall_cells=tuple((pad, pad + c) for c in n),
                       fixed_nodes=(dict(self.fixed_nodes) if isinstance(self.fixed_nodes, dict)
                                    else tuple(self.fixed_nodes)),

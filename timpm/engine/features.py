@@ -75,6 +75,7 @@ class FeatureSet:
     volume_guard: bool           # V / V0 checked against a range every step
     precision: str
     arch: str
+    pic: bool = False            # a PIC share in the MUSL velocity update (pic_fraction)
 
     # ---- derived choices ---------------------------------------------------------------
     @property
@@ -272,7 +273,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         energies=bool(energies), tracking=len(track) > 0, mode=run_mode, scatter=scatter,
         n_copies=n_copies, team=team_ok and requested in ("team", "auto"),
         volume_guard=volume_range is not None and not all(m.initial_volume for m in materials),
-        precision=runtime.precision(), arch=runtime.arch())
+        precision=runtime.precision(), arch=runtime.arch(), pic=model.pic_fraction > 0.0)
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
         per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))
@@ -290,6 +291,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         scatter_block=max(MIN_CPU_BLOCK, -(-n // n_copies)), n_tracked=len(track))
     if features.volume_guard:
         values.update(volume_min=volume_range[0], volume_max=volume_range[1])
+    if features.pic:
+        values.update(pic_fraction=model.pic_fraction)
     if features.mls_mpm:
         D_inv = 1.0 / (basis.inertia * h ** 2)
         values.update(D_inv=D_inv, dt_D_inv=model.dt * D_inv)

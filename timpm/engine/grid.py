@@ -112,7 +112,15 @@ class GridOps:
             if self._is_fixed(I):  # a Dirichlet node: a = (v(t_n + dt) - v(t_n)) / dt
                 self.gf[I] = (self._prescribed_velocity(I, True)
                               - self._prescribed_velocity(I, False)) / self.p.dt()
-        if ti.static(self.damping or self.has_walls):
+        if ti.static(self.pic):
+            # the grid velocity after the update, v_i^L = P_i / m_i + dt a_i (a wall's a
+            # makes it the wall's velocity; zero at Dirichlet and empty nodes)
+            v_new = self._lumped_solve(I, self.gp[I]) + self.p.dt() * self.gf[I]
+            if ti.static(self.prescribed):
+                if self._is_fixed(I):
+                    v_new = self._prescribed_velocity(I, True)
+            self.gv[I] = v_new
+        if ti.static(self.damping or self.has_walls or self.pic):
             self.gp[I] = ti.Vector.zero(float, self.dim)  # P2G scattered P_i
 
     @ti.func

@@ -85,6 +85,8 @@ def _param_spec(features):
         spec.update(D_inv="real", dt_D_inv="real")
     if features.volume_guard:
         spec.update(volume_min="real", volume_max="real")
+    if features.pic:
+        spec.update(pic_fraction="real")
     if features.traction is not None:
         spec.update(traction_particle="int", traction_amplitude="real", traction_param="real")
     if features.prescribed is not None:
@@ -114,6 +116,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
         self.transfer, self.mode, self.team = f.transfer, f.mode, f.team
         self.apic, self.mls_mpm, self.strain_remap = f.apic, f.mls_mpm, f.strain_remap
         self.consistent, self.mls, self.damping = f.consistent, f.mls, f.damping
+        self.pic = f.pic
         self.private_scatter, self.serial_scatter = f.private_scatter, f.serial_scatter
         self.run_sums, self.n_copies = f.run_sums, f.n_copies
         self.walls, self.has_walls = f.walls, f.has_walls
@@ -133,7 +136,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
                                                  for cls, flags in f.materials)
         self.bandwidth, self.node_offset = f.bandwidth, f.node_offset
         # rows of the run sums: the grid fields each scattering phase adds to
-        self.scatter_rows = {"p2g": ("gm", "gf") + (("gp",) if self.damping else ()),
+        self.scatter_rows = {"p2g": ("gm", "gf") + (("gp",) if self.damping or self.pic else ()),
                              "g2p-velocity": ("gp",)}
         self._allocate(capacity)
         self._bind_kernels()
@@ -185,7 +188,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
         grid = {"gm": ti.field(real), "gp": ti.Vector.field(d, real)}
         if not self.apic:
             grid["gf"] = ti.Vector.field(d, real)
-        else:
+        if self.apic or self.pic:
             grid["gv"] = ti.Vector.field(d, real)  # velocity of the last grid update
         if self.f.fixed:
             grid["fixed"] = ti.field(ti.i32)

@@ -124,7 +124,7 @@ class Transfer:
                                                 phi * fp - stress_volume @ grad, node_values)
                 else:
                     self.accumulate(self.gf[node], phi * fp)
-                if ti.static(not self.apic and (self.damping or self.has_walls)):
+                if ti.static(not self.apic and (self.damping or self.has_walls or self.pic)):
                     node_values = self._deposit("gp", copy, node, offset, mp * phi * self.v[p],
                                                 node_values)
             if ti.static(self.consistent):
@@ -135,7 +135,8 @@ class Transfer:
 
     @ti.func
     def _g2p_velocity(self):
-        # G2P: v_p += dt sum_i phi_i(x_p) a_i (APIC: v_p = sum_i phi_i v_i, C_p);
+        # G2P: v_p += dt sum_i phi_i(x_p) a_i (APIC: v_p = sum_i phi_i v_i, C_p; with a
+        # PIC fraction b: v_p = (1 - b)(v_p + dt sum phi_i a_i) + b sum phi_i v_i^L);
         # P2G: P_i = sum m_p phi_i(x_p) v_p (2.2.4)
         self._scatter_particles("g2p-velocity")
         if ti.static(self.private_scatter):
@@ -154,10 +155,16 @@ class Transfer:
                 self.C[p] = B  # the linear basis keeps B_p (see _p2g)
             else:
                 acc = ti.Vector.zero(float, self.dim)
+                pic = ti.Vector.zero(float, self.dim)
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
                     acc += phi * self.gf[base + offset]
+                    if ti.static(self.pic):
+                        pic += phi * self.gv[base + offset]
                 vp = self.v[p] + self.p.dt() * acc
+                if ti.static(self.pic):
+                    b = self.p.pic_fraction()
+                    vp = (1.0 - b) * vp + b * pic
             self.v[p] = vp
             if ti.static(self.mls):
                 self._scatter_node_moments(p, vp[0])

@@ -34,6 +34,8 @@ class Problem:
     #: the body's end at x = L is free: the grid reaches beyond it so that the end may
     #: move out without leaving the grid, and away from the boundary-fitted basis there
     free_end = False
+    #: the PIC share of the MUSL velocity update (0: FLIP, the study's)
+    pic_fraction = 0.0
 
     def with_params(self, **params):
         """A copy with some physical parameters changed (names are checked; a whole
@@ -103,9 +105,11 @@ class Problem:
 
     def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
-              damping=None, projection="standard", transfer="musl") -> Scene:
+              damping=None, projection="standard", transfer="musl",
+              pic_fraction=None) -> Scene:
         """The problem's scene with ``elements`` elements over the body and ``ppc``
-        particles per element placed by ``placement``; unset values take the defaults."""
+        particles per element placed by ``placement``; unset values take the defaults
+        (``pic_fraction``: the problem's :attr:`pic_fraction`)."""
         elements, ppc, placement, basis_cls = self.numerics(elements, ppc, placement, basis)
         dt = self.dt if dt is None else dt
         grid = self.grid(elements, basis_cls)
@@ -114,7 +118,11 @@ class Problem:
         extras = self.conditions(x, basis_cls, grid)
         if damping is not None:
             extras["damping"] = damping
-        return Scene(grid=grid, material=material, positions=x, volume=vol, dt=dt,
+        if pic_fraction is None:
+            # the problem's blend where it applies (MUSL, lumped mass, standard projection)
+            plain = transfer == "musl" and mass == "lumped" and projection == "standard"
+            pic_fraction = self.pic_fraction if plain else 0.0
+        return Scene(pic_fraction=pic_fraction, grid=grid, material=material, positions=x, volume=vol, dt=dt,
                      basis=basis_cls.name, mass=mass, allow_unstable_dt=allow_unstable_dt,
                      projection=projection, transfer=transfer, name=self.name, **extras)
 

@@ -127,7 +127,8 @@ class ManufacturedSolution(Problem):
     # ---- the scene ---------------------------------------------------------------------
     def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
-              damping=None, projection="standard", transfer="musl") -> "ProblemScene":
+              damping=None, projection="standard", transfer="musl",
+              pic_fraction=None) -> "ProblemScene":
         """The model on ``elements`` cells per axis, ``ppc`` particles per cell and axis
         placed by ``placement`` (``timpm.scene.PLACEMENTS``), dt = 0.2 h / c unless given."""
         if stress_update != "study":
@@ -151,6 +152,7 @@ class ManufacturedSolution(Problem):
                       materials=(self.material_law,), dt=dt, velocity=lambda P: self.velocity(
                           P, 0.0), transfer=transfer, mass_matrix=mass, projection=projection,
                       damping=0.0 if damping is None else damping,
+                      pic_fraction=0.0 if pic_fraction is None else pic_fraction,
                       body_force=BodyForce(self.body_force), name=self.name, **boundary)
         if self.dim == 1:
             fixed = tuple(i for (i,) in model.fixed_nodes)

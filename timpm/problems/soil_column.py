@@ -146,7 +146,7 @@ class SoilColumn2D(SoilColumn):
 
     def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
-              damping=None, projection="standard", transfer="musl"):
+              damping=None, projection="standard", transfer="musl", pic_fraction=None):
         from ..materials import LinearElastic
         from ..model import Model, Wall
 
@@ -168,6 +168,7 @@ class SoilColumn2D(SoilColumn):
                       materials=(LinearElastic(self.E, 0.0, self.density),), dt=dt,
                       transfer=transfer, mass_matrix=mass, projection=projection,
                       gravity=(0.0, self.gravity), damping=0.0 if damping is None else damping,
+                      pic_fraction=0.0 if pic_fraction is None else pic_fraction,
                       walls=(Wall("slip"), Wall("slip"), Wall("sticky"), None),
                       wall_cells=((side, side + self.width), (side, side + n + top)),
                       name=self.name)

@@ -36,7 +36,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                 mass="lumped", dt=None, t_end=None, placement=None, stress_update="study",
                 damping=None, allow_unstable_dt=False, mode="auto", record_every=None,
                 progress=None, params=None, energies=True, projection="standard",
-                series=True, reuse=True, transfer="musl", fields=None,
+                series=True, reuse=True, transfer="musl", pic_fraction=None, fields=None,
                 frames=20, checkpoint=None, checkpoint_every=None,
                 interrupted_to=None, resume=None, allow_many_steps=False) -> RunResult:
     """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
@@ -48,7 +48,8 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     ``compile_seconds``) and grid_crossings.  ``series=False`` records no time series of
     the monitored particle (the study's figures need it, its tables do not);
     ``transfer`` is the particle-grid transfer (``"musl"``, ``"apic"``, ``"mls-mpm"``);
-    ``reuse=True`` keeps the scene for a later run with the same arguments (see
+    ``pic_fraction`` the PIC share of the MUSL velocity update (None: the problem's, 0
+    for all but the oedometer; see :class:`timpm.model.Model`); ``reuse=True`` keeps the scene for a later run with the same arguments (see
     :func:`clear_solvers`).  Solvers of one feature set share their compiled program, so
     a run after the first of its kind compiles nothing.  ``fields`` (a
     :class:`timpm.output.fields.FieldWriter`) receives the particle fields at ``frames``
@@ -79,7 +80,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                              f"{checkpoint_every!r}")
     run = _plan(problem, elements, ppc, basis, mass, dt, t_end, placement, stress_update,
                 damping, allow_unstable_dt, record_every, params, energies, projection, series,
-                transfer, reuse=reuse)
+                transfer, pic_fraction, reuse=reuse)
     description = None
     if isinstance(problem, str):
         description = dict(problem=problem, elements=run.elements, ppc=run.ppc, basis=basis,
@@ -88,7 +89,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                            allow_unstable_dt=allow_unstable_dt, mode=mode,
                            record_every=run.every, params=dict(params or {}),
                            energies=bool(energies), projection=projection,
-                           series=bool(series), transfer=transfer)
+                           series=bool(series), transfer=transfer, pic_fraction=pic_fraction)
     steps = step_count(run.t_end, run.scene.dt, allow_many_steps)  # before any is built
     t_build = time.perf_counter()
     solver = Solver(run.scene, track=run.track, record_every=run.every, energies=energies,
@@ -185,7 +186,7 @@ class _Run:
 
     def __init__(self, problem, elements, ppc, basis, mass, dt, t_end, placement,
                  stress_update, damping, allow_unstable_dt, record_every, params, energies,
-                 projection, series, transfer):
+                 projection, series, transfer, pic_fraction=None):
         self.prob = prob = get_problem(problem, **(params or {}))
         self.elements = prob.elements if elements is None else elements
         self.ppc = prob.ppc if ppc is None else ppc
@@ -198,7 +199,8 @@ class _Run:
         self.scene = prob.scene(elements=self.elements, ppc=self.ppc, basis=basis, mass=mass,
                                 dt=dt, placement=placement, stress_update=stress_update,
                                 allow_unstable_dt=allow_unstable_dt, damping=damping,
-                                projection=projection, transfer=transfer)
+                                projection=projection, transfer=transfer,
+                                pic_fraction=pic_fraction)
         self.x0 = self.scene.positions.copy()
         self.monitor = prob.monitored_particle(self.x0)
         self.track = [self.monitor] if series else []
@@ -317,7 +319,7 @@ def _check_options(problem, elements, options) -> None:
     _plan(problem, elements, a["ppc"], a["basis"], a["mass"], a["dt"], a["t_end"],
           a["placement"], a["stress_update"], a["damping"], a["allow_unstable_dt"],
           a["record_every"], a["params"], a["energies"], a["projection"], a["series"],
-          a["transfer"], reuse=a["reuse"])
+          a["transfer"], a["pic_fraction"], reuse=a["reuse"])
 
 
 def _mesh_record(problem, elements, options) -> dict:
@@ -329,12 +331,12 @@ def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", d
                 t_end=None, placement=None, stress_update="study", damping=None,
                 allow_unstable_dt=False, record_every=None, progress=None, params=None,
                 energies=True, projection="standard", series=True, mode="serial",
-                reuse=True, transfer="musl", allow_many_steps=False):
+                reuse=True, transfer="musl", pic_fraction=None, allow_many_steps=False):
     if mode != "serial":
         raise ValueError("a batch runs fused serial solvers: mode must be 'serial'")
     runs = [_plan(problem, n, ppc, basis, mass, dt, t_end, placement, stress_update, damping,
                   allow_unstable_dt, record_every, params, energies, projection, series,
-                  transfer, reuse=reuse)
+                  transfer, pic_fraction, reuse=reuse)
             for n in elements]
     if len({r.t_end for r in runs}) != 1:
         raise ValueError("the runs of a batch share t_end")
