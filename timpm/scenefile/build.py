@@ -1,0 +1,259 @@
+"""The checked scene: a scene file's tables, read and checked, made into a
+:class:`timpm.world.World` (the world form) or the arguments of
+:func:`timpm.studies.study.run_problem` (the problem form)."""
+import re
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+from ..loads import Ramp, SurfaceTraction
+from ..materials import MATERIALS, get_material
+from ..model import SIDES
+from ..problems import PROBLEMS
+from ..world import PRESETS, Ball, Body, Box, Wall, World
+from .keypaths import key_lines, parse_path
+from .reader import Reader, apply_overrides, describe, read_toml, suggest
+from .schema import (BODY, DOMAIN, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM, PROBLEM_OUTPUT,
+                     PROBLEM_TABLES, SHAPE_KEYS, SIMULATION, TRACTION, WALL, WORLD_TABLES,
+                     material_schema)
+
+
+@dataclass(frozen=True, eq=False)
+class SceneFile:
+    """A checked scene file: a ``world`` (the world form) or the keyword arguments of
+    :func:`timpm.studies.study.run_problem` (``problem``, the problem form), the run's
+    ``t_end``, ``mode``, ``precision`` (None: a problem, which runs in the precision
+    Taichi was started with) and the ``output`` settings."""
+
+    path: str
+    name: str
+    world: World | None
+    problem: dict | None
+    t_end: float | None
+    mode: str
+    precision: str
+    output: dict
+    reader: Reader = field(repr=False, default=None)
+
+    def error(self, path, message) -> ValueError:
+        """A ValueError naming the file, the line of key ``path`` and ``message``."""
+        return self.reader.error(path, message)
+
+
+def load_scene(path, overrides=None) -> SceneFile:
+    """Read and check the scene file ``path``; ``overrides`` maps key paths
+    (``"simulation.t_end"``, ``"body[0].ppc"``) to values that replace the file's (None
+    removes a key).  Errors are ValueErrors naming file, line and key (see the module)."""
+    text, data = read_toml(path)
+    overridden = apply_overrides(data, overrides, path)
+    reader = Reader(path, data, key_lines(text), overridden)
+    if "problem" in data:
+        return _problem_scene(reader, data, Path(path))
+    return _world_scene(reader, data, Path(path))
+
+
+def _top_level(reader, data, tables, form):
+    for name in data:
+        if name not in tables:
+            hint = ""
+            if form == "problem" and name in WORLD_TABLES:
+                hint = (" (a file with [problem] runs a benchmark problem; a world's tables "
+                        "go in a file without it)")
+            raise reader.error((name,), f"unknown table{suggest(name, tables)}: a {form} "
+                               f"scene has {', '.join(f'[{t}]' for t in tables)}{hint}")
+
+
+def _output(reader, data, keys):
+    schema = {k: OUTPUT[k] for k in keys}
+    out = reader.table(("output",), data.get("output", {}), schema)
+    if out.get("vtk") is not None and out.get("npz") is not None:
+        raise reader.error(("output", "npz"), "give vtk or npz, not both: one field format")
+    return {**{k: OUTPUT[k].default for k in keys}, **out}
+
+
+def _problem_scene(reader, data, path) -> SceneFile:
+    _top_level(reader, data, PROBLEM_TABLES, "problem")
+    opts = reader.table(("problem",), data["problem"], PROBLEM)
+    output = _output(reader, data, PROBLEM_OUTPUT)
+    cls = PROBLEMS[opts.pop("name")]
+    params = opts.pop("params", {})
+    known = [f.name for f in fields(cls)]
+    for name in params:
+        if name not in known:
+            raise reader.error(("problem", "params", name),
+                               f"{cls.name} has no parameter {name!r}{suggest(name, known)}: "
+                               f"its parameters are {', '.join(known)}")
+    try:
+        cls().with_params(**params)
+    except (ValueError, TypeError) as err:
+        raise reader.error(("problem", "params"), str(err)) from None
+    kwargs = dict(opts, params=params)
+    return SceneFile(path=str(path), name=cls.name, world=None,
+                     problem=dict(problem=cls.name, **kwargs),
+                     t_end=opts.get("t_end", cls.t_end), mode=opts.get("mode", "auto"),
+                     precision=None, output=output, reader=reader)
+
+
+def _walls(reader, value, dim):
+    """The ``walls`` of World from ``domain.walls``: a wall, or a dict of side to wall."""
+    path = ("domain", "walls")
+    sides = SIDES[:2 * dim]
+
+    def wall(where, spec):
+        if isinstance(spec, str):
+            spec = {"kind": spec}
+        elif not isinstance(spec, dict):
+            raise reader.error(where, f"expected a wall kind ({', '.join(WALL['kind'].choices)})"
+                               f" or a table {{kind = ..., mu = ...}}, got {describe(spec)}")
+        w = reader.table(where, spec, WALL)
+        if w["kind"] == "none":
+            if "mu" in w:
+                raise reader.error(where + ("mu",), "an open side (kind none) takes no "
+                                   "friction coefficient")
+            return None
+        try:
+            return Wall(w["kind"], w.get("mu", 0.0))
+        except ValueError as err:
+            raise reader.error(where, str(err)) from None
+
+    if isinstance(value, dict) and "kind" not in value:
+        out = {}
+        for side, spec in value.items():
+            if side not in sides + ("default",):
+                raise reader.error(path + (side,), f"unknown side{suggest(side, sides)}: "
+                                   f"the sides of a {dim}D domain are {', '.join(sides)} "
+                                   "(and default)")
+            out[side] = wall(path + (side,), spec)
+        return out
+    return wall(path, value)
+
+
+def _materials(reader, data):
+    """The materials of ``[material.NAME]`` tables, by name."""
+    tables = data.get("material", {})
+    if not isinstance(tables, dict) or not all(isinstance(t, dict) for t in tables.values()):
+        raise reader.error(("material",), "expected tables [material.NAME] (a name, then "
+                           "type and parameters)")
+    out = {}
+    for name, table in tables.items():
+        where = ("material", name)
+        if "type" not in table:
+            raise reader.error(where, f"missing required key 'type': one of "
+                               f"{', '.join(MATERIALS)}")
+        kind = reader.value(where + ("type",), MATERIAL_TYPE, table["type"])
+        params = reader.table(where, table, material_schema(kind))
+        params.pop("type")
+        try:
+            out[name] = get_material(kind, **params)
+        except ValueError as err:
+            raise reader.error(where, str(err)) from None
+    return out
+
+
+def _bodies(reader, data, materials, dim):
+    if "body" not in data:
+        raise reader.error(("body",), "missing: a world needs at least one [[body]]")
+    tables = reader.array_of_tables(("body",), data["body"], "one per body")
+    if not tables:
+        raise reader.error(("body",), "a world needs at least one [[body]]")
+    bodies = []
+    for k, table in enumerate(tables):
+        where = ("body", k)
+        shape = table.get("shape")
+        keys = SHAPE_KEYS.get(shape, ())
+        others = [n for n in (*SHAPE_KEYS["box"], *SHAPE_KEYS["ball"]) if n not in keys]
+        b = reader.table(where, table, BODY, dim, skip=others)
+        for name in others:
+            if name in table:
+                raise reader.error(where + (name,), f"a {shape} takes "
+                                   f"{' and '.join(SHAPE_KEYS[shape])}, not {name}")
+        name = b["material"]
+        if name in materials:
+            material = materials[name]
+        elif name in PRESETS:
+            material = name
+        else:
+            known = list(materials) + list(PRESETS)
+            raise reader.error(where + ("material",), f"unknown material {name!r}"
+                               f"{suggest(name, known)}: define [material.{name}] or use "
+                               f"one of {', '.join(known)}")
+        try:
+            geometry = (Box(b["lo"], b["hi"]) if shape == "box"
+                        else Ball(b["center"], b["radius"]))
+            bodies.append(Body(geometry, material, velocity=b.get("velocity"),
+                               ppc=b.get("ppc", 2), name=b.get("name", "")))
+        except ValueError as err:
+            raise reader.error(where, str(err)) from None
+    return bodies
+
+
+def _tractions(reader, tables, bodies, dim):
+    names = [b.name for b in bodies]
+    out = []
+    for k, table in enumerate(reader.array_of_tables(("loads", "traction"), tables,
+                                                     "one per loaded face")):
+        where = ("loads", "traction", k)
+        t = reader.table(where, table, TRACTION, dim)
+        if t["body"] not in names:
+            raise reader.error(where + ("body",), f"no body is named {t['body']!r}"
+                               f"{suggest(t['body'], names)}: the bodies are "
+                               f"{', '.join(repr(n) for n in names)}")
+        if t["side"] not in SIDES[:2 * dim]:
+            raise reader.error(where + ("side",), f"a {dim}D body has the sides "
+                               f"{', '.join(SIDES[:2 * dim])}")
+        ramp = t.get("ramp")
+        kwargs = {} if ramp is None else {"time_function": Ramp(ramp)}
+        out.append(SurfaceTraction(names.index(t["body"]), t["side"], t["traction"], **kwargs))
+    return out
+
+
+#: the key a World's error message is about, by the message's start
+_WORLD_ERRORS = ((r"bodies \d+ and (\d+) overlap", "body"), (r"body (\d+)\b", "body"),
+                 (r"tractions\[(\d+)\]", "loads.traction"), (r"the surface tractions", "loads"),
+                 (r"time step dt", "simulation.dt"), (r"courant", "simulation.courant"),
+                 (r"domain", "domain"), (r"the \S+ transfer|the mls-mpm", "simulation.transfer"),
+                 (r"damping|local damping", "simulation.damping"))
+
+
+def _world_error_key(message):
+    """The key path a World's error ``message`` names (None: none)."""
+    for pattern, key in _WORLD_ERRORS:
+        m = re.match(pattern, message)
+        if m:
+            return parse_path(key) + tuple(int(g) for g in m.groups())
+    return None
+
+
+def _world_scene(reader, data, path) -> SceneFile:
+    _top_level(reader, data, WORLD_TABLES, "world")
+    for name in ("simulation", "domain"):
+        if name not in data:
+            raise reader.error((name,), f"missing table [{name}] (or [problem] for a "
+                               "benchmark problem)")
+    sim = reader.table(("simulation",), data["simulation"], SIMULATION)
+    domain = reader.table(("domain",), data["domain"], DOMAIN, skip=("walls",))
+    dim = len(domain["size"])
+    if dim not in (1, 2, 3):
+        raise reader.error(("domain", "size"), f"expected 1, 2 or 3 lengths, got {dim}")
+    walls = _walls(reader, data["domain"].get("walls", "slip"), dim)
+    loads = reader.table(("loads",), data.get("loads", {}), LOADS, dim, skip=("traction",))
+    materials = _materials(reader, data)
+    bodies = _bodies(reader, data, materials, dim)
+    tractions = _tractions(reader, data.get("loads", {}).get("traction", []), bodies, dim)
+    output = _output(reader, data, tuple(OUTPUT))
+    if output["gif"] is not None and dim == 1:
+        raise reader.error(("output", "gif"), "a 1D world draws no GIF")
+    name = sim.get("name", path.stem)
+    try:
+        world = World(domain=domain["size"], cells=domain["cells"], bodies=bodies,
+                      basis=sim.get("basis", "uniform-bspline2"),
+                      transfer=sim.get("transfer", "apic"), gravity=loads.get("gravity"),
+                      walls=walls, dt=sim.get("dt"), courant=sim.get("courant"),
+                      allow_overlap=sim.get("allow_overlap", False),
+                      allow_unstable_dt=sim.get("allow_unstable_dt", False),
+                      damping=sim.get("damping", 0.0), tractions=tractions, name=name)
+    except ValueError as err:
+        key = _world_error_key(str(err))
+        raise (reader.error(key, str(err)) if key else ValueError(f"{path}: {err}")) from None
+    return SceneFile(path=str(path), name=name, world=world, problem=None, t_end=sim["t_end"],
+                     mode=sim.get("mode", "auto"), precision=sim.get("precision", "f64"),
+                     output=output, reader=reader)

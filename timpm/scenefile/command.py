@@ -1,0 +1,108 @@
+"""The command ``timpm run FILE.toml [options]``: its options made key overrides, the scene
+loaded, Taichi started and the scene run; errors print ``timpm: error: ...``."""
+import argparse
+import os
+import sys
+
+from ..interrupt import RunInterrupted, deferred_sigint
+from ..problems import PROBLEMS
+from .build import load_scene
+from .reader import read_toml
+from .runner import run_scene
+from .schema import MODES
+from .toml import tomllib
+
+
+def is_scene_argument(argv) -> bool:
+    """Whether ``timpm run`` arguments ``argv`` (after ``run``) name a scene file: an
+    argument ending in ``.toml``, or a first argument that names an existing file."""
+    if any(a.endswith(".toml") and not a.startswith("-") for a in argv):
+        return True
+    return bool(argv) and argv[0] not in PROBLEMS and os.path.isfile(argv[0])
+
+
+def _setting(text):
+    """KEY=VALUE: the value read as TOML (a number, true, [1, 2], "text"), else as a bare
+    string; empty removes the key."""
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    if not value:
+        return key, None
+    try:
+        return key, tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError:
+        return key, value
+
+
+def _parser():
+    from ..argtypes import add_runtime_arguments, positive_float, positive_int
+
+    p = argparse.ArgumentParser(prog="timpm run", description="Run a scene file (TOML): a "
+                                "world of bodies or a benchmark problem; see "
+                                "docs/scene_files.md.")
+    p.add_argument("file", help="the scene file")
+    p.add_argument("--t-end", type=positive_float, help="end time [s] (the file's t_end)")
+    p.add_argument("--dt", type=positive_float, help="time step [s] (the file's dt)")
+    p.add_argument("--mode", choices=MODES, help="how the steps run (the file's mode)")
+    p.add_argument("--frames", type=positive_int, help="output frames (output.frames)")
+    p.add_argument("--vtk", metavar="DIR", help="ParaView field files (replaces the file's "
+                   "vtk / npz)")
+    p.add_argument("--npz", metavar="DIR", help="NumPy field files (replaces the file's "
+                   "vtk / npz)")
+    p.add_argument("--gif", metavar="FILE.gif", help="animated GIF (output.gif)")
+    p.add_argument("--json", metavar="FILE", help="the run as JSON (output.json)")
+    p.add_argument("--set", type=_setting, action="append", default=[], metavar="KEY=VALUE",
+                   dest="settings", help="set any key, e.g. domain.cells=64, body[0].ppc=3, "
+                   "simulation.transfer=musl; KEY= removes it")
+    add_runtime_arguments(p)
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar (default: on a terminal, for runs over 2 s)")
+    p.add_argument("--quiet", action="store_true", help="no summary on stdout")
+    return p
+
+
+def _command_line_overrides(args, form):
+    """The key paths the options set (after ``--set``, so they win)."""
+    out = dict(args.settings)
+    for option in ("t_end", "dt", "mode"):
+        if getattr(args, option) is not None:
+            out[f"{form}.{option}"] = getattr(args, option)
+    if args.vtk and args.npz:
+        raise ValueError("--vtk and --npz: choose one field format")
+    for fmt, other in (("vtk", "npz"), ("npz", "vtk")):
+        if getattr(args, fmt):
+            out[f"output.{fmt}"], out[f"output.{other}"] = getattr(args, fmt), None
+    for option in ("frames", "gif", "json"):
+        if getattr(args, option) is not None:
+            out[f"output.{option}"] = getattr(args, option)
+    return out
+
+
+def main(argv) -> int:
+    """``timpm run FILE.toml [options]``: load, check and run the scene, print a summary;
+    an error prints ``timpm: error: ...`` and returns 2."""
+    from .. import runtime
+    from ..solver import SimulationError
+
+    args = _parser().parse_args(argv)
+    try:
+        _, data = read_toml(args.file)
+        form = "problem" if "problem" in data else "simulation"
+        scene = load_scene(args.file, _command_line_overrides(args, form))
+        runtime.init(threads=args.threads, arch=args.arch,
+                     precision=scene.precision or "f64")
+        with deferred_sigint():
+            result = run_scene(scene, progress=args.progress)
+    except RunInterrupted as stop:
+        saved = f"; state saved to {stop.checkpoint}" if stop.checkpoint else ""
+        record = scene.output.get("json")
+        print(f"timpm: interrupted at step {stop.step} (t = {stop.t:g} s){saved}"
+              + (f"; partial record {record}" if record else ""), file=sys.stderr)
+        return 130
+    except (ValueError, SimulationError, runtime.BackendUnavailable) as exc:
+        print(f"timpm: error: {exc}", file=sys.stderr)
+        return 2
+    if not args.quiet:
+        print(result.report())
+    return 0

@@ -1,0 +1,45 @@
+"""The schema as documentation: the key tables of docs/scene_files.md."""
+from ..materials import MATERIALS
+from .schema import (BODY, DOMAIN, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM, REQUIRED, SIMULATION,
+                     TRACTION, TYPES, WALL, material_schema)
+
+
+def _default_text(key):
+    if key.default is REQUIRED:
+        return "required"
+    if key.default is None:
+        return "none"
+    if isinstance(key.default, bool):
+        return str(key.default).lower()
+    if isinstance(key.default, str) and key.type in ("string", "walls") and key.default and \
+            " " not in key.default and key.default != "the problem's":
+        return f'`"{key.default}"`'
+    if isinstance(key.default, (dict, tuple)):
+        return "none"
+    return str(key.default) if key.default != "" else '`""`'
+
+
+def _markdown(schema, title):
+    rows = [f"**{title}**", "", "| key | type | default | unit | meaning |",
+            "|---|---|---|---|---|"]
+    for name, key in schema.items():
+        kind = TYPES[key.type][0] if key.type in TYPES else {
+            "walls": "a string or a table", "array": "an array of tables"}[key.type]
+        doc = key.doc + (f"; one of {', '.join(key.choices)}" if key.choices else "")
+        doc = doc.replace("|", "\\|")  # a bar would end the cell
+        rows.append(f"| `{name}` | {kind} | {_default_text(key)} | {key.unit} | {doc} |")
+    return "\n".join(rows)
+
+
+def schema_reference() -> str:
+    """The key tables of docs/scene_files.md, from the schema (a test keeps them equal)."""
+    parts = [_markdown(SIMULATION, "[simulation]"), _markdown(DOMAIN, "[domain]"),
+             _markdown(WALL, "a wall: a string (the kind) or a table"),
+             _markdown(LOADS, "[loads]"), _markdown(TRACTION, "[[loads.traction]]"),
+             _markdown(BODY, "[[body]]")]
+    parts.append(_markdown({"type": MATERIAL_TYPE}, "[material.NAME]"))
+    for kind in MATERIALS:
+        params = {k: v for k, v in material_schema(kind).items() if k != "type"}
+        parts.append(_markdown(params, f'[material.NAME] with type = "{kind}"'))
+    parts += [_markdown(OUTPUT, "[output]"), _markdown(PROBLEM, "[problem]")]
+    return "\n\n".join(parts) + "\n"

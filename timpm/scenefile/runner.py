@@ -1,0 +1,226 @@
+"""Running a checked scene: its output writers checked before any work, the world run frame
+by frame (a GIF, field files) or the problem run, the summary and the JSON record."""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..checkpoint import save_checkpoint
+from ..files import write_json
+from ..interrupt import INTERRUPTED_CHECKPOINT, RunInterrupted
+from .build import SceneFile, load_scene
+
+
+@dataclass
+class SceneResult:
+    """What a scene's run produced: sizes, times, the files written, and (a problem) the
+    record of :func:`timpm.studies.study.run_problem`."""
+
+    name: str
+    path: str
+    particles: int
+    steps: int
+    dt: float
+    t_end: float
+    compile_seconds: float
+    simulation_seconds: float
+    render_seconds: float = 0.0
+    files: list = field(default_factory=list)
+    record: dict | None = None
+    series: dict = field(default_factory=dict)
+    interrupted: bool = False
+
+    def report(self) -> str:
+        rate = self.particles * self.steps / max(self.simulation_seconds, 1e-12) / 1e6
+        lines = [f"{self.name} ({self.path}): {self.particles} particles, {self.steps} steps "
+                 f"of dt = {self.dt:.3g} s to t = {self.t_end:.4g} s",
+                 f"  compile {self.compile_seconds:.2f} s, simulation "
+                 f"{self.simulation_seconds:.2f} s ({rate:.2f} M particle-steps/s)"
+                 + (f", rendering {self.render_seconds:.2f} s" if self.render_seconds else "")]
+        if self.record is not None and self.record.get("rms_error") is not None:
+            lines.append(f"  e_RMS = {self.record['rms_error']:.4e} ({self.record['elements']} "
+                         f"elements, {self.record['ppc']} PPC, {self.record['basis']})")
+        if self.files:
+            lines.append(f"  wrote {', '.join(self.files)}")
+        return "\n".join(lines)
+
+    def document(self) -> dict:
+        """The JSON document of the run."""
+        doc = {k: getattr(self, k) for k in ("name", "path", "particles", "steps", "dt",
+                                            "t_end", "compile_seconds", "simulation_seconds",
+                                            "render_seconds", "files")}
+        if self.record is not None:
+            doc["record"] = self.record
+        if self.interrupted:
+            doc["interrupted"] = True
+        doc["series"] = {k: np.asarray(v).tolist() for k, v in self.series.items()}
+        return doc
+
+
+def _writers(scene):
+    """The field writer and the movie of the scene's output (checked before any work)."""
+    from ..output.fields import FieldWriter, check_output_file
+
+    out = scene.output
+    fields_writer = movie = None
+    for fmt in ("vtk", "npz"):
+        if out.get(fmt) is not None:
+            try:
+                fields_writer = FieldWriter(out[fmt], fmt)
+            except ValueError as err:
+                raise scene.error(("output", fmt), str(err)) from None
+    for key in ("json", "gif"):
+        if out.get(key) is not None:
+            try:
+                check_output_file(out[key], f"output file {key}")
+            except ValueError as err:
+                raise scene.error(("output", key), str(err)) from None
+    if out.get("gif") is not None:
+        from ..output.render import Movie
+
+        movie = Movie(out["gif"], fps=out["fps"], width=out["width"])
+    return fields_writer, movie
+
+
+def _files(fields_writer, movie):
+    files = []
+    if fields_writer is not None:
+        files.append(str(fields_writer.series if fields_writer.format == "vtk"
+                         else fields_writer.directory))
+    if movie is not None:
+        files.append(movie.out)
+    return files
+
+
+def run_scene(scene, progress=None) -> SceneResult:
+    """Run ``scene`` (a :class:`SceneFile` or a path), writing its outputs; returns the
+    :class:`SceneResult` (its JSON document is written when ``output.json`` is set)."""
+    from .. import runtime
+
+    if not isinstance(scene, SceneFile):
+        scene = load_scene(scene)
+    if scene.precision is not None and scene.precision != runtime.precision():
+        raise scene.error(("simulation", "precision"), f"the scene runs in {scene.precision} "
+                          f"but Taichi was started in {runtime.precision()}: call "
+                          f"timpm.init(precision={scene.precision!r}) first")
+    fields_writer, movie = _writers(scene)
+    try:
+        result = (_run_problem(scene, fields_writer, progress) if scene.problem is not None
+                  else _run_world(scene, fields_writer, movie, progress))
+    except RunInterrupted as stop:  # Ctrl-C: the partial record, then on to the caller
+        if stop.result is not None and scene.output.get("json") is not None:
+            write_json(scene.output["json"], stop.result.document())
+        raise
+    result.files = _files(fields_writer, movie)
+    if scene.output.get("json") is not None:
+        result.files.append(scene.output["json"])
+        write_json(scene.output["json"], result.document())
+    return result
+
+
+def _run_problem(scene, fields_writer, progress) -> SceneResult:
+    from ..studies.study import run_problem
+
+    try:
+        run = run_problem(**scene.problem, fields=fields_writer,
+                          frames=scene.output["frames"], progress=progress,
+                          interrupted_to=INTERRUPTED_CHECKPOINT)
+    except RunInterrupted as stop:
+        stop.result = _problem_result(scene, stop.result)
+        stop.result.interrupted = True
+        raise
+    return _problem_result(scene, run)
+
+
+def _problem_result(scene, run) -> SceneResult:
+    rec = run.record
+    series = {k: v for k, v in run.series.items() if np.ndim(v) == 1}
+    if run.energies is not None:
+        series.update({f"energy_{k}": v for k, v in run.energies.items()})
+    return SceneResult(name=scene.name, path=scene.path, particles=rec["particles"],
+                       steps=rec["steps"], dt=rec["dt"], t_end=rec["t_end"],
+                       compile_seconds=rec["compile_seconds"],
+                       simulation_seconds=rec["wall_seconds"], record=rec, series=series)
+
+
+class _WorldScales:
+    """The colour scales of a scene file's world, as a demo gives them
+    (:func:`timpm.scenarios.demos.color_range`): H the domain's height along gravity, v0
+    the largest initial speed, rho and c the densest material's density and the fastest
+    wave speed."""
+
+    def __init__(self, world):
+        gravity = np.asarray(world.model.gravity, dtype=float)
+        g = float(np.linalg.norm(gravity))
+        height = float(world.domain[int(np.argmax(np.abs(gravity))) if g > 0 else 0])
+        v0 = float(np.max(np.linalg.norm(world.velocity, axis=1), initial=0.0))
+        density = max(m.density for m in world.materials)
+        wave = max(m.wave_speed for m in world.materials)
+        self.speed = max(v0, np.sqrt(2.0 * g * height)) or 1.0
+        self.stress = (density * g * height if g > 0 else density * wave * v0) or 1.0
+
+    def speed_scale(self) -> float:
+        """max(v0, sqrt(2 g H))."""
+        return self.speed
+
+    def stress_scale(self) -> float:
+        """rho g H, or without gravity rho c v0."""
+        return self.stress
+
+    def strain_scale(self) -> float:
+        return 1.0
+
+
+def _color_range(world, color, output):
+    """The GIF's colour range for the whole run, its label and unit: ``output.color_range``
+    or the world's scales (:class:`_WorldScales`)."""
+    from ..scenarios.demos import color_range
+
+    value_range, label, unit = color_range(_WorldScales(world), color, len(world.bodies))
+    if output.get("color_range") is not None:
+        value_range = tuple(float(v) for v in output["color_range"])
+    return value_range, label, unit
+
+
+def _run_world(scene, fields_writer, movie, progress) -> SceneResult:
+    from ..scenarios.demos import quantity, run_frames
+    from ..solver import Solver
+
+    world, frames, t_end = scene.world, scene.output["frames"], scene.t_end
+    color = scene.output["color"]
+    solver = Solver(world, mode=scene.mode, energies=True,
+                    record_every=max(1, int(round(t_end / world.dt / 200))))
+    try:
+        if movie is not None:
+            try:
+                quantity(solver, color)  # a colour the scene lacks fails before the run
+            except ValueError as err:
+                raise scene.error(("output", "color"), str(err)) from None
+            value_range, label, unit = _color_range(world, color, scene.output)
+            movie.start(world, color, value_range=value_range, label=label, unit=unit,
+                        title=scene.name)
+        try:
+            run_frames(solver, t_end, frames, movie=movie, color=color, fields=fields_writer,
+                       progress=progress)
+        except RunInterrupted as stop:  # Ctrl-C: keep the state, the frames so far
+            if movie is not None:
+                movie.close()
+            stop.checkpoint = save_checkpoint(INTERRUPTED_CHECKPOINT, solver,
+                                              {"scene_file": str(scene.path)})
+            stop.result = _world_result(scene, solver, movie)
+            stop.result.interrupted = True
+            raise
+        if movie is not None:
+            movie.close()
+        return _world_result(scene, solver, movie)
+    finally:
+        solver.release()
+
+
+def _world_result(scene, solver, movie) -> SceneResult:
+    world = scene.world
+    return SceneResult(name=scene.name, path=scene.path, particles=world.n_particles,
+                       steps=solver.step, dt=world.dt, t_end=solver.t,
+                       compile_seconds=solver.compile_seconds,
+                       simulation_seconds=solver.run_seconds,
+                       render_seconds=movie.seconds if movie is not None else 0.0,
+                       series=solver.energies())

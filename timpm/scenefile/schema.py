@@ -1,0 +1,190 @@
+"""The schema of scene files: the value types, the keys of each table (type, default, unit,
+allowed values, meaning) and the tables of each form (a world, a problem)."""
+import inspect
+import math
+from dataclasses import dataclass
+
+from ..basis import get_basis
+from ..materials import MATERIALS
+from ..model import ND_BASES, SIDES, TRANSFERS, WALL_KINDS, MASS_KINDS, PROJECTIONS
+from ..problems import PROBLEMS
+from ..scene import PLACEMENTS, STRESS_UPDATES
+from ..world import PRESETS
+
+MODES = ("auto", "serial", "parallel", "team")
+REQUIRED = object()
+
+
+def _is_number(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+#: value types: name -> (what the error says is expected, test)
+TYPES = {
+    "number": ("a number", _is_number),
+    "positive": ("a number > 0", lambda v: _is_number(v) and v > 0),
+    "non-negative": ("a number >= 0", lambda v: _is_number(v) and v >= 0),
+    "fraction": ("a number in (0, 1]", lambda v: _is_number(v) and 0 < v <= 1),
+    "count": ("an integer >= 1", lambda v: isinstance(v, int) and not isinstance(v, bool)
+              and v >= 1),
+    "boolean": ("true or false", lambda v: isinstance(v, bool)),
+    "string": ("a string", lambda v: isinstance(v, str) and v != ""),
+    "vector": ("an array of numbers, one per axis",
+               lambda v: isinstance(v, list) and all(_is_number(c) for c in v)),
+    "table": ("a table", lambda v: isinstance(v, dict)),
+    "range": ("two increasing numbers [low, high]",
+              lambda v: isinstance(v, list) and len(v) == 2 and all(_is_number(c) for c in v)
+              and v[0] < v[1]),
+}
+
+
+@dataclass(frozen=True)
+class Key:
+    """One key of a table: its value type (``TYPES``), default (``REQUIRED``: none), unit,
+    allowed values and meaning; ``check`` raises ValueError on a bad value of the type."""
+
+    type: str
+    default: object = REQUIRED
+    unit: str = ""
+    doc: str = ""
+    choices: tuple = ()
+    check: object = None
+
+
+def _basis_check(value):
+    get_basis(value)
+
+
+def _nd_basis_check(value):
+    basis = get_basis(value)
+    if not basis.nd:
+        raise ValueError(f"the {basis.name} basis is 1D only: a world's grid takes "
+                         f"{', '.join(ND_BASES)}")
+
+
+SIMULATION = {
+    "name": Key("string", "the file's stem", doc="name of the run (reports, JSON)"),
+    "t_end": Key("positive", unit="s", doc="end time"),
+    "dt": Key("positive", None, "s", "time step (none: courant times the CFL limit)"),
+    "courant": Key("fraction", 0.4, doc="fraction of the CFL limit h / (c + |v|) taken as dt "
+                   "when dt is not given"),
+    "basis": Key("string", "uniform-bspline2", doc="shape functions of the grid",
+                 check=_nd_basis_check, choices=ND_BASES),
+    "transfer": Key("string", "apic", doc="particle-grid transfer", choices=TRANSFERS),
+    "damping": Key("non-negative", 0.0, doc="local damping factor alpha"),
+    "mode": Key("string", "auto", doc="how the steps run (serial: one thread, "
+                "bit-reproducible)", choices=MODES),
+    "precision": Key("string", "f64", doc="float type of the run", choices=("f64", "f32")),
+    "allow_unstable_dt": Key("boolean", False, doc="run a dt above the CFL limit"),
+    "allow_overlap": Key("boolean", False, doc="let bodies overlap"),
+}
+
+DOMAIN = {
+    "size": Key("vector", unit="m", doc="lengths of the box [0, size] along each axis "
+                "(1 to 3 numbers: the dimension)"),
+    "cells": Key("count", doc="grid cells along x (h = size[0] / cells; every length a whole "
+                 "number of cells)"),
+    "walls": Key("walls", "slip", doc="one wall for every side, or a table of side name "
+                 f"({', '.join(SIDES)}, default) to wall"),
+}
+
+WALL = {
+    "kind": Key("string", doc="kind of wall", choices=WALL_KINDS + ("none",)),
+    "mu": Key("non-negative", 0.0, doc="Coulomb friction coefficient (kind friction)"),
+}
+
+BODY = {
+    "name": Key("string", "", doc="name of the body (reports)"),
+    "material": Key("string", doc="a [material.NAME] of the file or a preset: "
+                    + ", ".join(PRESETS)),
+    "shape": Key("string", doc="box: lo and hi; ball: center and radius",
+                 choices=("box", "ball")),
+    "lo": Key("vector", REQUIRED, "m", "lower corner of a box"),
+    "hi": Key("vector", REQUIRED, "m", "upper corner of a box"),
+    "center": Key("vector", REQUIRED, "m", "centre of a ball (a disk in 2D)"),
+    "radius": Key("positive", REQUIRED, "m", "radius of a ball"),
+    "ppc": Key("count", 2, doc="particles per cell and axis"),
+    "velocity": Key("vector", "zero", "m/s", "initial velocity"),
+}
+SHAPE_KEYS = {"box": ("lo", "hi"), "ball": ("center", "radius")}
+
+LOADS = {
+    "gravity": Key("vector", "9.81 down y (down x in 1D)", "m/s^2", "acceleration of gravity"),
+    "traction": Key("array", (), doc="surface tractions: [[loads.traction]] tables"),
+}
+
+TRACTION = {
+    "body": Key("string", doc="name of the loaded body"),
+    "side": Key("string", doc="loaded face", choices=SIDES),
+    "traction": Key("vector", unit="Pa", doc="force per unit area (per unit depth in 2D)"),
+    "ramp": Key("positive", None, "s", "brought on linearly over this time (none: at once)"),
+}
+
+OUTPUT = {
+    "frames": Key("count", 20, doc="frames over the run (fields and GIF), besides the start"),
+    "vtk": Key("string", None, doc="directory of ParaView files: particles.pvd and a .vtu "
+               "per frame"),
+    "npz": Key("string", None, doc="directory of NumPy archives, one .npz per frame"),
+    "json": Key("string", None, doc="file of the run's summary and series as JSON"),
+    "gif": Key("string", None, doc="animated GIF of the run (2D and 3D worlds)"),
+    "color": Key("string", "speed", doc="colour of the GIF's particles",
+                 choices=("speed", "pressure", "plastic", "von-mises", "body")),
+    "color_range": Key("range", None, doc="the colour bar's range, fixed for the run "
+                       "(default: from the scene: speed to max(v0, sqrt(2 g H)), stresses to "
+                       "rho g H or rho c v0, plastic strain to 1)"),
+    "fps": Key("count", 20, doc="GIF frames per second"),
+    "width": Key("count", 640, unit="px", doc="GIF width (320 to 8192)"),
+}
+#: the output keys a problem run writes
+PROBLEM_OUTPUT = ("frames", "vtk", "npz", "json")
+
+PROBLEM = {
+    "name": Key("string", doc="the problem", choices=tuple(PROBLEMS)),
+    "elements": Key("count", "the problem's", doc="elements over the body"),
+    "ppc": Key("count", "the problem's", doc="particles per element"),
+    "basis": Key("string", "linear", doc="shape functions: linear, lagrange2, bsplineN "
+                 "(clamped) or uniform-bsplineN (padded) of degree N", check=_basis_check),
+    "mass": Key("string", "lumped", doc="mass matrix", choices=MASS_KINDS),
+    "dt": Key("positive", "the problem's", "s", "time step"),
+    "t_end": Key("positive", "the problem's", "s", "end time"),
+    "placement": Key("string", "the problem's", doc="particle positions in an element",
+                     choices=tuple(PLACEMENTS)),
+    "stress_update": Key("string", "study", doc="stress update", choices=STRESS_UPDATES),
+    "damping": Key("non-negative", None, doc="local damping factor alpha"),
+    "projection": Key("string", "standard", doc="standard or mls (4.4)", choices=PROJECTIONS),
+    "transfer": Key("string", "musl", doc="particle-grid transfer", choices=TRANSFERS),
+    "allow_unstable_dt": Key("boolean", False, doc="run a dt above the critical time step"),
+    "mode": Key("string", "auto", doc="how the steps run", choices=MODES),
+    "params": Key("table", {}, doc="physical parameters of the problem by name (timpm run's "
+                  "--param), e.g. E, density"),
+}
+
+#: the top-level tables of each form
+WORLD_TABLES = ("simulation", "domain", "material", "body", "loads", "output")
+PROBLEM_TABLES = ("problem", "output")
+
+#: units and meanings of the materials' parameters (their classes' arguments)
+MATERIAL_PARAMETERS = {
+    "E": ("Pa", "Young's modulus"), "nu": ("", "Poisson's ratio"),
+    "density": ("kg/m^3", "mass density"), "friction_angle": ("degrees", "friction angle"),
+    "bulk_modulus": ("Pa", "bulk modulus"), "gamma": ("", "Tait exponent"),
+    "viscosity": ("Pa s", "dynamic viscosity"), "tension": ("", "the fluid carries tension"),
+    "study": ("", "the study's stress update"), "exact": ("", "integrated exactly over a step"),
+}
+
+
+MATERIAL_TYPE = Key("string", doc="the material law", choices=tuple(MATERIALS))
+
+
+def material_schema(kind) -> dict:
+    """The keys of a ``[material.NAME]`` table of ``type = kind``: the arguments of the
+    material's class (a boolean default makes a boolean key)."""
+    schema = {"type": MATERIAL_TYPE}
+    for p in inspect.signature(MATERIALS[kind].__init__).parameters.values():
+        if p.name == "self":
+            continue
+        unit, doc = MATERIAL_PARAMETERS.get(p.name, ("", ""))
+        default = REQUIRED if p.default is p.empty else p.default
+        schema[p.name] = Key("boolean" if isinstance(default, bool) else "number", default,
+                             unit, doc)
+    return schema
