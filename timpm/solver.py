@@ -14,13 +14,12 @@ outside the grid, a NaN, an inverted volume or a singular mass matrix sets an er
 (code, step, particle or node) and the run stops with a :class:`SimulationError` that
 names them.
 """
-import numbers
 import time
 
 import numpy as np
 
 from . import interrupt, runtime
-from .checks import check_steps, step_count, whole
+from .checks import check_steps, index, is_whole, solver_options, step_count, whole
 from .engine.features import SCATTERS, auto_mode, plan
 from .engine.program import program_for
 from .engine.state import State
@@ -66,12 +65,12 @@ class Solver:
                  volume_range: tuple | None = (1e-2, 1e2)):
         if isinstance(track, (str, bytes)) or not hasattr(track, "__iter__"):
             raise ValueError(f"track must be a sequence of particle indices, got {track!r}")
-        track = [_index("tracked particle", p) for p in track]
+        track = [index("tracked particle", p) for p in track]
         record_every = whole("record_every", record_every)
         check_every = whole("check_every", check_every)
         if history_chunk is not None:
             history_chunk = whole("history_chunk", history_chunk)
-        _check_options(energies, energy_guard, serial_threshold, small_mass)
+        solver_options(energies, energy_guard, serial_threshold, small_mass)
         runtime.ensure_init()
         self._generation = runtime.generation()  # the Taichi start that holds the fields
         self.check_every = check_every
@@ -382,7 +381,7 @@ class Solver:
         if (t_end is None) == (n_steps is None):
             raise ValueError("give exactly one of t_end and n_steps")
         if n_steps is not None:
-            if not _whole(n_steps) or n_steps < 0:
+            if not is_whole(n_steps) or n_steps < 0:
                 raise ValueError(f"n_steps must be a non-negative integer, got {n_steps!r}")
             check_steps(n_steps, self.dt, allow_many_steps)
             return int(n_steps)
@@ -632,36 +631,6 @@ class Solver:
 
     def _component(self, a):
         return a[:, 0] if self.dim == 1 else a
-
-
-def _whole(value) -> bool:
-    """An integer, or a float with an integral value (not a bool, a string, 2.5)."""
-    return (not isinstance(value, bool) and isinstance(value, numbers.Real)
-            and float(value).is_integer())
-
-
-def _check_options(energies, energy_guard, serial_threshold, small_mass):
-    """The Solver's flags and numbers, each error naming the option."""
-    if not isinstance(energies, (bool, np.bool_)):
-        raise ValueError(f"energies must be True or False, got {energies!r}")
-    if energy_guard is not None:
-        if isinstance(energy_guard, bool) or not isinstance(energy_guard, numbers.Real) \
-                or not (1.0 <= energy_guard < np.inf):
-            raise ValueError(f"energy_guard must be a finite number >= 1 (the factor by which "
-                             f"kinetic + strain energy may exceed the energy supplied) or "
-                             f"None, got {energy_guard!r}")
-    if not _whole(serial_threshold) or serial_threshold < 0:
-        raise ValueError(f"serial_threshold must be a non-negative integer (particles), got "
-                         f"{serial_threshold!r}")
-    if isinstance(small_mass, bool) or not isinstance(small_mass, numbers.Real) \
-            or not (0.0 <= small_mass < np.inf):
-        raise ValueError(f"small_mass must be a finite number >= 0, got {small_mass!r}")
-
-
-def _index(name, value) -> int:
-    if not _whole(value):
-        raise ValueError(f"{name} must be an integer index, got {value!r}")
-    return int(value)
 
 
 def _field_bytes(f) -> int:
