@@ -176,15 +176,8 @@ class Solver:
     def fingerprint(self) -> dict:
         """What a saved state must match to be restored into this solver: the feature
         set's physics, the sizes, the grid and the time step (the mode and the scatter may
-        differ)."""
-        f, lay = self.features, self.layout
-        return {"dim": f.dim, "basis": f.basis, "transfer": f.transfer,
-                "consistent": f.consistent, "mls": f.mls,
-                "materials": [[cls.__name__, repr(flags)] for cls, flags in f.materials],
-                "particles": int(lay.n_particles), "nodes": [int(n) for n in lay.nodes],
-                "h": float(lay.h), "dt": float(self.dt),
-                "origin": [float(o) for o in lay.origin], "precision": f.precision,
-                "tracked": [int(p) for p in self.track], "record_every": self.record_every}
+        differ), the tracked particles and ``record_every``."""
+        return self.state.fingerprint(self.record_every)
 
     def snapshot(self) -> dict:
         """The whole state of this run as NumPy arrays (particles, grid, time, step, the
@@ -202,16 +195,7 @@ class Solver:
         """Continue from a :meth:`snapshot` of a solver of the same scene (this process's
         or another's, e.g. read from a checkpoint file); returns self."""
         prog = self._program()
-        mine, theirs = self.fingerprint(), snapshot["fingerprint"]
-        for key in mine:
-            if mine[key] != theirs.get(key):
-                raise ValueError(f"the saved state does not fit this solver: its {key} is "
-                                 f"{theirs.get(key)!r}, this solver's {mine[key]!r}")
-        columns = {b: [tuple(e) for e in entries] for b, entries in snapshot["columns"].items()}
-        if columns != {b: [tuple(e) for e in entries]
-                       for b, entries in prog.state_layout().items()}:
-            raise ValueError("the saved state holds other state fields than this solver "
-                             "keeps (another material or feature set)")
+        self.state.check_fits(prog, snapshot, self.record_every)
         self.state.restore(prog, snapshot["arrays"])
         self.history = {k: [np.asarray(v)] for k, v in snapshot["history"].items()}
         self.history.setdefault("t", [])
@@ -248,13 +232,7 @@ class Solver:
         """Bytes per particle and per grid node of the state fields this scene uses, the
         names of those fields, and the bytes per node of the private scatter's grid copies
         (``scatter_node_bytes``, 0 for the other strategies)."""
-        prog = self._program()
-        copies = self.n_copies * sum(_field_bytes(f) for f in prog.copies.values())
-        return {"particle_bytes": sum(_field_bytes(f) for f in prog.particle_fields.values()),
-                "node_bytes": sum(_field_bytes(f) for f in prog.grid_fields.values()),
-                "scatter_node_bytes": copies,
-                "particle_fields": sorted(prog.particle_fields),
-                "particles": self.n_particles, "nodes": int(np.prod(self.grid_nodes))}
+        return self.state.memory(self._program())
 
     # ---- running -------------------------------------------------------------------------
     @property
@@ -529,16 +507,7 @@ class Solver:
 
     def _inertia(self):
         """D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T of every particle (diagonal), (n, dim)."""
-        from .basis import stencils
-
-        x = self.read("x").reshape(self.n_particles, self.dim)
-        out = np.empty_like(x)
-        for k in range(self.dim):
-            xi = (x[:, k] - self.origin[k]) * self.inv_h
-            base, w, _ = stencils(self.basis, xi, self.grid_elements[k])
-            r = (base[:, None] + np.arange(self.basis.support) - self.node_offset - xi[:, None])
-            out[:, k] = np.sum(w * (r * self.h) ** 2, axis=1)
-        return out
+        return self.state.inertia(self.read("x").reshape(self.n_particles, self.dim))
 
     def affine(self) -> np.ndarray:
         """The affine velocity C_p = B_p D_p^-1 of the APIC transfers, (n, dim, dim)."""
@@ -631,11 +600,3 @@ class Solver:
 
     def _component(self, a):
         return a[:, 0] if self.dim == 1 else a
-
-
-def _field_bytes(f) -> int:
-    """Bytes one entry of a scalar, vector or matrix field holds."""
-    import taichi as ti
-
-    count = f.n * f.m if isinstance(f, ti.MatrixField) else 1
-    return count * (8 if f.dtype in (ti.f64, ti.i64, ti.u64) else 4)
