@@ -20,10 +20,11 @@ import numpy as np
 
 from . import interrupt, runtime
 from .checks import check_steps, index, is_whole, solver_options, step_count, whole
+from .engine.failures import energy_balance, recorded_failure
 from .engine.features import SCATTERS, auto_mode, plan
 from .engine.program import program_for
 from .engine.state import State
-from .errors import ERRORS, ErrorCode, Released, SimulationError, TEAM_SPIN_LIMIT
+from .errors import ERRORS, Released, SimulationError
 from .progress import Progress
 
 __all__ = ["Solver", "SimulationError", "ERRORS", "SCATTERS", "auto_mode"]
@@ -415,60 +416,17 @@ class Solver:
     def _guard_energy(self, energy, steps):
         if self.energy_guard is None or not len(self.history["energy"]):
             return
-        first = self.history["energy"][0][0]
-        base = first[0] + max(first[1], 0.0)
-        # energy put in: initial kinetic + strain, and the work of gravity and tractions
-        supplied = base + np.abs(energy[:, 2] - first[2]) + np.abs(energy[:, 3] - first[3])
-        supplied = np.maximum.accumulate(np.maximum(supplied, self._energy_input))
-        self._energy_input = float(supplied[-1])
-        moving = energy[:, 0] + energy[:, 1]
-        bad = np.flatnonzero(moving > self.energy_guard * supplied + 1e-300)
-        if len(bad):
-            i = int(bad[0])
-            raise SimulationError(
-                f"step {int(steps[i])} (t = {int(steps[i]) * self.dt:g} s): "
-                f"{ErrorCode.ENERGY_GROWTH.message}: kinetic + strain energy {moving[i]:.4g} J "
-                f"exceeds {self.energy_guard:g} x the {supplied[i]:.4g} J supplied; the run is "
-                "unstable (too few particles per element, too large a time step, or an "
-                "indefinite mass matrix)", ErrorCode.ENERGY_GROWTH, int(steps[i]))
+        self._energy_input, error = energy_balance(
+            self.history["energy"][0][0], energy, steps, self._energy_input,
+            self.energy_guard, self.dt)
+        if error is not None:
+            raise error
 
     def check(self):
         """Raise the run's first failure, if any, as a :class:`SimulationError`."""
-        prog = self._program()
-        code = int(prog.err[None])
-        if code == 0:
-            return
-        code = ErrorCode(code)
-        step, where = int(prog.err_step[None]) + 1, int(prog.err_where[None])
-        when = f"step {step} (t = {step * self.dt:g} s)"
-        if code == ErrorCode.TEAM_BARRIER:
-            block = self.layout.values["scatter_block"]
-            raise SimulationError(
-                f"{when}: {code.message} (thread {where // block} waited {TEAM_SPIN_LIMIT} "
-                "spins): Taichi's pool ran the team on fewer threads than it has; use "
-                "mode='parallel'", code, step)
-        if code == ErrorCode.SINGULAR_MASS:
-            raise SimulationError(f"{when}: {code.message} at node {where}", code, step,
-                                  node=where)
-        x = prog.x[where].to_numpy()
-        if self.dim == 1:
-            lo, hi = self.origin[0], self.origin[0] + self.n_elements * self.h
-            at = f"x = {float(x[0]):g}, grid [{lo:g}, {hi:g}]"
-        else:
-            xs = ", ".join(f"{c:g}" for c in x)
-            hi = ", ".join(f"{o + n * self.h:g}" for o, n in zip(self.origin, self.grid_elements))
-            at = f"x = ({xs}), grid from ({', '.join(f'{o:g}' for o in self.origin)}) to ({hi})"
-        msg = f"{when}: particle {where} {code.message} ({at})"
-        if code == ErrorCode.VOLUME_RANGE:
-            lo, hi = (self.layout.values[k] for k in ("volume_min", "volume_max"))
-            model = self.model
-            density = model.materials[int(model.material_index[where])].density
-            ratio = float(prog.vol[where]) * density / float(prog.m[where])
-            msg += (f": V/V0 = {ratio:.3g} outside [{lo:g}, {hi:g}]; refine the grid or the "
-                    "time step, or pass volume_range=None (or a wider range) to go on")
-        if code == ErrorCode.NOT_FINITE:
-            msg += "; the run is unstable: check the time step and the mass matrix"
-        raise SimulationError(msg, code, step, particle=where)
+        error = recorded_failure(self._program(), self.state)
+        if error is not None:
+            raise error
 
     # ---- results ---------------------------------------------------------------------------
     def project(self):
