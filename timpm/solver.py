@@ -23,6 +23,7 @@ from .checks import check_steps, index, is_whole, solver_options, step_count, wh
 from .engine.failures import energy_balance, recorded_failure
 from .engine.features import SCATTERS, auto_mode, plan
 from .engine.program import program_for
+from .engine.recorder import energy_series, tracked_series
 from .engine.state import State
 from .errors import ERRORS, Released, SimulationError
 from .progress import Progress
@@ -528,29 +529,12 @@ class Solver:
         if not self.record_energies:
             raise RuntimeError("this solver was built with energies=False")
         self._require()
-        e = self._series("energy")
-        gravity = e[:, 2] if self.has_u else e[:, 2] - e[0, 2]  # 2D/3D: -m g . (x - x0)
-        out = {"t": self._series("t"), "kinetic": e[:, 0], "strain": e[:, 1],
-               "gravity": gravity, "external_work": e[:, 3]}
-        out["total"] = out["kinetic"] + out["strain"] + out["gravity"] - out["external_work"]
-        return out
+        return energy_series(self.history, self.has_u)
 
     def tracked(self) -> dict:
         """Recorded time series of the tracked particles: arrays of shape (records, tracked)."""
         self._require()
-        out = {"t": self._series("t")}
-        for key in ("x", "u", "v"):
-            a = self._series(key, np.zeros((0, 0, self.dim)))
-            out[key] = a[..., 0] if self.dim == 1 else a
-        out["stress"] = self._tensor(self._series("stress", np.zeros((0, 0, 1))))
-        return out
-
-    def _series(self, key, empty=None):
-        """The records of ``key`` as one array (``self.history`` holds one per drain)."""
-        chunks = self.history.get(key)
-        if not chunks:
-            return np.zeros(0) if empty is None else empty
-        return np.concatenate(chunks)
+        return tracked_series(self.history, self.dim)
 
     def _tensor(self, a):
         # Taichi returns a 1x1 matrix field as (..., 1): one value per entry in 1D
