@@ -6,8 +6,8 @@ import os
 
 import numpy as np
 
-__all__ = ["positive", "positive_int", "vector", "finite", "is_whole", "whole", "index",
-           "solver_options", "MAX_STEPS", "MAX_INDEX", "step_count", "check_steps",
+__all__ = ["positive", "positive_int", "vector", "matrices", "finite", "is_whole", "whole",
+           "index", "solver_options", "MAX_STEPS", "MAX_INDEX", "step_count", "check_steps",
            "available_memory", "state_bytes", "check_size"]
 
 
@@ -40,6 +40,22 @@ def vector(name: str, value, dim=None) -> np.ndarray:
     if not np.all(np.isfinite(v)):
         raise ValueError(f"{name} must be finite, got {value!r}")
     return v
+
+
+def matrices(name: str, value, n: int, dim: int) -> np.ndarray:
+    """``value`` as ``n`` finite float ``dim`` x ``dim`` matrices (n of them, or one for
+    all); the errors say what ``name`` takes."""
+    shape = (n, dim, dim)
+    try:
+        m = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} takes numbers, got {value!r}") from None
+    if m.shape not in (shape, shape[1:]):
+        raise ValueError(f"{name} takes one {dim}x{dim} matrix or {shape} "
+                         f"matrices, got an array of shape {m.shape}")
+    if not np.all(np.isfinite(m)):
+        raise ValueError(f"{name} takes finite values, got NaN or infinity")
+    return np.broadcast_to(m, shape).copy()
 
 
 def finite(name: str, value) -> float:

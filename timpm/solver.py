@@ -19,7 +19,8 @@ import time
 import numpy as np
 
 from . import interrupt, runtime
-from .checks import check_steps, index, is_whole, solver_options, step_count, whole
+from .checks import (check_steps, index, is_whole, matrices, solver_options, step_count,
+                     whole)
 from .engine.failures import energy_balance, recorded_failure
 from .engine.features import SCATTERS, auto_mode, plan
 from .engine.program import program_for
@@ -302,7 +303,7 @@ class Solver:
         # Ctrl-C (deferred): stop at the next step boundary, the state whole
         while done < total and not interrupt.requested():
             if loads:
-                self._upload_loads(prog, first_step + done)
+                self.state.upload_body_force(prog, first_step + done)
             if self.mode == "serial":
                 chunk = 1 if loads else self.fused_chunk(min(total - done,
                                                              bar.suggested_chunk(done)))
@@ -345,16 +346,6 @@ class Solver:
         if interrupt.requested():
             raise interrupt.RunInterrupted(self.step, self.t)
         return self
-
-    def _upload_loads(self, prog, step):
-        """The body force b(X, t) of every particle at the start of step ``step`` (t =
-        step dt, the time the kernels keep), evaluated in Python in one vectorised call."""
-        force = self.model.body_force
-        if force.frame == "reference":
-            X = self.model.positions
-        else:
-            X = self.read("x").reshape(self.n_particles, self.dim)
-        prog.set_body_force(np.ascontiguousarray(force(X, step * self.dt)))
 
     def steps_to(self, t_end, n_steps, allow_many_steps=False) -> int:
         """Steps a run to ``t_end`` (or of ``n_steps``) takes from here."""
@@ -481,17 +472,7 @@ class Solver:
         """Set the affine velocity C_p of every particle ((n, dim, dim) or one matrix)."""
         if not self.apic:
             raise RuntimeError(f"the {self.transfer} transfer keeps no affine velocity")
-        shape = (self.n_particles, self.dim, self.dim)
-        try:
-            C = np.asarray(C, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"set_affine takes numbers, got {C!r}") from None
-        if C.shape not in (shape, shape[1:]):
-            raise ValueError(f"set_affine takes one {self.dim}x{self.dim} matrix or {shape} "
-                             f"matrices, got an array of shape {C.shape}")
-        if not np.all(np.isfinite(C)):
-            raise ValueError("set_affine takes finite values, got NaN or infinity")
-        C = np.broadcast_to(C, shape).copy()
+        C = matrices("set_affine", C, self.n_particles, self.dim)
         if self.basis.support == 2:
             C = C * self._inertia()[:, None, :]
         self.write("C", C)

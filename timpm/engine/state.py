@@ -3,8 +3,9 @@
 A :class:`State` knows which of a program's fields hold this scene's data and how much of
 them (the live particles and nodes of a capacity), writes the scene's initial state,
 and keeps the arrays in host memory while another scene of the same feature set holds
-the program (``host``); it checks that a saved state fits this scene (``fingerprint``,
-``check_fits``) and counts the bytes its fields take (``memory``).
+the program (``host``); it uploads the body force of each step, checks that a saved
+state fits this scene (``fingerprint``, ``check_fits``) and counts the bytes its fields
+take (``memory``).
 """
 import numpy as np
 import taichi as ti
@@ -171,6 +172,17 @@ class State:
             fld[None] = values.tolist() if np.ndim(values) else values.item()
         else:
             prog.write(fld, values, self.extent(prog, name))
+
+    def upload_body_force(self, prog, step):
+        """The body force b(X, t) of every particle at the start of step ``step`` (t =
+        step dt, the time the kernels keep), evaluated in Python in one vectorised call,
+        into ``prog``."""
+        force = self.model.body_force
+        if force.frame == "reference":
+            X = self.model.positions
+        else:
+            X = self.read(prog, "x").reshape(self.layout.n_particles, self.features.dim)
+        prog.set_body_force(np.ascontiguousarray(force(X, step * self.model.dt)))
 
     def _element_of(self, x):
         lay = self.layout
