@@ -1,13 +1,14 @@
-"""Checks of user values shared by the model's builders and the drivers, each error naming
-the value; the limits on a run's steps and on a scene's size."""
+"""Checks of user values shared by the model's builders, the solver and the drivers, each
+error naming the value; the limits on a run's steps and on a scene's size."""
 import math
 import numbers
 import os
 
 import numpy as np
 
-__all__ = ["positive", "positive_int", "vector", "finite", "whole", "MAX_STEPS", "MAX_INDEX",
-           "step_count", "check_steps", "available_memory", "state_bytes", "check_size"]
+__all__ = ["positive", "positive_int", "vector", "matrices", "finite", "is_whole", "whole",
+           "index", "solver_options", "MAX_STEPS", "MAX_INDEX", "step_count", "check_steps",
+           "available_memory", "state_bytes", "check_size"]
 
 
 def positive(name: str, value) -> float:
@@ -41,6 +42,22 @@ def vector(name: str, value, dim=None) -> np.ndarray:
     return v
 
 
+def matrices(name: str, value, n: int, dim: int) -> np.ndarray:
+    """``value`` as ``n`` finite float ``dim`` x ``dim`` matrices (n of them, or one for
+    all); the errors say what ``name`` takes."""
+    shape = (n, dim, dim)
+    try:
+        m = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} takes numbers, got {value!r}") from None
+    if m.shape not in (shape, shape[1:]):
+        raise ValueError(f"{name} takes one {dim}x{dim} matrix or {shape} "
+                         f"matrices, got an array of shape {m.shape}")
+    if not np.all(np.isfinite(m)):
+        raise ValueError(f"{name} takes finite values, got NaN or infinity")
+    return np.broadcast_to(m, shape).copy()
+
+
 def finite(name: str, value) -> float:
     """``value`` as a finite float (a bool or a string is refused)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real) \
@@ -49,15 +66,44 @@ def finite(name: str, value) -> float:
     return float(value)
 
 
+def is_whole(value) -> bool:
+    """An integer, or a float with an integral value (not a bool, a string, 2.5)."""
+    return (not isinstance(value, bool) and isinstance(value, numbers.Real)
+            and float(value).is_integer())
+
+
 def whole(name: str, value, minimum: int = 1) -> int:
     """``value`` as an int of at least ``minimum``: an integer, or a float with a whole
     value (2.0 from a command line; 2.5, a bool or a string is refused)."""
-    if (isinstance(value, bool) or not isinstance(value, numbers.Real)
-            or not math.isfinite(float(value)) or not float(value).is_integer()
-            or value < minimum):
+    if not is_whole(value) or value < minimum:
         kind = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
         raise ValueError(f"{name} must be {kind}, got {value!r}")
     return int(value)
+
+
+def index(name: str, value) -> int:
+    """``value`` (an integer, or a float with a whole value) as an int index."""
+    if not is_whole(value):
+        raise ValueError(f"{name} must be an integer index, got {value!r}")
+    return int(value)
+
+
+def solver_options(energies, energy_guard, serial_threshold, small_mass) -> None:
+    """The Solver's flags and numbers, each error naming the option."""
+    if not isinstance(energies, (bool, np.bool_)):
+        raise ValueError(f"energies must be True or False, got {energies!r}")
+    if energy_guard is not None:
+        if isinstance(energy_guard, bool) or not isinstance(energy_guard, numbers.Real) \
+                or not (1.0 <= energy_guard < np.inf):
+            raise ValueError(f"energy_guard must be a finite number >= 1 (the factor by which "
+                             f"kinetic + strain energy may exceed the energy supplied) or "
+                             f"None, got {energy_guard!r}")
+    if not is_whole(serial_threshold) or serial_threshold < 0:
+        raise ValueError(f"serial_threshold must be a non-negative integer (particles), got "
+                         f"{serial_threshold!r}")
+    if isinstance(small_mass, bool) or not isinstance(small_mass, numbers.Real) \
+            or not (0.0 <= small_mass < np.inf):
+        raise ValueError(f"small_mass must be a finite number >= 0, got {small_mass!r}")
 
 
 # ---- how long a run takes and how much memory a scene needs --------------------------------

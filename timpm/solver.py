@@ -14,17 +14,19 @@ outside the grid, a NaN, an inverted volume or a singular mass matrix sets an er
 (code, step, particle or node) and the run stops with a :class:`SimulationError` that
 names them.
 """
-import numbers
 import time
 
 import numpy as np
 
 from . import interrupt, runtime
-from .checks import check_steps, step_count, whole
+from .checks import (check_steps, index, is_whole, matrices, solver_options, step_count,
+                     whole)
+from .engine.failures import energy_balance, recorded_failure
 from .engine.features import SCATTERS, auto_mode, plan
 from .engine.program import program_for
+from .engine.recorder import energy_series, tracked_series
 from .engine.state import State
-from .errors import ERRORS, ErrorCode, Released, SimulationError, TEAM_SPIN_LIMIT
+from .errors import ERRORS, Released, SimulationError
 from .progress import Progress
 
 __all__ = ["Solver", "SimulationError", "ERRORS", "SCATTERS", "auto_mode"]
@@ -66,12 +68,12 @@ class Solver:
                  volume_range: tuple | None = (1e-2, 1e2)):
         if isinstance(track, (str, bytes)) or not hasattr(track, "__iter__"):
             raise ValueError(f"track must be a sequence of particle indices, got {track!r}")
-        track = [_index("tracked particle", p) for p in track]
+        track = [index("tracked particle", p) for p in track]
         record_every = whole("record_every", record_every)
         check_every = whole("check_every", check_every)
         if history_chunk is not None:
             history_chunk = whole("history_chunk", history_chunk)
-        _check_options(energies, energy_guard, serial_threshold, small_mass)
+        solver_options(energies, energy_guard, serial_threshold, small_mass)
         runtime.ensure_init()
         self._generation = runtime.generation()  # the Taichi start that holds the fields
         self.check_every = check_every
@@ -177,15 +179,8 @@ class Solver:
     def fingerprint(self) -> dict:
         """What a saved state must match to be restored into this solver: the feature
         set's physics, the sizes, the grid and the time step (the mode and the scatter may
-        differ)."""
-        f, lay = self.features, self.layout
-        return {"dim": f.dim, "basis": f.basis, "transfer": f.transfer,
-                "consistent": f.consistent, "mls": f.mls,
-                "materials": [[cls.__name__, repr(flags)] for cls, flags in f.materials],
-                "particles": int(lay.n_particles), "nodes": [int(n) for n in lay.nodes],
-                "h": float(lay.h), "dt": float(self.dt),
-                "origin": [float(o) for o in lay.origin], "precision": f.precision,
-                "tracked": [int(p) for p in self.track], "record_every": self.record_every}
+        differ), the tracked particles and ``record_every``."""
+        return self.state.fingerprint(self.record_every)
 
     def snapshot(self) -> dict:
         """The whole state of this run as NumPy arrays (particles, grid, time, step, the
@@ -203,16 +198,7 @@ class Solver:
         """Continue from a :meth:`snapshot` of a solver of the same scene (this process's
         or another's, e.g. read from a checkpoint file); returns self."""
         prog = self._program()
-        mine, theirs = self.fingerprint(), snapshot["fingerprint"]
-        for key in mine:
-            if mine[key] != theirs.get(key):
-                raise ValueError(f"the saved state does not fit this solver: its {key} is "
-                                 f"{theirs.get(key)!r}, this solver's {mine[key]!r}")
-        columns = {b: [tuple(e) for e in entries] for b, entries in snapshot["columns"].items()}
-        if columns != {b: [tuple(e) for e in entries]
-                       for b, entries in prog.state_layout().items()}:
-            raise ValueError("the saved state holds other state fields than this solver "
-                             "keeps (another material or feature set)")
+        self.state.check_fits(prog, snapshot, self.record_every)
         self.state.restore(prog, snapshot["arrays"])
         self.history = {k: [np.asarray(v)] for k, v in snapshot["history"].items()}
         self.history.setdefault("t", [])
@@ -249,13 +235,7 @@ class Solver:
         """Bytes per particle and per grid node of the state fields this scene uses, the
         names of those fields, and the bytes per node of the private scatter's grid copies
         (``scatter_node_bytes``, 0 for the other strategies)."""
-        prog = self._program()
-        copies = self.n_copies * sum(_field_bytes(f) for f in prog.copies.values())
-        return {"particle_bytes": sum(_field_bytes(f) for f in prog.particle_fields.values()),
-                "node_bytes": sum(_field_bytes(f) for f in prog.grid_fields.values()),
-                "scatter_node_bytes": copies,
-                "particle_fields": sorted(prog.particle_fields),
-                "particles": self.n_particles, "nodes": int(np.prod(self.grid_nodes))}
+        return self.state.memory(self._program())
 
     # ---- running -------------------------------------------------------------------------
     @property
@@ -323,7 +303,7 @@ class Solver:
         # Ctrl-C (deferred): stop at the next step boundary, the state whole
         while done < total and not interrupt.requested():
             if loads:
-                self._upload_loads(prog, first_step + done)
+                self.state.upload_body_force(prog, first_step + done)
             if self.mode == "serial":
                 chunk = 1 if loads else self.fused_chunk(min(total - done,
                                                              bar.suggested_chunk(done)))
@@ -367,22 +347,12 @@ class Solver:
             raise interrupt.RunInterrupted(self.step, self.t)
         return self
 
-    def _upload_loads(self, prog, step):
-        """The body force b(X, t) of every particle at the start of step ``step`` (t =
-        step dt, the time the kernels keep), evaluated in Python in one vectorised call."""
-        force = self.model.body_force
-        if force.frame == "reference":
-            X = self.model.positions
-        else:
-            X = self.read("x").reshape(self.n_particles, self.dim)
-        prog.set_body_force(np.ascontiguousarray(force(X, step * self.dt)))
-
     def steps_to(self, t_end, n_steps, allow_many_steps=False) -> int:
         """Steps a run to ``t_end`` (or of ``n_steps``) takes from here."""
         if (t_end is None) == (n_steps is None):
             raise ValueError("give exactly one of t_end and n_steps")
         if n_steps is not None:
-            if not _whole(n_steps) or n_steps < 0:
+            if not is_whole(n_steps) or n_steps < 0:
                 raise ValueError(f"n_steps must be a non-negative integer, got {n_steps!r}")
             check_steps(n_steps, self.dt, allow_many_steps)
             return int(n_steps)
@@ -438,60 +408,17 @@ class Solver:
     def _guard_energy(self, energy, steps):
         if self.energy_guard is None or not len(self.history["energy"]):
             return
-        first = self.history["energy"][0][0]
-        base = first[0] + max(first[1], 0.0)
-        # energy put in: initial kinetic + strain, and the work of gravity and tractions
-        supplied = base + np.abs(energy[:, 2] - first[2]) + np.abs(energy[:, 3] - first[3])
-        supplied = np.maximum.accumulate(np.maximum(supplied, self._energy_input))
-        self._energy_input = float(supplied[-1])
-        moving = energy[:, 0] + energy[:, 1]
-        bad = np.flatnonzero(moving > self.energy_guard * supplied + 1e-300)
-        if len(bad):
-            i = int(bad[0])
-            raise SimulationError(
-                f"step {int(steps[i])} (t = {int(steps[i]) * self.dt:g} s): "
-                f"{ErrorCode.ENERGY_GROWTH.message}: kinetic + strain energy {moving[i]:.4g} J "
-                f"exceeds {self.energy_guard:g} x the {supplied[i]:.4g} J supplied; the run is "
-                "unstable (too few particles per element, too large a time step, or an "
-                "indefinite mass matrix)", ErrorCode.ENERGY_GROWTH, int(steps[i]))
+        self._energy_input, error = energy_balance(
+            self.history["energy"][0][0], energy, steps, self._energy_input,
+            self.energy_guard, self.dt)
+        if error is not None:
+            raise error
 
     def check(self):
         """Raise the run's first failure, if any, as a :class:`SimulationError`."""
-        prog = self._program()
-        code = int(prog.err[None])
-        if code == 0:
-            return
-        code = ErrorCode(code)
-        step, where = int(prog.err_step[None]) + 1, int(prog.err_where[None])
-        when = f"step {step} (t = {step * self.dt:g} s)"
-        if code == ErrorCode.TEAM_BARRIER:
-            block = self.layout.values["scatter_block"]
-            raise SimulationError(
-                f"{when}: {code.message} (thread {where // block} waited {TEAM_SPIN_LIMIT} "
-                "spins): Taichi's pool ran the team on fewer threads than it has; use "
-                "mode='parallel'", code, step)
-        if code == ErrorCode.SINGULAR_MASS:
-            raise SimulationError(f"{when}: {code.message} at node {where}", code, step,
-                                  node=where)
-        x = prog.x[where].to_numpy()
-        if self.dim == 1:
-            lo, hi = self.origin[0], self.origin[0] + self.n_elements * self.h
-            at = f"x = {float(x[0]):g}, grid [{lo:g}, {hi:g}]"
-        else:
-            xs = ", ".join(f"{c:g}" for c in x)
-            hi = ", ".join(f"{o + n * self.h:g}" for o, n in zip(self.origin, self.grid_elements))
-            at = f"x = ({xs}), grid from ({', '.join(f'{o:g}' for o in self.origin)}) to ({hi})"
-        msg = f"{when}: particle {where} {code.message} ({at})"
-        if code == ErrorCode.VOLUME_RANGE:
-            lo, hi = (self.layout.values[k] for k in ("volume_min", "volume_max"))
-            model = self.model
-            density = model.materials[int(model.material_index[where])].density
-            ratio = float(prog.vol[where]) * density / float(prog.m[where])
-            msg += (f": V/V0 = {ratio:.3g} outside [{lo:g}, {hi:g}]; refine the grid or the "
-                    "time step, or pass volume_range=None (or a wider range) to go on")
-        if code == ErrorCode.NOT_FINITE:
-            msg += "; the run is unstable: check the time step and the mass matrix"
-        raise SimulationError(msg, code, step, particle=where)
+        error = recorded_failure(self._program(), self.state)
+        if error is not None:
+            raise error
 
     # ---- results ---------------------------------------------------------------------------
     def project(self):
@@ -530,16 +457,7 @@ class Solver:
 
     def _inertia(self):
         """D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T of every particle (diagonal), (n, dim)."""
-        from .basis import stencils
-
-        x = self.read("x").reshape(self.n_particles, self.dim)
-        out = np.empty_like(x)
-        for k in range(self.dim):
-            xi = (x[:, k] - self.origin[k]) * self.inv_h
-            base, w, _ = stencils(self.basis, xi, self.grid_elements[k])
-            r = (base[:, None] + np.arange(self.basis.support) - self.node_offset - xi[:, None])
-            out[:, k] = np.sum(w * (r * self.h) ** 2, axis=1)
-        return out
+        return self.state.inertia(self.read("x").reshape(self.n_particles, self.dim))
 
     def affine(self) -> np.ndarray:
         """The affine velocity C_p = B_p D_p^-1 of the APIC transfers, (n, dim, dim)."""
@@ -554,17 +472,7 @@ class Solver:
         """Set the affine velocity C_p of every particle ((n, dim, dim) or one matrix)."""
         if not self.apic:
             raise RuntimeError(f"the {self.transfer} transfer keeps no affine velocity")
-        shape = (self.n_particles, self.dim, self.dim)
-        try:
-            C = np.asarray(C, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"set_affine takes numbers, got {C!r}") from None
-        if C.shape not in (shape, shape[1:]):
-            raise ValueError(f"set_affine takes one {self.dim}x{self.dim} matrix or {shape} "
-                             f"matrices, got an array of shape {C.shape}")
-        if not np.all(np.isfinite(C)):
-            raise ValueError("set_affine takes finite values, got NaN or infinity")
-        C = np.broadcast_to(C, shape).copy()
+        C = matrices("set_affine", C, self.n_particles, self.dim)
         if self.basis.support == 2:
             C = C * self._inertia()[:, None, :]
         self.write("C", C)
@@ -602,29 +510,12 @@ class Solver:
         if not self.record_energies:
             raise RuntimeError("this solver was built with energies=False")
         self._require()
-        e = self._series("energy")
-        gravity = e[:, 2] if self.has_u else e[:, 2] - e[0, 2]  # 2D/3D: -m g . (x - x0)
-        out = {"t": self._series("t"), "kinetic": e[:, 0], "strain": e[:, 1],
-               "gravity": gravity, "external_work": e[:, 3]}
-        out["total"] = out["kinetic"] + out["strain"] + out["gravity"] - out["external_work"]
-        return out
+        return energy_series(self.history, self.has_u)
 
     def tracked(self) -> dict:
         """Recorded time series of the tracked particles: arrays of shape (records, tracked)."""
         self._require()
-        out = {"t": self._series("t")}
-        for key in ("x", "u", "v"):
-            a = self._series(key, np.zeros((0, 0, self.dim)))
-            out[key] = a[..., 0] if self.dim == 1 else a
-        out["stress"] = self._tensor(self._series("stress", np.zeros((0, 0, 1))))
-        return out
-
-    def _series(self, key, empty=None):
-        """The records of ``key`` as one array (``self.history`` holds one per drain)."""
-        chunks = self.history.get(key)
-        if not chunks:
-            return np.zeros(0) if empty is None else empty
-        return np.concatenate(chunks)
+        return tracked_series(self.history, self.dim)
 
     def _tensor(self, a):
         # Taichi returns a 1x1 matrix field as (..., 1): one value per entry in 1D
@@ -632,41 +523,3 @@ class Solver:
 
     def _component(self, a):
         return a[:, 0] if self.dim == 1 else a
-
-
-def _whole(value) -> bool:
-    """An integer, or a float with an integral value (not a bool, a string, 2.5)."""
-    return (not isinstance(value, bool) and isinstance(value, numbers.Real)
-            and float(value).is_integer())
-
-
-def _check_options(energies, energy_guard, serial_threshold, small_mass):
-    """The Solver's flags and numbers, each error naming the option."""
-    if not isinstance(energies, (bool, np.bool_)):
-        raise ValueError(f"energies must be True or False, got {energies!r}")
-    if energy_guard is not None:
-        if isinstance(energy_guard, bool) or not isinstance(energy_guard, numbers.Real) \
-                or not (1.0 <= energy_guard < np.inf):
-            raise ValueError(f"energy_guard must be a finite number >= 1 (the factor by which "
-                             f"kinetic + strain energy may exceed the energy supplied) or "
-                             f"None, got {energy_guard!r}")
-    if not _whole(serial_threshold) or serial_threshold < 0:
-        raise ValueError(f"serial_threshold must be a non-negative integer (particles), got "
-                         f"{serial_threshold!r}")
-    if isinstance(small_mass, bool) or not isinstance(small_mass, numbers.Real) \
-            or not (0.0 <= small_mass < np.inf):
-        raise ValueError(f"small_mass must be a finite number >= 0, got {small_mass!r}")
-
-
-def _index(name, value) -> int:
-    if not _whole(value):
-        raise ValueError(f"{name} must be an integer index, got {value!r}")
-    return int(value)
-
-
-def _field_bytes(f) -> int:
-    """Bytes one entry of a scalar, vector or matrix field holds."""
-    import taichi as ti
-
-    count = f.n * f.m if isinstance(f, ti.MatrixField) else 1
-    return count * (8 if f.dtype in (ti.f64, ti.i64, ti.u64) else 4)

@@ -1,12 +1,13 @@
 """Recording in the kernels: time, energies and tracked particles into a history buffer.
 
 Mixed into :class:`~timpm.engine.program.Program`; Python drains the buffer
-(:class:`timpm.solver.Solver`).
+(:class:`timpm.solver.Solver`: a dict of one array per drain and key) and reads the
+drained records as time series (:func:`energy_series`, :func:`tracked_series`).
 """
 import numpy as np
 import taichi as ti
 
-__all__ = ["Recorder"]
+__all__ = ["Recorder", "series", "energy_series", "tracked_series"]
 
 _NUMPY = {ti.f64: np.float64, ti.f32: np.float32, ti.i32: np.int32, ti.i64: np.int64}
 
@@ -155,3 +156,33 @@ class Recorder:
                     phi, grad = self._weight(w, dw, offset)
                     self.accumulate(self.gm[base + offset], self.m[p] * phi)
                     self.accumulate(self.gp[base + offset], self.m[p] * phi * self.v[p])
+
+
+def series(history, key, empty=None):
+    """The records of ``key`` as one array (``history`` holds one per drain)."""
+    chunks = history.get(key)
+    if not chunks:
+        return np.zeros(0) if empty is None else empty
+    return np.concatenate(chunks)
+
+
+def energy_series(history, has_u) -> dict:
+    """Recorded energies over time: kinetic, strain, gravity (potential), external work
+    and total = kinetic + strain + gravity - external work (``has_u``: the 1D records,
+    whose gravity is -m g . u)."""
+    e = series(history, "energy")
+    gravity = e[:, 2] if has_u else e[:, 2] - e[0, 2]  # 2D/3D: -m g . (x - x0)
+    out = {"t": series(history, "t"), "kinetic": e[:, 0], "strain": e[:, 1],
+           "gravity": gravity, "external_work": e[:, 3]}
+    out["total"] = out["kinetic"] + out["strain"] + out["gravity"] - out["external_work"]
+    return out
+
+
+def tracked_series(history, dim) -> dict:
+    """Recorded time series of the tracked particles: arrays of shape (records, tracked),
+    one value per entry in 1D (Taichi returns the 1D vectors and 1x1 stresses as (..., 1))."""
+    out = {"t": series(history, "t")}
+    for key, empty in (("x", dim), ("u", dim), ("v", dim), ("stress", 1)):
+        a = series(history, key, np.zeros((0, 0, empty)))
+        out[key] = a[..., 0] if dim == 1 else a
+    return out

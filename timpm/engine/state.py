@@ -3,9 +3,14 @@
 A :class:`State` knows which of a program's fields hold this scene's data and how much of
 them (the live particles and nodes of a capacity), writes the scene's initial state,
 and keeps the arrays in host memory while another scene of the same feature set holds
-the program (``host``).
+the program (``host``); it uploads the body force of each step, checks that a saved
+state fits this scene (``fingerprint``, ``check_fits``) and counts the bytes its fields
+take (``memory``).
 """
 import numpy as np
+import taichi as ti
+
+from ..basis import stencils
 
 __all__ = ["State"]
 
@@ -54,6 +59,57 @@ class State:
                                  f"({got.dtype}), this scene needs {empty.shape} ({empty.dtype})")
         self.host = {b: np.ascontiguousarray(arrays[b]) for b in expected}
         self.load_into(prog)
+
+    def fingerprint(self, record_every) -> dict:
+        """What a saved state must match to be restored into this scene: the feature
+        set's physics, the sizes, the grid and the time step (the mode and the scatter may
+        differ), the tracked particles and ``record_every``."""
+        f, lay = self.features, self.layout
+        return {"dim": f.dim, "basis": f.basis, "transfer": f.transfer,
+                "consistent": f.consistent, "mls": f.mls,
+                "materials": [[cls.__name__, repr(flags)] for cls, flags in f.materials],
+                "particles": int(lay.n_particles), "nodes": [int(n) for n in lay.nodes],
+                "h": float(lay.h), "dt": float(self.model.dt),
+                "origin": [float(o) for o in lay.origin], "precision": f.precision,
+                "tracked": [int(p) for p in self.track], "record_every": record_every}
+
+    def check_fits(self, prog, snapshot, record_every):
+        """Refuse a snapshot (``Solver.snapshot``) whose fingerprint or state fields are
+        not this scene's under ``prog``."""
+        mine, theirs = self.fingerprint(record_every), snapshot["fingerprint"]
+        for key in mine:
+            if mine[key] != theirs.get(key):
+                raise ValueError(f"the saved state does not fit this solver: its {key} is "
+                                 f"{theirs.get(key)!r}, this solver's {mine[key]!r}")
+        columns = {b: [tuple(e) for e in entries] for b, entries in snapshot["columns"].items()}
+        if columns != {b: [tuple(e) for e in entries]
+                       for b, entries in prog.state_layout().items()}:
+            raise ValueError("the saved state holds other state fields than this solver "
+                             "keeps (another material or feature set)")
+
+    def memory(self, prog) -> dict:
+        """Bytes per particle and per grid node of ``prog``'s state fields, the names of
+        the particle fields, and the bytes per node of the private scatter's grid copies
+        (``scatter_node_bytes``, 0 for the other strategies)."""
+        copies = self.features.n_copies * sum(_field_bytes(f) for f in prog.copies.values())
+        return {"particle_bytes": sum(_field_bytes(f) for f in prog.particle_fields.values()),
+                "node_bytes": sum(_field_bytes(f) for f in prog.grid_fields.values()),
+                "scatter_node_bytes": copies,
+                "particle_fields": sorted(prog.particle_fields),
+                "particles": self.layout.n_particles, "nodes": int(np.prod(self.layout.nodes))}
+
+    def inertia(self, x):
+        """D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T of every particle at positions ``x``
+        (n, dim): its diagonal, (n, dim)."""
+        lay, basis = self.layout, self.features.basis_class
+        out = np.empty_like(x)
+        for k in range(self.features.dim):
+            xi = (x[:, k] - lay.origin[k]) * lay.values["inv_h"]
+            base, w, _ = stencils(basis, xi, lay.elements[k])
+            r = (base[:, None] + np.arange(basis.support) - self.features.node_offset
+                 - xi[:, None])
+            out[:, k] = np.sum(w * (r * lay.h) ** 2, axis=1)
+        return out
 
     def initial(self, prog):
         """The scene's initial state as the program's host arrays: positions, velocities,
@@ -117,7 +173,24 @@ class State:
         else:
             prog.write(fld, values, self.extent(prog, name))
 
+    def upload_body_force(self, prog, step):
+        """The body force b(X, t) of every particle at the start of step ``step`` (t =
+        step dt, the time the kernels keep), evaluated in Python in one vectorised call,
+        into ``prog``."""
+        force = self.model.body_force
+        if force.frame == "reference":
+            X = self.model.positions
+        else:
+            X = self.read(prog, "x").reshape(self.layout.n_particles, self.features.dim)
+        prog.set_body_force(np.ascontiguousarray(force(X, step * self.model.dt)))
+
     def _element_of(self, x):
         lay = self.layout
         xi = (x - np.asarray(lay.origin)) * lay.values["inv_h"]
         return np.clip(np.floor(xi), 0, np.asarray(lay.elements) - 1).astype(np.int32)
+
+
+def _field_bytes(f) -> int:
+    """Bytes one entry of a scalar, vector or matrix field holds."""
+    count = f.n * f.m if isinstance(f, ti.MatrixField) else 1
+    return count * (8 if f.dtype in (ti.f64, ti.i64, ti.u64) else 4)
