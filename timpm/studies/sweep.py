@@ -21,18 +21,13 @@ order; a worker that dies, a missing dask or an unreachable scheduler raise
 """
 from __future__ import annotations
 
-import asyncio
 import contextlib
-import multiprocessing
 import numbers
 import os
 import pickle
-import socket
 import sys
 import threading
-import uuid
-from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -141,6 +136,8 @@ class _Job:
         return self._run(args)
 
     def _run(self, args):
+        import socket
+
         from .. import __version__, runtime
 
         if __version__ != self.version:
@@ -209,6 +206,11 @@ def _in_order(futures, on_result) -> list:
 
 
 def _on_pool(job, calls, start, workers, on_result) -> list:
+    # imported here: a serial sweep (every timpm convergence) does not pay for them
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
     pool = ProcessPoolExecutor(max_workers=workers,
                                mp_context=multiprocessing.get_context("spawn"))
     done = False
@@ -249,6 +251,9 @@ def _cores() -> int:
 
 
 def _on_dask(job, calls, start, address, timeout, on_result) -> list:
+    import asyncio
+    import uuid
+
     try:
         import distributed
         from distributed.scheduler import KilledWorker
