@@ -43,24 +43,28 @@ def _drift(energies):
             float((total[-1] - total[0]) / scale))
 
 
-def audit_1d(steps, progress, stress_update="study"):
+def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0):
     from timpm.problems import get_problem
 
     problem = get_problem("vibrating-string")
     rows = []
     for basis, mass, transfer in ROWS_1D:
+        # the PIC share applies to MUSL with the lumped mass
+        pic = pic_fraction if (mass, transfer) == ("lumped", "musl") else 0.0
         for placement in PLACEMENTS:
             base = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
                                  placement=placement, transfer=transfer, dt=1e-9,
-                                 stress_update=stress_update)
+                                 stress_update=stress_update, pic_fraction=pic)
             critical = base.critical_dt
             for factor in FACTORS:
                 scene = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
                                       placement=placement, transfer=transfer,
-                                      dt=factor * critical, stress_update=stress_update)
+                                      dt=factor * critical, stress_update=stress_update,
+                                      pic_fraction=pic)
                 rows.append(_run(scene, steps, progress, dim=1, basis=basis, mass=mass,
                                  transfer=transfer, placement=placement, factor=factor,
-                                 critical_dt=critical, stress_update=stress_update))
+                                 critical_dt=critical, stress_update=stress_update,
+                                 pic_fraction=pic))
     return rows
 
 
@@ -149,6 +153,9 @@ def main(argv=None):
     ap.add_argument("--stress-update", default="study",
                     choices=("study", "small", "study-exact", "small-exact"),
                     help="the 1D law (default: the study's forward-Euler update)")
+    ap.add_argument("--pic-fraction", type=float, default=0.0,
+                    help="1D: the PIC share of the lumped MUSL rows' velocity update "
+                         "(default 0, the study's FLIP)")
     ap.add_argument("--json")
     args = ap.parse_args(argv)
 
@@ -160,7 +167,7 @@ def main(argv=None):
 
     rows = []
     if args.only in (None, "1d"):
-        rows += audit_1d(args.steps_1d, progress, args.stress_update)
+        rows += audit_1d(args.steps_1d, progress, args.stress_update, args.pic_fraction)
     if args.only in (None, "2d"):
         rows += audit_2d(args.steps_2d, progress)
     print(table(rows))
