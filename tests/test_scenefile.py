@@ -381,3 +381,19 @@ def test_cli_runs_a_scene_with_options_over_the_file(tmp_path, capsys):
     # the override of ppc: the ball's particles at 3 per cell and axis
     scene = load_scene(path, {"body[1].ppc": 3})
     assert doc["particles"] == scene.world.n_particles != load_scene(path).world.n_particles
+
+
+def test_the_pic_share_reaches_the_world_and_the_problem(tmp_path):
+    """simulation.pic_fraction (world) and problem.pic_fraction: read, checked in [0, 1]
+    with the file's line, and handed to the World / run_problem."""
+    text = SCENE.replace('transfer = "apic"', 'transfer = "musl"\npic_fraction = 0.25')
+    scene = load_scene(write(tmp_path, text))
+    assert scene.world.pic_fraction == 0.25
+    assert scene.world.model.pic_fraction == 0.25
+    problem = load_scene(write(tmp_path, '[problem]\nname = "oedometer"\npic_fraction = 0.0\n',
+                               name="p.toml"))
+    assert problem.problem["pic_fraction"] == 0.0
+    with pytest.raises(ValueError, match=r"p2.toml:3: problem.pic_fraction: expected a number "
+                                         r"in \[0, 1\], got 1.5"):
+        load_scene(write(tmp_path, '[problem]\nname = "oedometer"\npic_fraction = 1.5\n',
+                         name="p2.toml"))

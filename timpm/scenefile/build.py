@@ -211,7 +211,8 @@ _WORLD_ERRORS = ((r"bodies \d+ and (\d+) overlap", "body"), (r"body (\d+)\b", "b
                  (r"tractions\[(\d+)\]", "loads.traction"), (r"the surface tractions", "loads"),
                  (r"time step dt", "simulation.dt"), (r"courant", "simulation.courant"),
                  (r"domain", "domain"), (r"the \S+ transfer|the mls-mpm", "simulation.transfer"),
-                 (r"damping|local damping", "simulation.damping"))
+                 (r"damping|local damping", "simulation.damping"),
+                 (r"pic_fraction", "simulation.pic_fraction"))
 
 
 def _world_error_key(message):
@@ -250,7 +251,8 @@ def _world_scene(reader, data, path) -> SceneFile:
                       walls=walls, dt=sim.get("dt"), courant=sim.get("courant"),
                       allow_overlap=sim.get("allow_overlap", False),
                       allow_unstable_dt=sim.get("allow_unstable_dt", False),
-                      damping=sim.get("damping", 0.0), tractions=tractions, name=name)
+                      damping=sim.get("damping", 0.0),
+                      pic_fraction=sim.get("pic_fraction", 0.0), tractions=tractions, name=name)
     except ValueError as err:
         key = _world_error_key(str(err))
         raise (reader.error(key, str(err)) if key else ValueError(f"{path}: {err}")) from None

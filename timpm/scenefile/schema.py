@@ -25,6 +25,7 @@ TYPES = {
     "positive": ("a number > 0", lambda v: _is_number(v) and v > 0),
     "non-negative": ("a number >= 0", lambda v: _is_number(v) and v >= 0),
     "fraction": ("a number in (0, 1]", lambda v: _is_number(v) and 0 < v <= 1),
+    "share": ("a number in [0, 1]", lambda v: _is_number(v) and 0 <= v <= 1),
     "count": ("an integer >= 1", lambda v: isinstance(v, int) and not isinstance(v, bool)
               and v >= 1),
     "boolean": ("true or false", lambda v: isinstance(v, bool)),
@@ -72,6 +73,8 @@ SIMULATION = {
                  check=_nd_basis_check, choices=ND_BASES),
     "transfer": Key("string", "apic", doc="particle-grid transfer", choices=TRANSFERS),
     "damping": Key("non-negative", 0.0, doc="local damping factor alpha"),
+    "pic_fraction": Key("share", 0.0, doc="PIC share b of the musl velocity update "
+                        "(0: FLIP)"),
     "mode": Key("string", "auto", doc="how the steps run (serial: one thread, "
                 "bit-reproducible)", choices=MODES),
     "precision": Key("string", "f64", doc="float type of the run", choices=("f64", "f32")),
@@ -151,6 +154,8 @@ PROBLEM = {
                      choices=tuple(PLACEMENTS)),
     "stress_update": Key("string", "study", doc="stress update", choices=STRESS_UPDATES),
     "damping": Key("non-negative", None, doc="local damping factor alpha"),
+    "pic_fraction": Key("share", "the problem's", doc="PIC share b of the musl velocity "
+                        "update (0: FLIP; the oedometer's 0.01)"),
     "projection": Key("string", "standard", doc="standard or mls (4.4)", choices=PROJECTIONS),
     "transfer": Key("string", "musl", doc="particle-grid transfer", choices=TRANSFERS),
     "allow_unstable_dt": Key("boolean", False, doc="run a dt above the critical time step"),
