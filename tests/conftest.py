@@ -40,6 +40,27 @@ def assert_same_run(actual, desired):
                                    atol=1e-12 * max(1.0, float(np.abs(desired).max())))
 
 
+def run_script(path, env, timeout):
+    """Run the Python script ``path`` with ``env`` (TIMPM_ARCH dropped: the CPU unless the
+    script says otherwise) in a new process group, killed whole at the ``timeout`` (a
+    hung pool worker must not outlive the test); returns (rc, stdout, stderr)."""
+    import signal
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in env.items() if k != "TIMPM_ARCH"}
+    proc = subprocess.Popen([sys.executable, str(path)], env=env, cwd=path.parent,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate()
+        pytest.fail(f"the subprocess did not end in {timeout} s (killed)\n{out}\n{err}")
+    return proc.returncode, out, err
+
+
 def pytest_configure(config):
     # the process that runs tests starts Taichi (with pytest-xdist, each worker does; the
     # controller only distributes the test files); two threads at most: CI machines have

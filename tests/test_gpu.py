@@ -6,12 +6,10 @@ starts Taichi on the CPU (one thread, the reference), then on the GPU: the test 
 runtime is never restarted.  ``TIMPM_GPU_ARCH`` picks the backend (default: cuda)."""
 import json
 import os
-import signal
-import subprocess
-import sys
 import textwrap
 
 import pytest
+from conftest import run_script
 from taichi.lang.misc import is_arch_supported
 
 from timpm import runtime
@@ -39,17 +37,8 @@ def _script(tmp_path, body):
     """Run PRELUDE + ``body`` in a new process group; its last stdout line is JSON."""
     path = tmp_path / "script.py"
     path.write_text(PRELUDE + textwrap.dedent(body))
-    env = {k: v for k, v in os.environ.items() if k != "TIMPM_ARCH"}
-    proc = subprocess.Popen([sys.executable, str(path)], env=env, cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
-    try:
-        out, err = proc.communicate(timeout=TIMEOUT)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        out, err = proc.communicate()
-        pytest.fail(f"the subprocess did not end in {TIMEOUT} s\n{out}\n{err}")
-    assert proc.returncode == 0, err[-4000:]
+    rc, out, err = run_script(path, dict(os.environ), TIMEOUT)
+    assert rc == 0, err[-4000:]
     return json.loads(out.strip().splitlines()[-1])
 
 

@@ -7,12 +7,10 @@ Taichi with other settings runs in a subprocess, under a timeout that also ends 
 subprocess's own workers."""
 import concurrent.futures
 import os
-import signal
-import subprocess
-import sys
 import textwrap
 
 import pytest
+from conftest import run_script
 import taichi as ti
 from taichi.lang import impl
 from taichi.lang.misc import is_arch_supported
@@ -43,18 +41,7 @@ def _script(tmp_path, body, env=None):
     path = tmp_path / "script.py"
     path.write_text(PRELUDE + textwrap.dedent(body))
     # the CPU's runtime, whatever backend the test session runs on (tests/test_gpu.py)
-    full_env = {k: v for k, v in os.environ.items() if k != "TIMPM_ARCH"}
-    full_env.update({"TIMPM_THREADS": "1", **(env or {})})
-    proc = subprocess.Popen([sys.executable, str(path)], env=full_env, cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
-    try:
-        out, err = proc.communicate(timeout=TIMEOUT)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        out, err = proc.communicate()
-        pytest.fail(f"the subprocess hung (killed after {TIMEOUT} s)\n{out}\n{err}")
-    return proc.returncode, out, err
+    return run_script(path, {**os.environ, "TIMPM_THREADS": "1", **(env or {})}, TIMEOUT)
 
 
 # ---- arguments ------------------------------------------------------------------------
