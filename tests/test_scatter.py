@@ -184,27 +184,3 @@ def test_team_stops_at_a_nan_naming_step_and_particle():
     finally:
         s.release()
 
-
-@pytest.mark.cpu_only("the private scatter and the team are CPU strategies")
-def test_a_pic_share_runs_alike_in_a_team_and_in_fused_steps():
-    """The PIC share's grid velocity v_i^L is formed per node in the grid pass, which a
-    team splits over its threads: the same run as the fused serial steps to round-off."""
-    _two_threads()
-    from timpm import Body, Box, World
-    from timpm.materials import NeoHookean
-
-    rubber = NeoHookean(E=1e4, nu=0.3, density=1000.0)
-    bodies = [Body(Box((0.2, 0.3), (0.45, 0.5)), rubber, velocity=(2.0, 0.0)),
-              Body(Box((0.5, 0.35), (0.7, 0.6)), rubber, velocity=(-1.0, 0.5))]
-    world = World(domain=(1.0, 1.0), cells=16, bodies=bodies, transfer="musl",
-                  gravity=(0.0, 0.0), walls=None, pic_fraction=0.3)
-    runs = []
-    for mode in ("serial", "team"):
-        s = Solver(world, energies=False, mode=mode)
-        s.run(t_end=0.05)
-        assert s.team == (mode == "team")
-        runs.append((s.positions(), s.velocities()))
-        s.release()
-    (x0, v0), (x1, v1) = runs
-    assert np.abs(x1 - x0).max() < 1e-14
-    assert np.abs(v1 - v0).max() < 1e-13 * np.abs(v0).max()
