@@ -125,6 +125,7 @@ def test_a_pic_share_conserves_momentum_and_mass(b):
     np.testing.assert_allclose(p1, p0, rtol=0, atol=1e-12 * (m[:, None] * np.abs(v)).sum())
 
 
+@pytest.mark.slow  # the team's MUSL kernel: ~12 s of cold compilation
 @pytest.mark.cpu_only("the team is a CPU strategy")
 def test_a_pic_share_runs_alike_in_a_team_and_in_fused_steps():
     """The PIC share's grid velocity v_i^L is formed per node in the grid pass, which a
