@@ -44,13 +44,13 @@ def _drift(energies):
 
 
 def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0):
+    from timpm.model import pic_applies
     from timpm.problems import get_problem
 
     problem = get_problem("vibrating-string")
     rows = []
     for basis, mass, transfer in ROWS_1D:
-        # the PIC share applies to MUSL with the lumped mass
-        pic = pic_fraction if (mass, transfer) == ("lumped", "musl") else 0.0
+        pic = pic_fraction if pic_applies(transfer, mass) else 0.0
         for placement in PLACEMENTS:
             base = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
                                  placement=placement, transfer=transfer, dt=1e-9,

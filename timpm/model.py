@@ -22,7 +22,7 @@ from .checks import check_size, positive, positive_int, vector
 from .loads import BodyForce, field_function, time_function
 from .materials import Material
 
-__all__ = ["Model", "Wall", "walls_from", "check_scheme", "SIDES", "WALL_KINDS", "ND_BASES",
+__all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "SIDES", "WALL_KINDS", "ND_BASES",
            "TRANSFERS",
            "MASS_KINDS", "PROJECTIONS"]
 
@@ -107,6 +107,12 @@ def walls_from(spec, dim: int, default="slip", open_ok=False):
     return (wall,) * (2 * dim)
 
 
+def pic_applies(transfer="musl", mass="lumped", projection="standard") -> bool:
+    """Whether a PIC share (``pic_fraction``) blends into this scheme's velocity update:
+    the musl transfer's FLIP update with the lumped mass and the standard projection."""
+    return transfer == "musl" and mass == "lumped" and projection == "standard"
+
+
 def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standard",
                  damping=0.0, pic_fraction=0.0):
     """The basis, transfer, mass matrix, projection, damping and PIC fraction of a
@@ -161,7 +167,7 @@ def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standar
     if not (0.0 <= pic_fraction <= 1.0):
         raise ValueError(f"pic_fraction must lie in [0, 1] (0: FLIP, the study's update; 1: "
                          f"PIC), got {given!r}")
-    if pic_fraction and (transfer != "musl" or mass != "lumped" or projection != "standard"):
+    if pic_fraction and not pic_applies(transfer, mass, projection):
         raise ValueError(f"pic_fraction blends PIC into the musl transfer's FLIP update with "
                          f"the lumped mass and the standard projection, not {transfer} with "
                          f"{mass} mass and the {projection} projection (apic and mls-mpm "

@@ -57,6 +57,7 @@ class FeatureSet:
     walls: tuple | None          # wall kind per side ("open": none there, "driven": a moving
                                  # sticky wall); None: no walls
     damping: bool                # local damping of A.4
+    pic: bool                    # a PIC share in the MUSL velocity update (pic_fraction)
     traction: type | None        # time-function class of the particle traction (1D)
     body_force: bool             # a body force b(X, t) per particle, uploaded every step
     surface_force: type | None   # time-function class of the particle forces (tractions)
@@ -75,7 +76,6 @@ class FeatureSet:
     volume_guard: bool           # V / V0 checked against a range every step
     precision: str
     arch: str
-    pic: bool = False            # a PIC share in the MUSL velocity update (pic_fraction)
 
     # ---- derived choices ---------------------------------------------------------------
     @property
@@ -262,7 +262,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     features = FeatureSet(
         dim=dim, basis=basis.name, transfer=transfer, consistent=consistent, mls=mls,
         materials=tuple((type(m), m.flags()) for m in materials), walls=walls,
-        damping=damping > 0.0, traction=None if traction is None else type(traction.time_function),
+        damping=damping > 0.0, pic=model.pic_fraction > 0.0,
+        traction=None if traction is None else type(traction.time_function),
         body_force=model.body_force is not None,
         surface_force=(None if model.particle_force is None
                        else type(model.particle_force_time)),
@@ -273,7 +274,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         energies=bool(energies), tracking=len(track) > 0, mode=run_mode, scatter=scatter,
         n_copies=n_copies, team=team_ok and requested in ("team", "auto"),
         volume_guard=volume_range is not None and not all(m.initial_volume for m in materials),
-        precision=runtime.precision(), arch=runtime.arch(), pic=model.pic_fraction > 0.0)
+        precision=runtime.precision(), arch=runtime.arch())
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
         per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))

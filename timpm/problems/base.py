@@ -5,6 +5,7 @@ import numpy as np
 
 from ..basis import get_basis
 from ..checks import check_size
+from ..model import pic_applies
 from ..scene import Grid1D, Material, Scene, equidistant_particles
 
 __all__ = ["Problem", "ProblemScene", "lattice"]
@@ -120,8 +121,8 @@ class Problem:
             extras["damping"] = damping
         if pic_fraction is None:
             # the problem's blend where it applies (MUSL, lumped mass, standard projection)
-            plain = transfer == "musl" and mass == "lumped" and projection == "standard"
-            pic_fraction = self.pic_fraction if plain else 0.0
+            applies = pic_applies(transfer, mass, projection)
+            pic_fraction = self.pic_fraction if applies else 0.0
         return Scene(pic_fraction=pic_fraction, grid=grid, material=material, positions=x, volume=vol, dt=dt,
                      basis=basis_cls.name, mass=mass, allow_unstable_dt=allow_unstable_dt,
                      projection=projection, transfer=transfer, name=self.name, **extras)
