@@ -74,8 +74,10 @@ def positive_float(text):
 
 def add_runtime_arguments(parser):
     """``--threads`` and ``--arch``: where Taichi runs (see :func:`timpm.runtime.init`)."""
+    from .runtime import ARCHS
+
     parser.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")
-    parser.add_argument("--arch", choices=["cpu", "cuda", "vulkan", "metal"],
+    parser.add_argument("--arch", choices=list(ARCHS),
                         help="Taichi's backend (default: TIMPM_ARCH, else cpu); a GPU "
                              "backend the machine lacks is an error, never a silent "
                              "fallback to the CPU")

@@ -123,9 +123,10 @@ class Problem:
             # the problem's blend where it applies (MUSL, lumped mass, standard projection)
             applies = pic_applies(transfer, mass, projection)
             pic_fraction = self.pic_fraction if applies else 0.0
-        return Scene(pic_fraction=pic_fraction, grid=grid, material=material, positions=x, volume=vol, dt=dt,
+        return Scene(grid=grid, material=material, positions=x, volume=vol, dt=dt,
                      basis=basis_cls.name, mass=mass, allow_unstable_dt=allow_unstable_dt,
-                     projection=projection, transfer=transfer, name=self.name, **extras)
+                     projection=projection, transfer=transfer, pic_fraction=pic_fraction,
+                     name=self.name, **extras)
 
     def conditions(self, x0, basis, grid) -> dict:
         """Initial velocity, boundary conditions and loads as Scene keyword arguments."""
