@@ -1,0 +1,74 @@
+"""The floor of the cubic B-spline with the consistent mass on mms-1d, and its cause:
+
+    python benchmarks/mms_floor.py [--elements 32 64 128] [--amplitudes 0.0125 0.025 0.05]
+
+Part 1: the RMS error of mms-1d (bspline3, consistent mass, Gauss particles) per amplitude
+G and mesh, one thread, and at G = 0.05 on 64 elements per particles per cell.
+Part 2: the particle quadrature of a constant stress, f_i = sum_p V_p dphi_i(x_p) (exact
+value 0), on Gauss particles stretched uniformly by a strain: its RMS over the interior
+nodes of 256 elements, per basis, and the slope against the strain.
+"""
+import argparse
+
+import numpy as np
+
+import timpm
+from timpm.basis import evaluate
+from timpm.problems import get_problem
+from timpm.solver import Solver
+
+
+def mms_error(G, elements, ppc=None):
+    problem = get_problem("mms-1d", G=G)
+    scene = problem.scene(elements=elements, basis="bspline3", mass="consistent", ppc=ppc)
+    solver = Solver(scene, energies=False)
+    try:
+        solver.run(t_end=problem.t_end)
+        X = solver.model.positions[:, 0]
+        error = solver.displacements() - problem.displacement(X, solver.t)
+        return float(np.sqrt(np.mean(error ** 2)))
+    finally:
+        solver.release()
+
+
+def stretched_force(basis, strain, n_elements=256, ppc=2):
+    """RMS over interior nodes of sum_p V_p dphi_i(x_p) on stretched Gauss particles."""
+    points, weights = np.polynomial.legendre.leggauss(ppc)
+    X = (np.arange(n_elements)[:, None] + (points[None, :] + 1.0) / 2.0).ravel()
+    x = (1.0 + strain) * X
+    inside = x < n_elements
+    _, dphi = evaluate(basis, x[inside], n_elements)
+    force = (np.tile(weights / 2.0, n_elements)[inside] * (1.0 + strain)) @ dphi
+    last = int(x[inside].max()) - 4
+    return float(np.sqrt(np.mean(force[4:last] ** 2)))
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--elements", type=int, nargs="+", default=[32, 64, 128])
+    p.add_argument("--amplitudes", type=float, nargs="+", default=[0.0125, 0.025, 0.05])
+    args = p.parse_args(argv)
+    timpm.init(threads=1)
+    print("mms-1d, bspline3, consistent mass, RMS error at t = 0.02 s\n")
+    print("| G | " + " | ".join(str(n) for n in args.elements) + " |")
+    print("|---|" + "---:|" * len(args.elements))
+    for G in args.amplitudes:
+        row = [mms_error(G, n) for n in args.elements]
+        print(f"| {G:g} | " + " | ".join(f"{e:.2e}" for e in row) + " |", flush=True)
+    print("\nG = 0.05, 64 elements, per particles per cell\n")
+    ppcs = [2, 4, 8]
+    print("| ppc | " + " | ".join(str(k) for k in ppcs) + " |")
+    print("|---|" + "---:|" * len(ppcs))
+    print("| error | " + " | ".join(f"{mms_error(0.05, 64, k):.2e}" for k in ppcs) + " |")
+    strains = [0.01, 0.02, 0.04, 0.08, 0.16]
+    print("\nRMS of sum_p V_p dphi_i(x_p) (exact 0), Gauss particles stretched by the strain\n")
+    print("| basis | " + " | ".join(f"{s:g}" for s in strains) + " | slope |")
+    print("|---|" + "---:|" * (len(strains) + 1))
+    for basis in ("linear", "bspline2", "bspline3"):
+        row = [stretched_force(basis, s) for s in strains]
+        slope = np.log(row[-1] / row[0]) / np.log(strains[-1] / strains[0])
+        print(f"| {basis} | " + " | ".join(f"{e:.2e}" for e in row) + f" | {slope:.2f} |")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
