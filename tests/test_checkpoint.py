@@ -4,6 +4,7 @@ bad checkpoints are refused clearly."""
 import contextlib
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -13,9 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from timpm import Solver
-from timpm.checkpoint import load_checkpoint, save_checkpoint
+from timpm import Body, Box, LinearElastic, Ramp, Sine, Solver, Wall, World
+from timpm.checkpoint import VERSION, load_checkpoint, save_checkpoint
 from timpm.cli import main
+from timpm.engine.features import plan
+from timpm.engine.state import State
+from timpm.loads import SurfaceTraction
+from timpm.model import SIDES
+from timpm.problems import get_problem
 from timpm.scenarios.demos import get_demo
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -73,8 +79,69 @@ def test_restore_refuses_another_scene(tmp_path):
     other.release()
 
 
+def test_restore_refuses_other_material_parameters_and_wall_friction():
+    """The run-time physics of one feature set (same kernels, same sizes and time step):
+    a steeper friction angle, a rougher floor."""
+    demo = get_demo("column-collapse", cells_per_width=8)
+    saved = Solver(demo.world(), mode="serial")
+    snapshot = saved.snapshot()
+    saved.release()
+    steeper = Solver(get_demo("column-collapse", cells_per_width=8,
+                              friction_angle=demo.friction_angle + 5.0).world(), mode="serial")
+    with pytest.raises(ValueError, match=re.escape(
+            f"does not fit this solver: its material 0 parameter friction_angle is "
+            f"{demo.friction_angle!r}, this solver's {demo.friction_angle + 5.0!r}")):
+        steeper.restore(snapshot)
+    steeper.release()
+    rougher = Solver(get_demo("column-collapse", cells_per_width=8,
+                              floor_friction=2 * demo.floor_friction).world(), mode="serial")
+    mu = [demo.floor_friction if side == "bottom" else 0.0 for side in SIDES[:4]]
+    with pytest.raises(ValueError, match=re.escape(
+            f"does not fit this solver: its wall_mu is {mu!r}, this solver's "
+            f"{[2 * m for m in mu]!r}")):
+        rougher.restore(snapshot)
+    rougher.release()
+
+
+def test_fingerprint_holds_the_run_time_physics_as_json_values():
+    """A moving lid, a prescribed node, a surface traction, damping and a PIC share: their
+    values are in the fingerprint, which reads back from JSON equal (a checkpoint's
+    header); planned only, nothing compiled."""
+    world = World(domain=(1.0, 1.0), cells=4, basis="linear", transfer="musl",
+                  bodies=[Body(Box((0.25, 0.25), (0.75, 0.75)),
+                               LinearElastic(1e4, 0.3, 1e3), ppc=1)],
+                  walls={"default": "slip", "top": Wall("sticky", velocity=(0.5, 0.0))},
+                  fixed_nodes={(1, 1): (0.0, -0.25)}, fixed_time=Sine(3.0),
+                  tractions=[SurfaceTraction(0, "right", (10.0, 0.0), Ramp(0.5))],
+                  damping=0.1, pic_fraction=0.2)
+    features, layout = plan(world)
+    fingerprint = State(features, layout, world, ()).fingerprint(record_every=1)
+    assert json.loads(json.dumps(fingerprint)) == fingerprint
+    values = fingerprint["values"]
+    assert values["damping"] == 0.1 and values["pic_fraction"] == 0.2
+    assert values["prescribed_param"] == 3.0 and values["surface_param"] == 0.5
+    assert [0.5, 0.0] in [values["wall_velocity"][k:k + 2] for k in range(0, 8, 2)]
+    assert fingerprint["fixed_nodes"] == [[1, 1]]
+    assert fingerprint["fixed_velocity"] == [[0.0, -0.25]]
+    assert fingerprint["material_parameters"] == [{"E": 1e4, "nu": 0.3, "density": 1e3}]
+    assert (fingerprint["prescribed"], fingerprint["surface_force"]) == ("Sine", "Ramp")
+    assert "scatter_block" not in values  # the thread count's: may differ on resuming
+
+
 def _cli(*args):
     return main([str(a) for a in args])
+
+
+def _with_run(path, to, **changes):
+    """A copy at ``to`` of the checkpoint ``path`` whose run description has ``changes``:
+    ``timpm resume`` then rebuilds another scene (as a problem whose default changed)."""
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    header = json.loads(str(arrays["header"]))
+    header["run"].update(changes)
+    arrays["header"] = np.array(json.dumps(header))
+    np.savez(to, **arrays)
+    return to
 
 
 def test_resume_in_a_new_process_ends_where_the_straight_run_ends(tmp_path, capsys):
@@ -126,6 +193,34 @@ def test_ctrl_c_stops_the_run_saves_it_and_exits_130(tmp_path):
     assert 0 < partial["t_end"] < 1e5
 
 
+def test_resume_refuses_a_checkpoint_of_other_run_time_physics(tmp_path, capsys):
+    """The oedometer (damped, 1% PIC): resumed as saved it goes on; with another PIC share
+    or damping factor it is refused, naming both values, with exit code 2."""
+    part = tmp_path / "part.npz"
+    common = ("--quiet", "--stress-update", "small", "--elements", 4, "--ppc", 4)
+    assert _cli("run", "oedometer", *common, "--t-end", 0.01, "--checkpoint", part) == 0
+    assert _cli("resume", part, "--t-end", 0.02, "--quiet") == 0
+    oedometer = get_problem("oedometer")
+    for name, saved, value in (("pic_fraction", oedometer.pic_fraction, 0.02),
+                               ("damping", oedometer.alpha, 0.5)):
+        changed = _with_run(part, tmp_path / f"{name}.npz", **{name: value})
+        assert _cli("resume", changed, "--t-end", 0.02) == 2
+        err = capsys.readouterr().err
+        assert (f"timpm: error: the saved state does not fit this solver: its {name} is "
+                f"{saved!r}, this solver's {value!r}") in err, err
+        assert "Traceback" not in err
+
+
+def test_resume_refuses_a_checkpoint_of_format_version_1(tmp_path, capsys):
+    old = tmp_path / "old.npz"
+    np.savez(old, header=np.array(json.dumps({"format": "timpm-checkpoint", "version": 1})))
+    assert _cli("resume", old, "--t-end", 1) == 2
+    assert (f"checkpoint {old}: written by an older timpm (format version 1) whose "
+            "checkpoints do not record the run-time physics") in capsys.readouterr().err
+    with pytest.raises(ValueError, match="rerun from the start"):
+        load_checkpoint(old)
+
+
 @pytest.mark.parametrize("content, message", [
     (None, "no such file"),
     (b"not a zip", "not a timpm checkpoint"),
@@ -145,7 +240,7 @@ def test_resume_refuses_a_numpy_file_without_a_header(tmp_path, capsys):
     assert _cli("resume", path, "--t-end", 1) == 2
     assert "no timpm header" in capsys.readouterr().err
     damaged = tmp_path / "damaged.npz"
-    np.savez(damaged, header=np.array(json.dumps({"format": "timpm-checkpoint", "version": 1,
+    np.savez(damaged, header=np.array(json.dumps({"format": "timpm-checkpoint", "version": VERSION,
                                                   "step": 3})))
     assert _cli("resume", damaged, "--t-end", 1) == 2
     assert "its header lacks t, fingerprint, columns" in capsys.readouterr().err

@@ -21,8 +21,9 @@ from .files import replacing
 __all__ = ["save_checkpoint", "load_checkpoint", "FORMAT", "VERSION"]
 
 FORMAT = "timpm-checkpoint"
-VERSION = 1
-#: what a version-1 header holds besides format and version
+#: 2: the fingerprint holds the run-time physics (material constants, damping, loads ...)
+VERSION = 2
+#: what a version-2 header holds besides format and version
 HEADER_KEYS = ("step", "t", "fingerprint", "columns", "energy_input", "run_seconds")
 
 
@@ -52,7 +53,7 @@ def save_checkpoint(path, solver, run=None) -> str:
 
 def load_checkpoint(path) -> dict:
     """The checkpoint at ``path`` as :meth:`Solver.snapshot`'s dict plus ``run``, ``step``,
-    ``t`` and ``header``; a clear error for a missing, foreign or newer file."""
+    ``t`` and ``header``; a clear error for a missing, foreign, older or newer file."""
     if not os.path.isfile(path):
         raise ValueError(f"checkpoint {path}: no such file")
     try:
@@ -67,6 +68,11 @@ def load_checkpoint(path) -> dict:
         header = None
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise ValueError(f"checkpoint {path}: not a timpm checkpoint (no timpm header)")
+    if header.get("version") == 1:
+        raise ValueError(f"checkpoint {path}: written by an older timpm (format version 1) "
+                         "whose checkpoints do not record the run-time physics (material "
+                         "constants, damping, loads ...) that this scene must match; rerun "
+                         "from the start")
     if header.get("version") != VERSION:
         raise ValueError(f"checkpoint {path}: format version {header.get('version')!r}, "
                          f"this timpm reads version {VERSION}")

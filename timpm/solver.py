@@ -177,9 +177,11 @@ class Solver:
 
     # ---- snapshot and restore (checkpoints) ----------------------------------------------------
     def fingerprint(self) -> dict:
-        """What a saved state must match to be restored into this solver: the feature
-        set's physics, the sizes, the grid and the time step (the mode and the scatter may
-        differ), the tracked particles and ``record_every``."""
+        """What a saved state must match to be restored into this solver, as JSON values:
+        the feature set's physics, the sizes, the grid and the time step (the mode and the
+        scatter may differ), the tracked particles, ``record_every`` and the run-time
+        physics (material constants, gravity, damping, pic_fraction, walls, loads, fixed
+        nodes: :meth:`timpm.engine.state.State.fingerprint`)."""
         return self.state.fingerprint(self.record_every)
 
     def snapshot(self) -> dict:

@@ -14,6 +14,13 @@ from ..basis import stencils
 
 __all__ = ["State"]
 
+#: run-time values that the saving and the restoring process may choose differently (the
+#: private scatter's block of particles follows the thread count): not in the fingerprint
+PROCESS_VALUES = ("scatter_block",)
+#: the fingerprint's per-material entries and the word for one of their values
+MATERIAL_ENTRIES = {"material_parameters": "parameter", "material_constants": "constant"}
+_ABSENT = object()
+
 
 class State:
     """The particle and grid data of one scene under its feature set and layout."""
@@ -61,26 +68,41 @@ class State:
         self.load_into(prog)
 
     def fingerprint(self, record_every) -> dict:
-        """What a saved state must match to be restored into this scene: the feature
-        set's physics, the sizes, the grid and the time step (the mode and the scatter may
-        differ), the tracked particles and ``record_every``."""
-        f, lay = self.features, self.layout
-        return {"dim": f.dim, "basis": f.basis, "transfer": f.transfer,
-                "consistent": f.consistent, "mls": f.mls,
-                "materials": [[cls.__name__, repr(flags)] for cls, flags in f.materials],
-                "particles": int(lay.n_particles), "nodes": [int(n) for n in lay.nodes],
-                "h": float(lay.h), "dt": float(self.model.dt),
-                "origin": [float(o) for o in lay.origin], "precision": f.precision,
-                "tracked": [int(p) for p in self.track], "record_every": record_every}
+        """What a saved state must match to be restored into this scene, as JSON values
+        (lists for tuples: it equals itself read back from a checkpoint's header).
+
+        The feature set's physics (the mode, the scatter, the thread count and the arch
+        may differ between the saving and the restoring process), the sizes, the grid, the
+        time step, the precision, the tracked particles and ``record_every``; and the
+        run-time physics: each material's parameters (E, nu, density, friction angle ...)
+        and the constants its update reads, the run-time values (gravity, damping,
+        pic_fraction, wall friction and velocities, the parameters of the loads and of the
+        prescribed motion, the volume guard's range, the small-mass tolerance ...) and the
+        fixed nodes with their velocities.  Functions cannot be compared: of a body force
+        b(X, t) only whether one acts; the initial state (velocities, displacements) is the
+        saved state's own."""
+        f, lay, model = self.features, self.layout, self.model
+        values = {k: v for k, v in lay.values.items() if k not in PROCESS_VALUES}
+        values["pic_fraction"] = model.pic_fraction  # also where none applies: 0
+        return _plain({
+            "dim": f.dim, "basis": f.basis, "transfer": f.transfer,
+            "consistent": f.consistent, "mls": f.mls,
+            "materials": [[cls.__name__, repr(flags)] for cls, flags in f.materials],
+            "walls": f.walls, "traction": _name(f.traction), "body_force": f.body_force,
+            "surface_force": _name(f.surface_force), "prescribed": _name(f.prescribed),
+            "particles": lay.n_particles, "nodes": lay.nodes, "h": float(lay.h),
+            "dt": float(model.dt), "origin": [float(o) for o in lay.origin],
+            "precision": f.precision, "tracked": self.track, "record_every": record_every,
+            "material_parameters": [m.parameters() for m in lay.materials],
+            "material_constants": lay.material_values, "values": values,
+            "fixed_nodes": lay.fixed_nodes, "fixed_velocity": lay.fixed_velocity})
 
     def check_fits(self, prog, snapshot, record_every):
         """Refuse a snapshot (``Solver.snapshot``) whose fingerprint or state fields are
-        not this scene's under ``prog``."""
-        mine, theirs = self.fingerprint(record_every), snapshot["fingerprint"]
-        for key in mine:
-            if mine[key] != theirs.get(key):
-                raise ValueError(f"the saved state does not fit this solver: its {key} is "
-                                 f"{theirs.get(key)!r}, this solver's {mine[key]!r}")
+        not this scene's under ``prog``, naming the first difference and both values."""
+        difference = _difference(self.fingerprint(record_every), snapshot["fingerprint"])
+        if difference is not None:
+            raise ValueError(f"the saved state does not fit this solver: {difference}")
         columns = {b: [tuple(e) for e in entries] for b, entries in snapshot["columns"].items()}
         if columns != {b: [tuple(e) for e in entries]
                        for b, entries in prog.state_layout().items()}:
@@ -194,3 +216,53 @@ def _field_bytes(f) -> int:
     """Bytes one entry of a scalar, vector or matrix field holds."""
     count = f.n * f.m if isinstance(f, ti.MatrixField) else 1
     return count * (8 if f.dtype in (ti.f64, ti.i64, ti.u64) else 4)
+
+
+def _name(cls):
+    """A class's name (a time function's, in the fingerprint), or None."""
+    return None if cls is None else cls.__name__
+
+
+def _plain(value):
+    """``value`` in JSON's types: dicts with string keys, lists for tuples and arrays,
+    Python numbers for NumPy's."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _difference(mine, theirs):
+    """The first entry of fingerprint ``mine`` that the saved fingerprint ``theirs`` does
+    not match, in words naming it and both values; None where they match."""
+    for key, value in mine.items():
+        other = theirs.get(key, _ABSENT)
+        if key == "values" and isinstance(other, dict):
+            pairs = [(value, other, "{}")]
+        elif (key in MATERIAL_ENTRIES and isinstance(other, list) and len(other) == len(value)
+              and all(isinstance(o, dict) for o in other)):
+            pairs = [(a, b, f"material {k} {MATERIAL_ENTRIES[key]} {{}}")
+                     for k, (a, b) in enumerate(zip(value, other))]
+        else:
+            pairs = [({key: value}, {} if other is _ABSENT else {key: other}, "{}")]
+        for a, b, label in pairs:
+            found = _first_difference(a, b, label)
+            if found is not None:
+                return found
+    return None
+
+
+def _first_difference(mine, theirs, label):
+    """The first name whose value differs between the dicts ``mine`` and ``theirs`` (the
+    saved one), or is in one only, as "its <label> is <saved value>, this solver's <value>"."""
+    for name in [*mine, *(k for k in theirs if k not in mine)]:
+        a, b = mine.get(name, _ABSENT), theirs.get(name, _ABSENT)
+        if a is _ABSENT or b is _ABSENT or a != b:
+            what = label.format(name)
+            saved = f"it has no {what}" if b is _ABSENT else f"its {what} is {b!r}"
+            this = "this solver has none" if a is _ABSENT else f"this solver's {a!r}"
+            return f"{saved}, {this}"
+    return None
