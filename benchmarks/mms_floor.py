@@ -4,7 +4,9 @@
 
 Part 1: the RMS error of mms-1d (bspline3, consistent mass, Gauss particles) per amplitude
 G and mesh, one thread, and at G = 0.05 on 64 elements per particles per cell.
-Part 2: the particle quadrature of a constant stress, f_i = sum_p V_p dphi_i(x_p) (exact
+Part 2: the same with the internal force integrated at the Gauss points from an MLS
+stress (``projection="mls"``), per mesh at dt = 0.2 h / c, dt / 4 and dt / 16.
+Part 3: the particle quadrature of a constant stress, f_i = sum_p V_p dphi_i(x_p) (exact
 value 0), on Gauss particles stretched uniformly by a strain: its RMS over the interior
 nodes of 256 elements, per basis, and the slope against the strain.
 """
@@ -18,9 +20,11 @@ from timpm.problems import get_problem
 from timpm.solver import Solver
 
 
-def mms_error(G, elements, ppc=None):
+def mms_error(G, elements, ppc=None, projection="standard", dt_factor=1):
     problem = get_problem("mms-1d", G=G)
-    scene = problem.scene(elements=elements, basis="bspline3", mass="consistent", ppc=ppc)
+    dt = problem.courant / elements / problem.c / dt_factor
+    scene = problem.scene(elements=elements, basis="bspline3", mass="consistent", ppc=ppc,
+                          projection=projection, dt=dt)
     solver = Solver(scene, energies=False)
     try:
         solver.run(t_end=problem.t_end)
@@ -60,6 +64,13 @@ def main(argv=None):
     print("| ppc | " + " | ".join(str(k) for k in ppcs) + " |")
     print("|---|" + "---:|" * len(ppcs))
     print("| error | " + " | ".join(f"{mms_error(0.05, 64, k):.2e}" for k in ppcs) + " |")
+    print("\nG = 0.05, forces at the Gauss points (projection mls), per time step\n")
+    print("| dt | " + " | ".join(str(n) for n in args.elements) + " |")
+    print("|---|" + "---:|" * len(args.elements))
+    for factor in (1, 4, 16):
+        row = [mms_error(0.05, n, projection="mls", dt_factor=factor) for n in args.elements]
+        label = "0.2 h / c" + (f" / {factor}" if factor > 1 else "")
+        print(f"| {label} | " + " | ".join(f"{e:.2e}" for e in row) + " |", flush=True)
     strains = [0.01, 0.02, 0.04, 0.08, 0.16]
     print("\nRMS of sum_p V_p dphi_i(x_p) (exact 0), Gauss particles stretched by the strain\n")
     print("| basis | " + " | ".join(f"{s:g}" for s in strains) + " | slope |")

@@ -44,7 +44,8 @@ def _add_common(p):
                         "(default: the problem's, 0 but for the oedometer)")
     p.add_argument("--projection", default="standard", choices=list(PROJECTIONS),
                    help="mls: velocity, density and stress reconstructed by moving least "
-                        "squares, forces at Gauss points (4.4)")
+                        "squares, forces at Gauss points (4.4); beyond the linear basis "
+                        "with lumped mass, the stress only (1D)")
     p.add_argument("--transfer", default="musl", choices=["musl", "apic", "mls-mpm"],
                    help="musl: the study's scheme (2.2.4); apic, mls-mpm: the affine "
                         "transfers (linear and uniform-bsplineN bases)")

@@ -93,6 +93,20 @@ class FeatureSet:
         return self.transfer == "mls-mpm"
 
     @property
+    def mls_study(self) -> bool:
+        """The MLS projection as the study has it (4.4, linear basis, lumped mass): mass,
+        gravity and forces at the Gauss points from the reconstructed density and stress,
+        nodal velocities by MLS.  Any other basis or mass takes only the stress from the
+        Gauss points (the internal force); mass and momentum come from the particles."""
+        return self.mls and self.basis_class.support == 2 and not self.consistent
+
+    @property
+    def mls_stress_order(self) -> int:
+        """The polynomial order of the MLS stress reconstruction: 1 with the linear basis
+        (4.4), 2 with the higher-order ones (their force integrand is of higher degree)."""
+        return 1 if self.basis_class.support == 2 else 2
+
+    @property
     def strain_remap(self) -> bool:
         """APIC with the linear basis takes the strain increment from the remapped velocity
         P'_i / m_i, P'_i = sum_p m_p phi_i v_p (the study's MUSL remap, 2.2.4): the grid

@@ -79,13 +79,14 @@ class GridOps:
                 self.band[i, k] = 0.0
         if ti.static(self.mls):
             for e, g in ti.ndrange(self.p.elements()[0], ti.static(len(GAUSS_POINTS))):
-                self.g_mom[e, g] = ti.Vector.zero(float, 3)
+                self.g_mom[e, g] = ti.Vector.zero(float, 2 * self.mls_order + 1)
                 self.g_rho[e, g] = ti.Vector.zero(float, 2)
-                self.g_sig[e, g] = ti.Vector.zero(float, 2)
+                self.g_sig[e, g] = ti.Vector.zero(float, self.mls_order + 1)
             self.body[None] = ti.Vector([1e300, -1e300])
-            for i in range(self.p.nodes()[0]):
-                self.n_mom[i] = ti.Vector.zero(float, 3)
-                self.n_vel[i] = ti.Vector.zero(float, 2)
+            if ti.static(self.mls_study):
+                for i in range(self.p.nodes()[0]):
+                    self.n_mom[i] = ti.Vector.zero(float, 3)
+                    self.n_vel[i] = ti.Vector.zero(float, 2)
 
     @ti.func
     def _grid_acceleration(self):

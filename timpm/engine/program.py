@@ -115,8 +115,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
         self.dim, self.basis = f.dim, f.basis_class
         self.transfer, self.mode, self.team = f.transfer, f.mode, f.team
         self.apic, self.mls_mpm, self.strain_remap = f.apic, f.mls_mpm, f.strain_remap
-        self.consistent, self.mls, self.damping = f.consistent, f.mls, f.damping
-        self.pic = f.pic
+        self.consistent, self.mls, self.damping, self.pic = f.consistent, f.mls, f.damping, f.pic
+        self.mls_study, self.mls_order = f.mls_study, f.mls_stress_order
         self.private_scatter, self.serial_scatter = f.private_scatter, f.serial_scatter
         self.run_sums, self.n_copies = f.run_sums, f.n_copies
         self.walls, self.has_walls = f.walls, f.has_walls
@@ -215,14 +215,15 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
             fb.dense(ti.i, nn).place(scratch["inactive"])
         if self.mls:
             ng = len(GAUSS_POINTS)
-            # MLS moments sum w [1, d, d^2] at Gauss points, sum w rho_p [1, d], sum w sigma_p
-            scratch.update(g_mom=ti.Vector.field(3, real), g_rho=ti.Vector.field(2, real),
-                           g_sig=ti.Vector.field(2, real))
+            k = self.mls_order  # MLS sums: w d^0..2k, w rho_p d^0..1, w sigma_p d^0..k
+            scratch.update(g_mom=ti.Vector.field(2 * k + 1, real), g_rho=ti.Vector.field(2, real),
+                           g_sig=ti.Vector.field(k + 1, real))
             fb.dense(ti.ij, (nn, ng)).place(scratch["g_mom"], scratch["g_rho"], scratch["g_sig"])
             scratch["body"] = ti.Vector.field(2, real)  # the body: union of x_p -+ V_p / 2
             fb.place(scratch["body"])
-            scratch.update(n_mom=ti.Vector.field(3, real), n_vel=ti.Vector.field(2, real))
-            fb.dense(ti.i, nn).place(scratch["n_mom"], scratch["n_vel"])
+            if self.mls_study:
+                scratch.update(n_mom=ti.Vector.field(3, real), n_vel=ti.Vector.field(2, real))
+                fb.dense(ti.i, nn).place(scratch["n_mom"], scratch["n_vel"])
         # run state and the first error
         run = {"step_count": ti.field(ti.i64), "time": ti.field(ti.f64),
                "crossings": ti.field(ti.i64), "err": ti.field(ti.i32),

@@ -92,7 +92,8 @@ class Transfer:
             if ti.static(self.mls_mpm):
                 affine = mp * self.C[p] - self.p.dt_D_inv() * stress_volume
             if ti.static(self.mls):
-                fp[0] -= mp * self.p.gravity()[0]  # gravity and mass come from the Gauss points
+                if ti.static(self.mls_study):
+                    fp[0] -= mp * self.p.gravity()[0]  # gravity and mass: from the Gauss points
                 self._scatter_gauss_moments(p)
             # the affine momentum A (x_i - x_p) with x_i - x_p = h o - d (o: the node's
             # offset in the stencil) is h A o - A d: one vector per particle, then adds
@@ -122,7 +123,9 @@ class Transfer:
                     node_values = self._deposit("gm", copy, node, offset, mp * phi, node_values)
                     node_values = self._deposit("gf", copy, node, offset,
                                                 phi * fp - stress_volume @ grad, node_values)
-                else:
+                else:  # MLS: the stress enters at the Gauss points (_integrate_gauss)
+                    if ti.static(not self.mls_study):
+                        self.accumulate(self.gm[node], mp * phi)
                     self.accumulate(self.gf[node], phi * fp)
                 if ti.static(not self.apic and (self.damping or self.has_walls or self.pic)):
                     node_values = self._deposit("gp", copy, node, offset, mp * phi * self.v[p],
@@ -166,7 +169,7 @@ class Transfer:
                     b = self.p.pic_fraction()
                     vp = (1.0 - b) * vp + b * pic
             self.v[p] = vp
-            if ti.static(self.mls):
+            if ti.static(self.mls_study):
                 self._scatter_node_moments(p, vp[0])
             else:
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
@@ -317,7 +320,7 @@ class Transfer:
                 self._banded_factorise()
             self._grid_acceleration()
             self._g2p_velocity()
-            if ti.static(self.mls):
+            if ti.static(self.mls_study):
                 self._mls_nodal_velocity()
             else:
                 self._solve_mass(self.gp, True)
