@@ -15,9 +15,9 @@ import argparse
 import numpy as np
 
 import timpm
-from timpm.basis import evaluate
 from timpm.problems import get_problem
 from timpm.solver import Solver
+from timpm.studies.analysis import stretched_quadrature_error
 
 
 def mms_error(G, elements, ppc=None, projection="standard", dt_factor=1):
@@ -33,18 +33,6 @@ def mms_error(G, elements, ppc=None, projection="standard", dt_factor=1):
         return float(np.sqrt(np.mean(error ** 2)))
     finally:
         solver.release()
-
-
-def stretched_force(basis, strain, n_elements=256, ppc=2):
-    """RMS over interior nodes of sum_p V_p dphi_i(x_p) on stretched Gauss particles."""
-    points, weights = np.polynomial.legendre.leggauss(ppc)
-    X = (np.arange(n_elements)[:, None] + (points[None, :] + 1.0) / 2.0).ravel()
-    x = (1.0 + strain) * X
-    inside = x < n_elements
-    _, dphi = evaluate(basis, x[inside], n_elements)
-    force = (np.tile(weights / 2.0, n_elements)[inside] * (1.0 + strain)) @ dphi
-    last = int(x[inside].max()) - 4
-    return float(np.sqrt(np.mean(force[4:last] ** 2)))
 
 
 def main(argv=None):
@@ -76,7 +64,7 @@ def main(argv=None):
     print("| basis | " + " | ".join(f"{s:g}" for s in strains) + " | slope |")
     print("|---|" + "---:|" * (len(strains) + 1))
     for basis in ("linear", "bspline2", "bspline3"):
-        row = [stretched_force(basis, s) for s in strains]
+        row = [stretched_quadrature_error(basis, s) for s in strains]
         slope = np.log(row[-1] / row[0]) / np.log(strains[-1] / strains[0])
         print(f"| {basis} | " + " | ".join(f"{e:.2e}" for e in row) + f" | {slope:.2f} |")
 

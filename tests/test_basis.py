@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from timpm.basis import BASES, evaluate, get_basis
+from timpm.studies.analysis import stretched_quadrature_error
 
 N_ELEMENTS = 6
 
@@ -65,28 +66,14 @@ def test_unknown_basis_is_refused():
         get_basis("cubic")
 
 
-def _stretched_gauss_force(name, strain, n_elements=256, ppc=2):
-    """RMS over interior nodes of f_i = sum_p V_p dphi_i(x_p): the internal force of a
-    unit constant stress (exact value 0) on Gauss particles stretched uniformly by
-    ``strain`` from their reference cells."""
-    points, weights = np.polynomial.legendre.leggauss(ppc)
-    X = (np.arange(n_elements)[:, None] + (points[None, :] + 1.0) / 2.0).ravel()
-    x = (1.0 + strain) * X
-    inside = x < n_elements
-    _, dphi = evaluate(name, x[inside], n_elements)
-    force = (np.tile(weights / 2.0, n_elements)[inside] * (1.0 + strain)) @ dphi
-    last = int(x[inside].max()) - 4  # nodes away from the body's ends
-    return float(np.sqrt(np.mean(force[4:last] ** 2)))
-
-
 @pytest.mark.parametrize("name, degree", [("linear", 1), ("bspline2", 2), ("bspline3", 3)])
 def test_particle_quadrature_error_under_stretch(name, degree):
     # Gauss particles integrate a constant stress exactly in their reference cells; once
     # stretched, a Gauss point sits between the knots of some basis functions, and there the
     # force errs by O(strain^(p-1)), at a share O(strain) of the nodes: an RMS of
     # O(strain^(p-1/2)), whatever the cell size (the MMS floor of docs/results.md)
-    assert _stretched_gauss_force(name, 0.0) < 1e-12
+    assert stretched_quadrature_error(name, 0.0) < 1e-12
     strains = [0.01, 0.02, 0.04, 0.08, 0.16]
-    errors = [_stretched_gauss_force(name, s) for s in strains]
+    errors = [stretched_quadrature_error(name, s) for s in strains]
     rate = np.log(errors[-1] / errors[0]) / np.log(strains[-1] / strains[0])
     assert abs(rate - (degree - 0.5)) < 0.2, (name, errors, rate)
