@@ -43,7 +43,7 @@ def _drift(energies):
             float((total[-1] - total[0]) / scale))
 
 
-def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0):
+def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projection="standard"):
     from timpm.model import pic_applies
     from timpm.problems import get_problem
 
@@ -51,20 +51,22 @@ def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0):
     rows = []
     for basis, mass, transfer in ROWS_1D:
         pic = pic_fraction if pic_applies(transfer, mass) else 0.0
+        proj = projection if transfer == "musl" else "standard"  # mls: a musl projection
         for placement in PLACEMENTS:
             base = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
                                  placement=placement, transfer=transfer, dt=1e-9,
-                                 stress_update=stress_update, pic_fraction=pic)
+                                 stress_update=stress_update, pic_fraction=pic,
+                                 projection=proj)
             critical = base.critical_dt
             for factor in FACTORS:
                 scene = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
                                       placement=placement, transfer=transfer,
                                       dt=factor * critical, stress_update=stress_update,
-                                      pic_fraction=pic)
+                                      pic_fraction=pic, projection=proj)
                 rows.append(_run(scene, steps, progress, dim=1, basis=basis, mass=mass,
                                  transfer=transfer, placement=placement, factor=factor,
                                  critical_dt=critical, stress_update=stress_update,
-                                 pic_fraction=pic))
+                                 pic_fraction=pic, projection=proj))
     return rows
 
 
@@ -156,6 +158,8 @@ def main(argv=None):
     ap.add_argument("--pic-fraction", type=float, default=0.0,
                     help="1D: the PIC share of the lumped MUSL rows' velocity update "
                          "(default 0, the study's FLIP)")
+    ap.add_argument("--projection", default="standard", choices=("standard", "mls"),
+                    help="1D: the musl rows' projection (mls: forces at Gauss points)")
     ap.add_argument("--json")
     args = ap.parse_args(argv)
 
@@ -167,7 +171,8 @@ def main(argv=None):
 
     rows = []
     if args.only in (None, "1d"):
-        rows += audit_1d(args.steps_1d, progress, args.stress_update, args.pic_fraction)
+        rows += audit_1d(args.steps_1d, progress, args.stress_update, args.pic_fraction,
+                         args.projection)
     if args.only in (None, "2d"):
         rows += audit_2d(args.steps_2d, progress)
     print(table(rows))
