@@ -128,19 +128,18 @@ class MLSProjection:
                 y, jw = self._gauss_point(e, g)
                 if jw > 0.0:
                     base, w, dw = self.basis.stencil(y, self.p.elements()[0])
+                    sig = 0.0
+                    if ti.static(self.mls_order == 2):
+                        sig = _mls_value_quadratic(self.g_mom[e, g], self.g_sig[e, g])
+                    else:
+                        sig = _mls_value(self.g_mom[e, g], self.g_sig[e, g])
                     if ti.static(self.mls_study):
                         rho = _mls_value(self.g_mom[e, g], self.g_rho[e, g])
-                        sig = _mls_value(self.g_mom[e, g], self.g_sig[e, g])
                         for a in ti.static(range(self.basis.support)):
                             self.accumulate(self.gm[base + a], jw * rho * w[a])
                             self.accumulate(self.gf[base + a][0], jw * (
                                 rho * self.p.gravity()[0] * w[a] - sig * dw[a] * self.p.inv_h()))
                     else:
-                        sig = 0.0
-                        if ti.static(self.mls_order == 2):
-                            sig = _mls_value_quadratic(self.g_mom[e, g], self.g_sig[e, g])
-                        else:
-                            sig = _mls_value(self.g_mom[e, g], self.g_sig[e, g])
                         for a in ti.static(range(self.basis.support)):
                             self.accumulate(self.gf[base + a][0],
                                             -jw * sig * dw[a] * self.p.inv_h())
