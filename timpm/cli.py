@@ -13,6 +13,7 @@ from .argtypes import (add_runtime_arguments, numbers_as_values, param, positive
                        positive_int, setting)
 from .basis import BASES
 from .checks import MAX_STEPS, step_count
+from .engine.features import MODES
 from .files import replacing, write_json as _write_json
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
@@ -54,7 +55,7 @@ def _add_common(p):
     p.add_argument("--allow-unstable-dt", action="store_true",
                    help="run even if dt exceeds the critical time step of Eq. 2.4")
     _add_allow_many_steps(p)
-    p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"],
+    p.add_argument("--mode", default="auto", choices=list(MODES),
                    help="serial: fused steps on one thread; parallel: one launch per step; "
                         "team: many steps per launch on every thread (private scatter)")
     add_runtime_arguments(p)
@@ -178,7 +179,7 @@ def _parser():
     resume.add_argument("saved", metavar="FILE", help="a checkpoint file (.npz)")
     resume.add_argument("--t-end", type=positive_float, required=True, help="end time [s]")
     _add_allow_many_steps(resume)
-    resume.add_argument("--mode", choices=["auto", "serial", "parallel", "team"],
+    resume.add_argument("--mode", choices=list(MODES),
                         help="run mode (default: the saved run's)")
     add_runtime_arguments(resume)
     resume.add_argument("--json", metavar="FILE", help="write the records as JSON")
@@ -218,7 +219,7 @@ def _parser():
     _add_allow_many_steps(demo)
     demo.add_argument("--param", type=setting, action="append", default=[], metavar="NAME=VALUE",
                       help="override a demo parameter, e.g. aspect=1, cells=40, transfer=musl")
-    demo.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"])
+    demo.add_argument("--mode", default="auto", choices=list(MODES))
     add_runtime_arguments(demo)
     demo.add_argument("--plot", metavar="FILE.png", help="plot the demo's diagnostic")
     demo.add_argument("--json", metavar="FILE", help="write times, summary and series as JSON")
@@ -394,8 +395,6 @@ def _speed_error(args) -> int:
         print(msg, file=sys.stderr, flush=True)
 
     try:
-        if args.max_halvings < 0:
-            raise ValueError(f"--max-halvings must be non-negative, got {args.max_halvings}")
         problem = get_problem(args.problem, **dict(args.param))
         _refuse_early(problem, [max(args.elements)], max(args.ppc or [problem.ppc]))
         _check_output_files(args)

@@ -21,7 +21,7 @@ from .. import runtime
 
 __all__ = ["FeatureSet", "Layout", "plan", "MODES", "SCATTERS", "MIN_CPU_BLOCK", "auto_mode"]
 
-MODES = ("auto", "parallel", "serial", "team")
+MODES = ("auto", "serial", "parallel", "team")
 #: P2G scatter strategies: parallel atomic adds (the GPU path); the scatter loop on one
 #: thread (plain adds); or one private grid copy per CPU thread, each filled with plain adds
 #: by its share of the particles and summed into the grid afterwards.  "auto" picks
@@ -230,7 +230,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         raise TypeError(f"Solver takes a timpm.Scene (1D), a timpm.World (1D to 3D) or a "
                         f"timpm.model.Model, got {type(scene).__name__}")
     if mode not in MODES:
-        raise ValueError(f"unknown mode {mode!r}: choose auto, parallel, serial or team")
+        raise ValueError(f"unknown mode {mode!r}: choose one of {', '.join(MODES)}")
     volume_range = _volume_range(volume_range)
     n = model.n_particles
     for p in track:

@@ -5,13 +5,13 @@ import math
 from dataclasses import dataclass
 
 from ..basis import get_basis
+from ..engine.features import MODES
 from ..materials import MATERIALS
 from ..model import ND_BASES, SIDES, TRANSFERS, WALL_KINDS, MASS_KINDS, PROJECTIONS
 from ..problems import PROBLEMS
 from ..scene import PLACEMENTS, STRESS_UPDATES
 from ..world import PRESETS
 
-MODES = ("auto", "serial", "parallel", "team")
 REQUIRED = object()
 
 

@@ -67,6 +67,7 @@ import numpy as np
 from ..argtypes import add_runtime_arguments, non_negative_int, param, positive_float, positive_int
 from ..checks import whole
 from ..basis import BASES, get_basis
+from ..engine.features import MODES
 from ..problems import PROBLEMS, get_problem
 from ..scene import MASS_KINDS, PLACEMENTS, STRESS_UPDATES
 from .analysis import rms_error
@@ -405,7 +406,7 @@ def add_parser(subparsers):
                    help="most halvings of dt (default 4)")
     p.add_argument("--repeats", type=positive_int, default=3,
                    help="timed runs per configuration, the minimum is kept (default 3)")
-    p.add_argument("--mode", default="auto", choices=["auto", "serial", "parallel", "team"])
+    p.add_argument("--mode", default="auto", choices=list(MODES))
     add_runtime_arguments(p)
     add_arguments(p)
     p.add_argument("--json", metavar="FILE", help="write runs, answers and settings as JSON")
