@@ -16,23 +16,17 @@ import numpy as np
 
 import timpm
 from timpm.problems import get_problem
-from timpm.solver import Solver
 from timpm.studies.analysis import stretched_quadrature_error
+from timpm.studies.study import run_problem
 
 
 def mms_error(G, elements, ppc=None, projection="standard", dt_factor=1):
+    """The RMS error of mms-1d (bspline3, consistent mass) at dt = 0.2 h / c / dt_factor."""
     problem = get_problem("mms-1d", G=G)
     dt = problem.courant / elements / problem.c / dt_factor
-    scene = problem.scene(elements=elements, basis="bspline3", mass="consistent", ppc=ppc,
-                          projection=projection, dt=dt)
-    solver = Solver(scene, energies=False)
-    try:
-        solver.run(t_end=problem.t_end)
-        X = solver.model.positions[:, 0]
-        error = solver.displacements() - problem.displacement(X, solver.t)
-        return float(np.sqrt(np.mean(error ** 2)))
-    finally:
-        solver.release()
+    return run_problem("mms-1d", elements=elements, ppc=ppc, basis="bspline3",
+                       mass="consistent", projection=projection, dt=dt, params={"G": G},
+                       series=False, energies=False, reuse=False).record["rms_error"]
 
 
 def main(argv=None):
