@@ -207,6 +207,37 @@ def _memoize_source_positions() -> None:
             setattr(kernel_impl, name, functools.lru_cache(maxsize=None)(original_lookup))
 
 
+def _read_decorator_line_once() -> None:
+    """Taichi asks, at every ``@ti.func`` and ``@ti.kernel``, whether the decorator stands
+    in a class body: it reads the decorating frame's source line with
+    ``inspect.getframeinfo``, which looks the module up among all loaded modules each
+    time (a tenth of a second over timpm's imports and a program's kernels).  The same
+    line, read through ``linecache`` at the same position: the same answer."""
+    import inspect
+    import linecache
+
+    from taichi.lang import kernel_impl
+
+    patterns = getattr(kernel_impl, "_KERNEL_CLASS_STACKFRAME_STMT_RES", None)
+    position = getattr(inspect, "_get_code_position", None)
+    if patterns is None or position is None or getattr(kernel_impl, "_timpm_fast", False):
+        return  # another Taichi or Python: its own check
+
+    def _inside_class(level_of_class_stackframe):
+        try:
+            frame = sys._getframe(level_of_class_stackframe)
+        except ValueError:
+            return False
+        lineno = position(frame.f_code, frame.f_lasti)[0] or frame.f_lineno
+        line = linecache.getline(frame.f_code.co_filename, lineno, frame.f_globals).strip()
+        return any(pattern.match(line) for pattern in patterns)
+
+    kernel_impl._inside_class = _inside_class
+    kernel_impl._timpm_fast = True
+
+
+_read_decorator_line_once()
+
 def _print_banner() -> None:
     """Taichi's banner (version, LLVM, commit), once, at the first start."""
     global _banner_deferred
