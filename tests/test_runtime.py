@@ -258,3 +258,42 @@ def test_the_fast_line_wrapper_wraps_as_textwrap_does():
               for _ in range(20000)]
     for text in texts:
         assert fast.wrap(text) == reference.wrap(text), repr(text)
+
+
+def test_the_class_body_check_reads_the_line_inspect_reads():
+    # timpm answers Taichi's "is this decorator in a class body?" from linecache; it must
+    # read the very line inspect.getframeinfo reads, in a class body, a function and a
+    # decorated method alike (a wrong answer turns a ti.func into a method or back)
+    import inspect
+    import sys
+
+    from taichi.lang import kernel_impl
+
+    seen = []
+
+    def check():
+        # as Taichi asks: the frame that runs the class statement (or the function's)
+        frame = sys._getframe(2)
+        context = inspect.getframeinfo(frame)[3]
+        expected = any(p.match(context[0].strip())
+                       for p in kernel_impl._KERNEL_CLASS_STACKFRAME_STMT_RES)
+        seen.append((kernel_impl._inside_class(3), expected))
+        return lambda f: f
+
+    class Plain:
+        @check()
+        def method(self):
+            pass
+
+    @ti.data_oriented
+    class Oriented:
+        @check()
+        def method(self):
+            pass
+
+    @check()
+    def function():
+        pass
+
+    assert [answer for answer, _ in seen] == [expected for _, expected in seen]
+    assert [answer for answer, _ in seen] == [True, True, False]
