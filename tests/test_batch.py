@@ -180,8 +180,10 @@ def test_meshes_after_the_first_compile_nothing_and_a_batch_gives_the_same_table
         first = run_problem("vibrating-string", elements=8, t_end=0.02)
         again = run_problem("vibrating-string", elements=8, t_end=0.02)
         finer = run_problem("vibrating-string", elements=32, t_end=0.02)
+        finest = run_problem("vibrating-string", elements=256, t_end=0.02)  # 259 nodes
         assert again.record["compile_seconds"] == 0.0
         assert finer.record["compile_seconds"] == 0.0
+        assert finest.record["compile_seconds"] == 0.0
         assert finer.record["rms_error"] < first.record["rms_error"]
         assert again.record["rms_error"] == first.record["rms_error"]
         np.testing.assert_array_equal(again.series["u"], first.series["u"])

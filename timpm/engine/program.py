@@ -61,12 +61,12 @@ class Capacity:
 
     @staticmethod
     def first(features, layout) -> "Capacity":
-        """The first capacity of a feature set: room for a 1D study's meshes (1024
-        particles, 256 nodes), for a 2D or 3D convergence study's (16384 particles and
-        72^2 nodes, 32768 particles and 40^3 nodes: a few MiB), or the scene's own sizes
-        where larger: each larger capacity compiles the program again."""
+        """The first capacity of a feature set: room for a 1D study's meshes (1024 particles,
+        2064 nodes: 1024 quadratic Lagrange elements), a 2D or 3D one's (16384 particles and
+        72^2 nodes, 32768 and 40^3: a few MiB), or the scene's own sizes where larger: each
+        larger capacity compiles the program again."""
         if features.dim == 1:
-            return Capacity(max(1024, layout.n_particles), (max(256, layout.room[0]),),
+            return Capacity(max(1024, layout.n_particles), (max(2064, layout.room[0]),),
                             max(8, layout.n_tracked), max(1024, layout.history))
         particles, axis = (16384, 72) if features.dim == 2 else (32768, 40)
         return Capacity(max(particles, layout.n_particles),
