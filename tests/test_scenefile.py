@@ -356,9 +356,12 @@ def test_cli_syntax_error_exits_2_without_traceback(tmp_path, capsys):
                                               ": body[1].ppc: expected an integer >= 1")
 
 
-def test_cli_runs_a_scene_with_options_over_the_file(tmp_path, capsys):
+def test_cli_runs_a_scene_with_options_over_the_file(tmp_path, capsys, monkeypatch):
     path = write(tmp_path, SCENE + f'vtk = "{tmp_path / "never"}"\n')
     out, npz, gif = tmp_path / "run.json", tmp_path / "npz", tmp_path / "run.gif"
+    reads, read_bytes = [], Path.read_bytes  # the file is read once (what is run is what was read)
+    monkeypatch.setattr(Path, "read_bytes",
+                        lambda self: reads.append(self) or read_bytes(self))
     # slip walls, no gravity: the disks example's program (compiled above): two bodies of
     # one neo-Hookean material, the affine transfer, quadratic B-splines
     assert main(["run", str(path), "--t-end", "0.02", "--npz", str(npz), "--json", str(out),
@@ -366,6 +369,7 @@ def test_cli_runs_a_scene_with_options_over_the_file(tmp_path, capsys):
                  "--set", "loads.gravity=[0.0, 0.0]", "--gif", str(gif),
                  "--set", "output.width=320", "--set", "output.color=body",
                  "--threads", str(runtime.cpu_threads())]) == 0  # Taichi not restarted
+    assert reads.count(path) == 1
     text = capsys.readouterr().out
     doc = json.loads(out.read_text())
     assert f"scene ({path}): {doc['particles']} particles, {doc['steps']} steps" in text

@@ -39,11 +39,12 @@ class SceneFile:
         return self.reader.error(path, message)
 
 
-def load_scene(path, overrides=None) -> SceneFile:
+def load_scene(path, overrides=None, document=None) -> SceneFile:
     """Read and check the scene file ``path``; ``overrides`` maps key paths
     (``"simulation.t_end"``, ``"body[0].ppc"``) to values that replace the file's (None
-    removes a key).  Errors are ValueErrors naming file, line and key (see the module)."""
-    text, data = read_toml(path)
+    removes a key); ``document``: the file's ``read_toml`` (text, tables) where the caller
+    has read it already.  Errors are ValueErrors naming file, line and key (see the module)."""
+    text, data = read_toml(path) if document is None else document
     overridden = apply_overrides(data, overrides, path)
     reader = Reader(path, data, key_lines(text), overridden)
     if "problem" in data:

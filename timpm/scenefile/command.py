@@ -87,9 +87,9 @@ def main(argv) -> int:
 
     args = _parser().parse_args(argv)
     try:
-        _, data = read_toml(args.file)
-        form = "problem" if "problem" in data else "simulation"
-        scene = load_scene(args.file, _command_line_overrides(args, form))
+        document = read_toml(args.file)  # read once: its form names the overrides' table
+        form = "problem" if "problem" in document[1] else "simulation"
+        scene = load_scene(args.file, _command_line_overrides(args, form), document)
         runtime.init(threads=args.threads, arch=args.arch,
                      precision=scene.precision or "f64")
         with deferred_sigint():
