@@ -7,7 +7,7 @@ import os
 import numpy as np
 
 __all__ = ["positive", "positive_int", "vector", "matrices", "finite", "is_whole", "whole",
-           "index", "solver_options", "MAX_STEPS", "MAX_INDEX", "step_count", "check_steps",
+           "distinct", "index", "solver_options", "MAX_STEPS", "MAX_INDEX", "step_count", "check_steps",
            "available_memory", "state_bytes", "check_size"]
 
 
@@ -79,6 +79,15 @@ def whole(name: str, value, minimum: int = 1) -> int:
         kind = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
         raise ValueError(f"{name} must be {kind}, got {value!r}")
     return int(value)
+
+
+def distinct(name: str, values, why: str = "") -> None:
+    """Refuse a list that names a value more than once (``why`` follows the message)."""
+    values = list(values)
+    repeated = sorted({v for v in values if values.count(v) > 1})
+    if repeated:
+        raise ValueError(f"{name} lists {', '.join(map(str, repeated))} more than once"
+                         + (f": {why}" if why else ""))
 
 
 def index(name: str, value) -> int:

@@ -65,7 +65,7 @@ import time
 import numpy as np
 
 from ..argtypes import add_runtime_arguments, non_negative_int, param, positive_float, positive_int
-from ..checks import whole
+from ..checks import distinct, whole
 from ..basis import BASES, get_basis
 from ..engine.features import MODES
 from ..problems import PROBLEMS, get_problem
@@ -265,10 +265,8 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
             tuple(whole("particles per element", p) for p in _as_tuple(ppcs)))
     if not elements or not ppcs or not combos or not placements:
         raise ValueError("give at least one basis, mass, placement, number of elements and PPC")
-    for name, values in (("elements", elements), ("ppcs", ppcs)):
-        repeated = sorted({v for v in values if values.count(v) > 1})
-        if repeated:
-            raise ValueError(f"{name} lists {', '.join(map(str, repeated))} more than once")
+    distinct("elements", elements)
+    distinct("ppcs", ppcs)
     prob.check_size(max(elements), max(ppcs))  # the largest run, before any is made
     say = progress or (lambda *a, **k: None)
 

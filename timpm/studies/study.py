@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from ..batch import Batch
-from ..checks import finite, step_count, whole
+from ..checks import distinct, finite, step_count, whole
 from ..problems import get_problem
 from ..solver import Solver
 from .analysis import energy_drift, observed_rates, rms_error
@@ -291,10 +291,7 @@ def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=F
     if batch and remote:
         raise ValueError("batch runs the meshes side by side in this process: give batch "
                          "or workers / dask, not both")
-    repeated = sorted({n for n in elements if list(elements).count(n) > 1})
-    if repeated:
-        raise ValueError(f"elements lists {', '.join(map(str, repeated))} more than once: "
-                         "give each mesh once (a rate compares two different meshes)")
+    distinct("elements", elements, "give each mesh once (a rate compares two different meshes)")
     if batch:
         records = [r.record for r in _batch_runs(problem, elements, **kwargs)]
     else:
