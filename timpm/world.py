@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .basis import get_basis
-from .checks import check_size, positive as _positive, vector as _vector
+from .checks import check_size, positive as _positive, positive_int, vector as _vector
 from .loads import field_function
 from .materials import MATERIALS, Material, get_material
 from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Wall, check_scheme,
@@ -175,9 +175,7 @@ class Body:
         object.__setattr__(self, "material", mat)
         if not hasattr(self.shape, "contains"):
             raise ValueError(f"body shape must be a Box, a Ball or Points, got {self.shape!r}")
-        if isinstance(self.ppc, bool) or not isinstance(self.ppc, (int, np.integer)) or self.ppc < 1:
-            raise ValueError(f"ppc (particles per cell and axis) must be a positive integer, "
-                             f"got {self.ppc!r}")
+        positive_int("ppc (particles per cell and axis)", self.ppc)
         if self.displacement is not None and not callable(self.displacement):
             raise ValueError("body displacement must be a function u0(X) of the body's (n, "
                              f"dim) reference positions, got {type(self.displacement).__name__}")
@@ -248,9 +246,7 @@ class World:
             raise ValueError(f"a World is 1D, 2D or 3D, got a {dim}-dimensional domain")
         if np.any(domain <= 0):
             raise ValueError(f"domain lengths must be positive, got {tuple(map(float, domain))}")
-        if isinstance(self.cells, bool) or not isinstance(self.cells, (int, np.integer)) \
-                or self.cells < 1:
-            raise ValueError(f"cells (along x) must be a positive integer, got {self.cells!r}")
+        positive_int("cells (along x)", self.cells)
         h = domain[0] / int(self.cells)
         n = np.rint(domain / h).astype(int)
         if np.any(np.abs(n * h - domain) > 1e-9 * domain):
