@@ -17,7 +17,6 @@ from .engine.features import MODES
 from .files import replacing, write_json as _write_json
 from .problems import PROBLEMS, get_problem
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
-from .scenefile import is_scene_argument
 from .solver import SimulationError
 from .studies import speed_error, sweep
 
@@ -441,10 +440,11 @@ def main(argv=None):
 
 def _main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["run"] and is_scene_argument(argv[1:]):
-        from .scenefile import main as run_scene_file
+    if argv[:1] == ["run"]:  # scene files: their reader imported where one may be run
+        from .scenefile import is_scene_argument, main as run_scene_file
 
-        return run_scene_file(argv[1:])
+        if is_scene_argument(argv[1:]):
+            return run_scene_file(argv[1:])
     args = _parser().parse_args(argv)
     if args.command == "study":
         return args.func(args)
