@@ -359,7 +359,7 @@ def test_cli_syntax_error_exits_2_without_traceback(tmp_path, capsys):
 def test_cli_runs_a_scene_with_options_over_the_file(tmp_path, capsys, monkeypatch):
     path = write(tmp_path, SCENE + f'vtk = "{tmp_path / "never"}"\n')
     out, npz, gif = tmp_path / "run.json", tmp_path / "npz", tmp_path / "run.gif"
-    reads, read_bytes = [], Path.read_bytes  # the file is read once (what is run is what was read)
+    reads, read_bytes = [], Path.read_bytes  # read once: what runs is what was read
     monkeypatch.setattr(Path, "read_bytes",
                         lambda self: reads.append(self) or read_bytes(self))
     # slip walls, no gravity: the disks example's program (compiled above): two bodies of

@@ -7,8 +7,8 @@ import os
 import numpy as np
 
 __all__ = ["positive", "positive_int", "vector", "matrices", "finite", "is_whole", "whole",
-           "distinct", "index", "solver_options", "MAX_STEPS", "MAX_INDEX", "step_count", "check_steps",
-           "available_memory", "state_bytes", "check_size"]
+           "distinct", "index", "solver_options", "MAX_STEPS", "MAX_INDEX", "step_count",
+           "check_steps", "available_memory", "state_bytes", "check_size"]
 
 
 def positive(name: str, value) -> float:
