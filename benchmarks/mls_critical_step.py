@@ -17,22 +17,18 @@ part of the body, the same weights and fallbacks).
 import numpy as np
 
 from timpm.basis import get_basis, stencils
+from timpm.engine.mls_projection import GAUSS_POINTS, GAUSS_WEIGHTS
 from timpm.problems import get_problem
+from timpm.studies.mls import quadratic_spline
 
-GAUSS = (0.5 - 0.5 / 3 ** 0.5, 0.5 + 0.5 / 3 ** 0.5)
 ROWS = [("linear", "lumped"), ("linear", "consistent"), ("bspline2", "lumped"),
         ("bspline2", "consistent"), ("bspline3", "lumped"), ("bspline3", "consistent")]
-
-
-def quadratic_spline(r):
-    r = np.abs(r)
-    return np.where(r <= 0.5, 0.75 - r * r, np.where(r <= 1.5, 0.5 * (1.5 - r) ** 2, 0.0))
 
 
 def mls_weights(xi, y, order):
     """The weight of each particle's stress in the MLS value at y (element units)."""
     d = xi - y
-    w = quadratic_spline(d)
+    w = quadratic_spline(d, 1.0)  # element units: r = |d|
     P = np.stack([d ** k for k in range(order + 1)], axis=1)
     A = np.einsum("p,pi,pj->ij", w, P, P)
     if order == 2 and A[0, 0] > 0 and np.linalg.det(A) > 1e-10 * A[0, 0] ** 3:
@@ -59,7 +55,7 @@ def operators(scene):
     G, R, W = [], [], []
     for e in range(ne):
         a, b = max(e, lo), min(e + 1, hi)
-        for g in GAUSS:
+        for g, weight in zip(GAUSS_POINTS, GAUSS_WEIGHTS):
             if b <= a:
                 continue
             y = a + (b - a) * g
@@ -67,7 +63,7 @@ def operators(scene):
             row = np.zeros(nn)
             row[gb[0]:gb[0] + s] = gdw[0] / h
             G.append(row), R.append(mls_weights(xi, y, 2 if s > 2 else 1))
-            W.append(0.5 * (b - a) * h)
+            W.append(weight * (b - a) * h)
     G, R, W = np.array(G), np.array(R), np.array(W)
     mass = rho * scene.volume
     consistent = N.T @ (mass[:, None] * N)
