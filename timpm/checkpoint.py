@@ -6,7 +6,8 @@ its records so far, and a JSON header: the format version, the solver's fingerpr
 the restoring solver must match) and, when a driver knows it, the description of the run
 (``run``: the arguments that rebuild its scene, e.g. :func:`timpm.studies.study.run_problem`'s).
 
-``save_checkpoint(path, solver, run=...)`` writes it whole (:func:`timpm.files.replacing`); ``load_checkpoint(path)`` reads and checks it;
+``save_checkpoint(path, solver, run=...)`` writes it whole (:func:`timpm.files.replacing`);
+``load_checkpoint(path)`` reads and checks it;
 ``solver.restore(checkpoint)`` continues from it bit for bit (one thread, the same mode).
 """
 import datetime

@@ -22,9 +22,8 @@ from .checks import check_size, positive, positive_int, vector
 from .loads import BodyForce, field_function, time_function
 from .materials import Material
 
-__all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "SIDES", "WALL_KINDS", "ND_BASES",
-           "TRANSFERS",
-           "MASS_KINDS", "PROJECTIONS"]
+__all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "SIDES", "WALL_KINDS",
+           "ND_BASES", "TRANSFERS", "MASS_KINDS", "PROJECTIONS"]
 
 #: the sides of a box, two per axis: x, then y, then z
 SIDES = ("left", "right", "bottom", "top", "back", "front")

@@ -29,8 +29,9 @@ from ..checks import positive as _positive, step_count, whole
 from ..solver import Solver
 from ..world import Ball, Body, Box, Wall, World
 
-__all__ = ["DEMOS", "get_demo", "run_demo", "run_frames", "DemoResult", "ColumnCollapse", "Disks", "DamBreak",
-           "QUANTITIES", "color_range", "lube_runout", "lajeunesse_runout", "MARTIN_MOYCE_N2_2"]
+__all__ = ["DEMOS", "get_demo", "run_demo", "run_frames", "DemoResult", "ColumnCollapse", "Disks",
+           "DamBreak", "QUANTITIES", "color_range", "lube_runout", "lajeunesse_runout",
+           "MARTIN_MOYCE_N2_2"]
 
 #: colour quantities
 QUANTITIES = ("speed", "pressure", "plastic", "von-mises", "body")

@@ -50,8 +50,9 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     ``transfer`` is the particle-grid transfer (``"musl"``, ``"apic"``, ``"mls-mpm"``);
     ``pic_fraction`` the PIC share of the MUSL velocity update (None: the problem's, 0
     for all but the oedometer; see :class:`timpm.model.Model`); ``reuse=True`` keeps the
-    scene for a later run with the same arguments (see :func:`clear_solvers`).  Solvers of one feature set share their compiled program, so
-    a run after the first of its kind compiles nothing.  ``fields`` (a
+    scene for a later run with the same arguments (see :func:`clear_solvers`).  Solvers of
+    one feature set share their compiled program, so a run after the first of its kind
+    compiles nothing.  ``fields`` (a
     :class:`timpm.output.fields.FieldWriter`) receives the particle fields at ``frames``
     times spread evenly over the run, and at its start.  A ``t_end`` shorter than half a
     step is refused, and so is a run of more than :data:`~timpm.checks.MAX_STEPS` steps
