@@ -106,6 +106,35 @@ def test_batch_members_match_their_runs_alone():
             s.release()
 
 
+def test_a_new_batch_of_the_same_programs_takes_the_built_kernel():
+    """A study's second batch (new solvers of the same feature sets) reuses the first
+    batch's kernel and fields: a new kernel over new fields would compile again, and miss
+    Taichi's offline cache.  Its run is the first's, bit for bit."""
+    runs = []
+    for _ in range(2):
+        members = [Solver(_string(e), mode="serial", energies=False) for e in (4, 8)]
+        batch = Batch(members)
+        batch.run(n_steps=50, progress=False)
+        runs.append((batch._members(), [s.displacements() for s in members]))
+        batch.release()
+        for s in members:
+            s.release()
+    (first, u_first), (second, u_second) = runs
+    assert second is first
+    for a, b in zip(u_first, u_second):
+        np.testing.assert_array_equal(a, b)
+    # other recording intervals are another kernel
+    members = [Solver(_string(e), mode="serial", energies=False, record_every=5)
+               for e in (4, 8)]
+    batch = Batch(members)
+    try:
+        assert batch._members() is not first
+    finally:
+        batch.release()
+        for s in members:
+            s.release()
+
+
 def test_batch_states_read_every_member_at_once():
     """Batch.states() against each member's own reads, with members whose particles cross
     element boundaries (the large-deformation column, 20 crossings in 300 steps at 8

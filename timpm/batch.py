@@ -19,8 +19,78 @@ from .solver import Solver
 
 __all__ = ["Batch"]
 
+# The batch kernels of this process, per (members' programs, recording intervals, threads):
+# a new Batch of the same programs takes them, with their two small fields, and compiles
+# nothing.  New fields would get new SNode ids, and so miss Taichi's offline cache too.
+_KERNELS = {}
 
-@ti.data_oriented
+
+class _Kernels:
+    """One batch kernel and its fields: ``order`` (per member: steps to take, thread) and
+    ``status`` (per member: steps taken, errors)."""
+
+    def __init__(self, programs, every, n_threads):
+        self.programs = programs  # held: the key's ids stay theirs
+        fb = ti.FieldsBuilder()
+        self.order = ti.Vector.field(2, ti.i32)
+        self.status = ti.Vector.field(2, ti.i32)
+        fb.dense(ti.i, len(programs)).place(self.order, self.status)
+        fb.finalize()
+        self.uploaded = None  # the (steps, threads) in the order field
+        self.advance_all, self.read_states = _build(programs, every, n_threads,
+                                                    self.order, self.status)
+
+
+def _kernels_for(programs, every, n_threads):
+    """The process's batch kernels for these member programs, built on first use."""
+    gen = runtime.generation()
+    for old in [k for k in _KERNELS if k[0] != gen]:
+        del _KERNELS[old]  # Taichi restarted: their fields are gone with it
+    key = (gen, tuple(id(p) for p in programs), tuple(every), n_threads)
+    if key not in _KERNELS:
+        _KERNELS[key] = _Kernels(programs, every, n_threads)
+    return _KERNELS[key]
+
+
+def _build(programs, every, n_threads, order, status):
+    """The batch kernel and the one-launch read of the members' states."""
+    @ti.kernel
+    def advance_all() -> ti.i32:
+        # thread q of the static CPU split runs iterations [q B, (q + 1) B): iteration
+        # q B takes the members assigned to thread q, one after another; returns the
+        # number of members that stopped short or failed (then Python reads the status)
+        short = 0
+        for r in range(n_threads * MIN_CPU_BLOCK):
+            if r % MIN_CPU_BLOCK == 0:
+                q = r // MIN_CPU_BLOCK
+                for k in ti.static(range(len(programs))):
+                    if order[k][1] == q:
+                        prog = programs[k]  # k is static: a Python-level lookup
+                        done = prog._advance_steps(order[k][0], every[k])
+                        errors = prog.err_count[None]
+                        status[k] = ti.Vector([done, errors])
+                        if done != order[k][0] or errors != 0:
+                            short += 1
+        return short
+
+    @ti.kernel
+    def read_states(u: ti.types.ndarray(), scalars: ti.types.ndarray()):
+        ti.loop_config(serialize=True)
+        for _ in range(1):
+            start = 0
+            for k in ti.static(range(len(programs))):
+                prog = programs[k]
+                n = prog.p.n_particles()
+                for p in range(n):
+                    u[start + p] = prog.u[p][0]
+                start += n
+                scalars[k, 0] = prog.step_count[None]
+                scalars[k, 1] = prog.time[None]
+                scalars[k, 2] = prog.crossings[None]
+
+    return advance_all, read_states
+
+
 class Batch:
     """Fused serial solvers advanced together, shared out over the CPU threads.
 
@@ -31,7 +101,8 @@ class Batch:
     the batch keeps its own ``run_seconds`` and ``compile_seconds``.  The batch kernel holds
     every member's step: it compiles more slowly than the members would apart (about 30 s
     cold for the five meshes of Table 3.2, 3 s from Taichi's offline cache), so a batch pays
-    off when it runs many times (``reset()`` between runs).
+    off when it runs many times (``reset()`` between runs).  The process keeps it: a later
+    batch of the same feature sets, recording intervals and threads compiles nothing.
     """
 
     def __init__(self, solvers, threads: int | None = None):
@@ -61,30 +132,25 @@ class Batch:
         self.n_threads = threads if runtime.static_cpu_blocks() else 1
         for k, s in enumerate(solvers):
             s.move_to_slot(k + 1)  # slot 0 is the program single solvers share
-        fb = ti.FieldsBuilder()
-        self.order = ti.Vector.field(2, ti.i32)  # per member: steps to take, thread
-        self.status = ti.Vector.field(2, ti.i32)  # per member: steps taken, errors
-        fb.dense(ti.i, len(solvers)).place(self.order, self.status)
-        self._tree = fb.finalize()
+        self._released = False
         self._generation = runtime.generation()
-        self._programs = None  # the members' programs the kernels were built for
-        self._order = None  # the (steps, threads) in the order field
+        self._kernels = None  # the batch kernels of the members' programs
         self.run_seconds = 0.0
         self.compile_seconds = 0.0
         self._compiled = False
 
     def release(self):
-        """Free the batch's fields (the members stay usable; release them apart)."""
-        if self._tree is not None:
-            if self._generation == runtime.generation():  # else Taichi freed it at its restart
-                self._tree.destroy()
-            self._tree = None
+        """Mark the batch unusable (the members stay usable; release them apart).  Its
+        kernel and two small fields stay with the process, for the next batch of the same
+        programs."""
+        self._released = True
+        self._kernels = None
 
     def _require_fields(self):
         """A clear error, not a launch on freed memory, for a batch or member without its
         fields."""
         runtime.check_caller()
-        if self._tree is None:
+        if self._released:
             raise Released("this batch was released")
         if self._generation != runtime.generation():
             raise Released("Taichi was restarted (timpm.init with other settings) after "
@@ -96,54 +162,15 @@ class Batch:
                 raise Released(f"batch member {k}: {err}") from None
 
     def _members(self):
-        """The members' programs, each holding its member's state; the kernels are built
-        again where a program changed (grown)."""
+        """The batch kernels of the members' programs, each program holding its member's
+        state; other kernels where a program changed (grown)."""
         self._require_fields()
         programs = [s._program() for s in self.solvers]
-        if self._programs is None or any(a is not b for a, b in zip(programs, self._programs)):
-            self._bind(programs)
-            self._programs = programs
-        return programs
-
-    def _bind(self, programs):
-        n_threads, order, status = self.n_threads, self.order, self.status
-        every = [s.record_every for s in self.solvers]
-
-        @ti.kernel
-        def advance_all() -> ti.i32:
-            # thread q of the static CPU split runs iterations [q B, (q + 1) B): iteration
-            # q B takes the members assigned to thread q, one after another; returns the
-            # number of members that stopped short or failed (then Python reads the status)
-            short = 0
-            for r in range(n_threads * MIN_CPU_BLOCK):
-                if r % MIN_CPU_BLOCK == 0:
-                    q = r // MIN_CPU_BLOCK
-                    for k in ti.static(range(len(programs))):
-                        if order[k][1] == q:
-                            prog = programs[k]  # k is static: a Python-level lookup
-                            done = prog._advance_steps(order[k][0], every[k])
-                            errors = prog.err_count[None]
-                            status[k] = ti.Vector([done, errors])
-                            if done != order[k][0] or errors != 0:
-                                short += 1
-            return short
-
-        @ti.kernel
-        def read_states(u: ti.types.ndarray(), scalars: ti.types.ndarray()):
-            ti.loop_config(serialize=True)
-            for _ in range(1):
-                start = 0
-                for k in ti.static(range(len(programs))):
-                    prog = programs[k]
-                    n = prog.p.n_particles()
-                    for p in range(n):
-                        u[start + p] = prog.u[p][0]
-                    start += n
-                    scalars[k, 0] = prog.step_count[None]
-                    scalars[k, 1] = prog.time[None]
-                    scalars[k, 2] = prog.crossings[None]
-
-        self._advance_all, self._read_states = advance_all, read_states
+        if self._kernels is None or any(a is not b for a, b in
+                                        zip(programs, self._kernels.programs)):
+            every = [s.record_every for s in self.solvers]
+            self._kernels = _kernels_for(programs, every, self.n_threads)
+        return self._kernels
 
     def reset(self):
         """Every member back to its initial state (:meth:`Solver.reset`)."""
@@ -171,11 +198,11 @@ class Batch:
         member is 1D and counts grid crossings."""
         if not all(s.dim == 1 and s.has_u and s.track_crossings for s in self.solvers):
             return None
-        self._members()
+        kernels = self._members()
         counts = [s.n_particles for s in self.solvers]
         u = np.empty(sum(counts))
         scalars = np.empty((len(counts), 3))
-        self._read_states(u, scalars)
+        kernels.read_states(u, scalars)
         starts = np.cumsum([0] + counts)
         return [{"u": u[a:b], "step": int(row[0]), "t": float(row[1]),
                  "grid_crossings": int(row[2])}
@@ -191,13 +218,13 @@ class Batch:
             thread_of[k] = q
             load[q] += work[k]
         order = (tuple(steps), tuple(thread_of))
-        if order != self._order:  # a study's launches repeat: upload only a new order
-            self.order.from_numpy(np.asarray(order, dtype=np.int32).T.copy())
-            self._order = order
-        self._members()
-        if self._advance_all() == 0:  # every member took its steps: no read-back
+        kernels = self._members()
+        if order != kernels.uploaded:  # a study's launches repeat: upload only a new order
+            kernels.order.from_numpy(np.asarray(order, dtype=np.int32).T.copy())
+            kernels.uploaded = order
+        if kernels.advance_all() == 0:  # every member took its steps: no read-back
             return np.array([[n, 0] for n in steps])
-        return self.status.to_numpy()
+        return kernels.status.to_numpy()
 
     def run(self, t_end: float | None = None, n_steps: int | None = None, progress=None,
             allow_many_steps: bool = False):
