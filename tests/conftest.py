@@ -6,6 +6,10 @@ import pytest
 # would print them after pytest's summary line
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "false")
 os.environ.setdefault("TI_LOG_LEVEL", "warn")
+# the tests compile far more than they step: Taichi's control-flow optimisation off
+# (kernels compile ~2x faster; every golden case is bit for bit the same either way, and
+# tests/golden/golden.py checks the default); TIMPM_OPTIMIZE=1 tests the default build
+os.environ.setdefault("TIMPM_OPTIMIZE", "0")
 
 import timpm  # noqa: E402
 

@@ -83,6 +83,37 @@ def test_TIMPM_THREADS_sets_the_default(tmp_path):
     assert "threads 1" in out
 
 
+@pytest.mark.parametrize("value", ["yes", "2", "true"])
+def test_bad_TIMPM_OPTIMIZE_is_named(tmp_path, value):
+    rc, _, err = _script(tmp_path, "timpm.init()\n", env={"TIMPM_OPTIMIZE": value})
+    assert rc != 0
+    assert (f"ValueError: the environment variable TIMPM_OPTIMIZE must be 1 (optimise the "
+            f"kernels fully) or 0 (compile faster), got {value!r}") in err
+
+
+def test_optimize_reaches_taichi_and_keeps_the_run_bit_for_bit(tmp_path):
+    """optimize=False turns Taichi's control-flow optimisation off (the test processes run
+    so, TIMPM_OPTIMIZE=0); the string's run is the same to the last bit either way."""
+    code = (
+        "import sys\n"
+        "from taichi.lang import impl\n"
+        "from timpm.problems import get_problem\n"
+        "flag = sys.argv[1] == '1'\n"
+        "timpm.init(threads=1, optimize=flag)\n"
+        "assert impl.current_cfg().cfg_optimization == flag\n"
+        "s = timpm.Solver(get_problem('vibrating-string').scene(elements=8), energies=False)\n"
+        "s.run(n_steps=300)\n"
+        "print(repr(s.positions().tolist()))\n")
+    outs = []
+    for flag in ("1", "0"):
+        rc, out, err = _script(tmp_path, code.replace("sys.argv[1]", repr(flag)))
+        assert rc == 0, err
+        outs.append(out.strip().splitlines()[-1])
+    assert outs[0] == outs[1]
+    with pytest.raises(ValueError, match="optimize must be True or False, got 'no'"):
+        runtime.init(optimize="no")
+
+
 # ---- backends -------------------------------------------------------------------------
 
 @pytest.mark.cpu_only("describes a CPU runtime")

@@ -97,12 +97,15 @@ def test_a_worker_that_dies_and_a_simulation_error_there():
 
 
 def test_workers_start_taichi_with_this_processes_settings():
+    from taichi.lang import impl
+
     from timpm import runtime
 
     # the thread count resolved: a worker on a machine with other cores runs as many
     assert runtime.settings() == dict(threads=runtime.cpu_threads(),
                                       precision=runtime.precision(), arch=runtime.arch(),
-                                      debug=False, pin=True)
+                                      debug=False, pin=True,
+                                      optimize=bool(impl.current_cfg().cfg_optimization))
 
 
 # ---- checked before any work ----------------------------------------------------------------

@@ -83,13 +83,27 @@ def _arch(arch):
     return arch
 
 
-def _settings(threads=None, debug=False, precision="f64", pin=True, arch=None) -> dict:
+def _optimize(optimize):
+    """``optimize`` checked, or ``TIMPM_OPTIMIZE`` ("1" or "0") when None (True if unset)."""
+    if optimize is None:
+        text = os.environ.get("TIMPM_OPTIMIZE", "").strip()
+        if text not in ("", "0", "1"):
+            raise ValueError(f"the environment variable TIMPM_OPTIMIZE must be 1 (optimise "
+                             f"the kernels fully) or 0 (compile faster), got {text!r}")
+        return text != "0"
+    if not isinstance(optimize, bool):
+        raise ValueError(f"optimize must be True or False, got {optimize!r}")
+    return optimize
+
+
+def _settings(threads=None, debug=False, precision="f64", pin=True, arch=None,
+              optimize=None) -> dict:
     """The settings of a start, checked before Taichi is touched."""
     arch = _arch(arch)
     if precision not in ("f64", "f32"):
         raise ValueError(f"precision must be 'f64' or 'f32', got {precision!r}")
     return dict(threads=_threads(threads), debug=bool(debug), precision=precision,
-                pin=bool(pin), arch=arch)
+                pin=bool(pin), arch=arch, optimize=_optimize(optimize))
 
 
 def _supported(a) -> bool:
@@ -105,7 +119,7 @@ def _unavailable(name: str, why: str = "it is not available on this machine") ->
 
 
 def init(threads: int | None = None, debug: bool = False, precision: str = "f64",
-         pin: bool = True, arch: str | None = None) -> None:
+         pin: bool = True, arch: str | None = None, optimize: bool | None = None) -> None:
     """Start Taichi, on the CPU unless ``arch`` names a GPU backend.
 
     ``arch``: "cpu", "cuda", "vulkan" or "metal" (default: ``TIMPM_ARCH``, else "cpu"; a
@@ -116,13 +130,18 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     or all cores); ``precision`` sets the default float type of literals and fields ("f64"
     or "f32"); ``debug=True`` turns on Taichi's own bounds checks (slow); ``pin`` binds
     Taichi's CPU worker threads one per core, round robin over the cores this process may
-    use (Linux; like ``OMP_PROC_BIND=spread``; see :func:`pin_workers`).  The arguments
+    use (Linux; like ``OMP_PROC_BIND=spread``; see :func:`pin_workers`).
+    ``optimize=False`` (default: ``TIMPM_OPTIMIZE``, else True) turns off Taichi's
+    control-flow optimisation (store forwarding, dead-store elimination): kernels compile
+    about 2x faster with results bit for bit the same on every golden case, and may step
+    up to ~10% slower (docs/performance.md); for sweeps and tests that compile more than
+    they step.  The arguments
     are checked (ValueError) before Taichi is touched.  Calling it again with other
     settings restarts Taichi, which frees the fields of every existing solver (using one
     then raises a RuntimeError; the study drivers build new ones).  The calling thread
     owns the runtime (see :func:`check_caller`).
     """
-    settings = _settings(threads, debug, precision, pin, arch)
+    settings = _settings(threads, debug, precision, pin, arch, optimize)
     check_caller()
     previous = _state.get("settings")
     if previous == settings:
@@ -257,7 +276,8 @@ def _start(settings: dict) -> None:
     _state["generation"] = generation() + 1  # the fields of the last start are gone
     fp = ti.f64 if settings["precision"] == "f64" else ti.f32
     kwargs = dict(arch=ARCHS[settings.get("arch", "cpu")], debug=settings["debug"],
-                  default_fp=fp, log_level=ti.WARN)
+                  default_fp=fp, log_level=ti.WARN,
+                  cfg_optimization=settings.get("optimize", True))
     if settings["threads"]:
         kwargs["cpu_max_num_threads"] = settings["threads"]
     _print_banner()
