@@ -133,9 +133,10 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     use (Linux; like ``OMP_PROC_BIND=spread``; see :func:`pin_workers`).
     ``optimize=False`` (default: ``TIMPM_OPTIMIZE``, else True) turns off Taichi's
     control-flow optimisation (store forwarding, dead-store elimination): kernels compile
-    about 2x faster with results bit for bit the same on every golden case, and may step
-    up to ~10% slower (docs/performance.md); for sweeps and tests that compile more than
-    they step.  The arguments
+    about 2x faster and may step up to ~10% slower (docs/performance.md); for sweeps and
+    tests that compile more than they step.  Every golden case (one thread) is bit for
+    bit the same; a two-thread run can differ at round-off (Taichi contracts other
+    multiply-adds).  The arguments
     are checked (ValueError) before Taichi is touched.  Calling it again with other
     settings restarts Taichi, which frees the fields of every existing solver (using one
     then raises a RuntimeError; the study drivers build new ones).  The calling thread
