@@ -68,12 +68,17 @@ def test_precision_is_checked():
         runtime.init(precision="f16")
 
 
-@pytest.mark.parametrize("value", ["abc", "-2", "0", "2.5"])
-def test_bad_TIMPM_THREADS_is_named(tmp_path, value):
-    rc, _, err = _script(tmp_path, "timpm.init()\n", env={"TIMPM_THREADS": value})
+THREADS_MESSAGE = "must be a positive integer (worker threads)"
+OPTIMIZE_MESSAGE = "must be 1 (optimise the kernels fully) or 0 (compile faster)"
+
+
+@pytest.mark.parametrize("variable, value, message", [
+    *[("TIMPM_THREADS", v, THREADS_MESSAGE) for v in ("abc", "-2", "0", "2.5")],
+    *[("TIMPM_OPTIMIZE", v, OPTIMIZE_MESSAGE) for v in ("yes", "2", "true")]])
+def test_a_bad_environment_variable_is_named(tmp_path, variable, value, message):
+    rc, _, err = _script(tmp_path, "timpm.init()\n", env={variable: value})
     assert rc != 0
-    assert (f"ValueError: the environment variable TIMPM_THREADS must be a positive "
-            f"integer (worker threads), got {value!r}") in err
+    assert f"ValueError: the environment variable {variable} {message}, got {value!r}" in err
 
 
 def test_TIMPM_THREADS_sets_the_default(tmp_path):
@@ -81,14 +86,6 @@ def test_TIMPM_THREADS_sets_the_default(tmp_path):
                            env={"TIMPM_THREADS": " 1 "})
     assert rc == 0, err
     assert "threads 1" in out
-
-
-@pytest.mark.parametrize("value", ["yes", "2", "true"])
-def test_bad_TIMPM_OPTIMIZE_is_named(tmp_path, value):
-    rc, _, err = _script(tmp_path, "timpm.init()\n", env={"TIMPM_OPTIMIZE": value})
-    assert rc != 0
-    assert (f"ValueError: the environment variable TIMPM_OPTIMIZE must be 1 (optimise the "
-            f"kernels fully) or 0 (compile faster), got {value!r}") in err
 
 
 def test_optimize_reaches_taichi_and_keeps_the_run_bit_for_bit(tmp_path):
