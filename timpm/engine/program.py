@@ -24,7 +24,7 @@ from .drivers import Drivers
 from .grid import GridOps
 from .mls_projection import GAUSS_POINTS, MLSProjection
 from .params import ParamBlock
-from .recorder import Recorder
+from .recorder import NUMPY_DTYPES, Recorder, components, entry_size
 from .scatter import ScatterOps
 from .stencil import StencilOps
 from .transfer import Transfer
@@ -347,7 +347,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
         cols = dict.fromkeys(blocks, 0)
 
         def add(block, name, fld):
-            comps = fld.n * fld.m if isinstance(fld, ti.MatrixField) else 1
+            comps = entry_size(fld)
             blocks[block].append((name, cols[block], comps))
             cols[block] += comps
 
@@ -363,12 +363,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
             add("scalars", "body", self.scratch_fields["body"])
         self._state_layout = {b: entries for b, entries in blocks.items()}
         self.state_columns = {b: max(cols[b], 1) for b in blocks}
-        def shape_of(fld):  # components as (rows, columns); columns 0: a vector
-            if not isinstance(fld, ti.MatrixField):
-                return (1, -1)
-            return (fld.n, fld.m if fld.ndim == 2 else 0)
-
-        spec = {b: [(getattr(self, name), col, shape_of(getattr(self, name)))
+        spec = {b: [(getattr(self, name), col, components(getattr(self, name)))
                     for name, col, _ in entries] for b, entries in blocks.items()}
 
         @ti.func
@@ -538,7 +533,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
         """Store ``values`` (``count`` entries along the leading axes) in the first entries
         of ``fld``, the rest zero."""
         shape = _numpy_shape(fld)
-        full = np.zeros(shape, dtype=_numpy_dtype(fld))
+        full = np.zeros(shape, dtype=NUMPY_DTYPES[fld.dtype])
         count = tuple(count)
         full[tuple(slice(0, c) for c in count)] = np.asarray(values).reshape(
             count + shape[len(count):])
@@ -550,11 +545,6 @@ def _numpy_shape(fld):
     if not isinstance(fld, ti.MatrixField):
         return tuple(fld.shape)
     return tuple(fld.shape) + ((fld.n,) if fld.m == 1 else (fld.n, fld.m))
-
-
-def _numpy_dtype(fld):
-    return {ti.f64: np.float64, ti.f32: np.float32, ti.i32: np.int32,
-            ti.i64: np.int64}[fld.dtype]
 
 
 _PROGRAMS: dict = {}

@@ -7,16 +7,23 @@ drained records as time series (:func:`energy_series`, :func:`tracked_series`).
 import numpy as np
 import taichi as ti
 
-__all__ = ["Recorder", "series", "energy_series", "tracked_series"]
+__all__ = ["Recorder", "series", "energy_series", "tracked_series", "NUMPY_DTYPES",
+           "components", "entry_size"]
 
-_NUMPY = {ti.f64: np.float64, ti.f32: np.float32, ti.i32: np.int32, ti.i64: np.int64}
+#: the NumPy type of a field's Taichi type
+NUMPY_DTYPES = {ti.f64: np.float64, ti.f32: np.float32, ti.i32: np.int32, ti.i64: np.int64}
 
 
-def _components(fld):
+def components(fld):
     """(rows, columns) of a field's entries: (1, -1) a scalar, (n, 0) a vector."""
     if not isinstance(fld, ti.MatrixField):
         return (1, -1)
     return (fld.n, fld.m if fld.ndim == 2 else 0)
+
+
+def entry_size(fld) -> int:
+    """The numbers one entry of a scalar, vector or matrix field holds."""
+    return fld.n * fld.m if isinstance(fld, ti.MatrixField) else 1
 
 
 class Recorder:
@@ -86,7 +93,7 @@ class Recorder:
         layout = {1: [], 2: []}  # per record, per record and tracked particle
         cols = {1: 0, 2: 0}
         for name, fld in fields.items():
-            rows, columns = _components(fld)
+            rows, columns = components(fld)
             size = rows * max(columns, 1)  # a scalar (columns -1) takes one column
             axes = len(fld.shape)
             layout[axes].append((name, fld, cols[axes], (rows, columns)))
@@ -136,7 +143,7 @@ class Recorder:
                     lead = (n,) if axes == 1 else (n, n_tracked)
                     a = block[tuple(slice(0, k) for k in lead)
                               + (slice(col, col + int(np.prod(entry))),)]
-                    out[name] = a.reshape(lead + entry).astype(_NUMPY[fld.dtype])
+                    out[name] = a.reshape(lead + entry).astype(NUMPY_DTYPES[fld.dtype])
             return out
 
         self.read_history = read_history

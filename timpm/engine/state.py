@@ -11,6 +11,7 @@ import numpy as np
 import taichi as ti
 
 from ..basis import stencils
+from .recorder import entry_size
 
 __all__ = ["State"]
 
@@ -214,8 +215,7 @@ class State:
 
 def _field_bytes(f) -> int:
     """Bytes one entry of a scalar, vector or matrix field holds."""
-    count = f.n * f.m if isinstance(f, ti.MatrixField) else 1
-    return count * (8 if f.dtype in (ti.f64, ti.i64, ti.u64) else 4)
+    return entry_size(f) * (8 if f.dtype in (ti.f64, ti.i64, ti.u64) else 4)
 
 
 def _name(cls):
