@@ -4,8 +4,8 @@
 
 ``timpm.init(optimize=False)`` (``TIMPM_OPTIMIZE=0``, what the test processes run) turns
 off Taichi's ``cfg_optimization``.  Each measurement is a fresh process with Taichi's
-offline cache off (every kernel compiled) that builds one scene, times its first 20 steps
-(the compilation of every kernel a run launches: seconds) and then ``steps`` more
+offline cache off (every kernel compiled) that times building one scene and its first 20
+steps (mostly the compilation of every kernel a run launches: seconds) and then ``steps`` more
 (microseconds per step); the two builds alternate, ``--repeats`` times, and the fastest
 and the median of each are kept.  Cases: mpm88's physics at 8192 particles (f32, the
 team), the 2D sand column of tests/test_scatter.py (MUSL, Drucker-Prager, friction floor,
