@@ -6,6 +6,7 @@ Sizes are refused before anything is allocated (against Taichi's 32-bit indices 
 memory available, fixed here at 8 GiB), runs of more than 1e8 steps unless allowed, and
 every case is refused before a kernel is compiled.
 """
+import json
 import os
 import re
 import subprocess
@@ -357,6 +358,24 @@ def _timpm(*args, env=None):
     base = {k: v for k, v in os.environ.items() if k != "ENABLE_TAICHI_HEADER_PRINT"}
     return subprocess.run([sys.executable, "-m", "timpm", *args], capture_output=True,
                           text=True, timeout=120, env={**base, **(env or {})})
+
+
+def test_the_command_exits_fast_and_keeps_its_kernels_and_outputs(tmp_path):
+    # the timpm command ends with os._exit after finalising Taichi (exit_process): the
+    # kernels it compiled must still reach the offline cache, its outputs their files,
+    # and its exit status the caller
+    cache, doc = tmp_path / "cache", tmp_path / "table.json"
+    proc = _timpm("convergence", "vibrating-string", "--elements", "4", "8", "--t-end", "0.1",
+                  "--json", str(doc), env={"TI_OFFLINE_CACHE_FILE_PATH": str(cache)})
+    assert proc.returncode == 0, proc.stderr
+    runs = json.loads(doc.read_text())["runs"]
+    assert [r["elements"] for r in runs] == [4, 8]
+    for r in runs:  # the table printed in full before the exit
+        assert f"{r['rms_error']:.4e}" in proc.stdout
+    cached = [f for f in cache.rglob("*") if f.is_file()]
+    assert cached, "no kernel reached Taichi's offline cache"
+    refused = _timpm("run", "no-such-problem")
+    assert refused.returncode == 2 and "timpm: error" in refused.stderr
 
 
 def test_help_is_not_preceded_by_the_taichi_banner():

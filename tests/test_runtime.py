@@ -286,6 +286,17 @@ def test_the_fast_line_wrapper_wraps_as_textwrap_does():
               for _ in range(20000)]
     for text in texts:
         assert fast.wrap(text) == reference.wrap(text), repr(text)
+        assert fast.wrap(text) == reference.wrap(text), repr(text)  # a long line: remembered
+    # the remembered lines depend on the settings too, not on the text alone
+    narrow = _FittingLineWrapper(width=30)
+    assert narrow.wrap(texts[-1]) == textwrap.TextWrapper(width=30).wrap(texts[-1])
+    # and the memoized fill and dedent of each source line Taichi reads
+    from timpm.runtime import _MemoizedTextwrap
+
+    for text in texts[:2000]:
+        assert _MemoizedTextwrap.fill(text, tabsize=4, width=9999) == textwrap.fill(
+            text, tabsize=4, width=9999), repr(text)
+        assert _MemoizedTextwrap.dedent(text) == textwrap.dedent(text), repr(text)
 
 
 def test_the_class_body_check_reads_the_line_inspect_reads():

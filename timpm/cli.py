@@ -16,11 +16,12 @@ from .checks import MAX_STEPS, step_count
 from .engine.features import MODES
 from .files import replacing, write_json as _write_json
 from .problems import PROBLEMS, get_problem
+from .runtime import exit_process
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .solver import SimulationError
 from .studies import speed_error, sweep
 
-__all__ = ["main", "demo_script"]
+__all__ = ["main", "entry", "demo_script"]
 
 
 def _add_common(p):
@@ -430,6 +431,13 @@ def _speed_error(args) -> int:
     return 0
 
 
+def entry():
+    """The ``timpm`` command (console script and ``python -m timpm``): :func:`main`, then
+    the process ends without the interpreter's teardown (:func:`timpm.runtime.exit_process`;
+    an uncaught error exits as usual, with its traceback)."""
+    exit_process(main() or 0)
+
+
 def main(argv=None):
     try:
         return _main(argv)
@@ -516,4 +524,4 @@ def demo_script(name, argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

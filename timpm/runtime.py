@@ -1,6 +1,7 @@
 """Taichi start-up: one runtime per process (the CPU unless asked), started on first use,
 owned by the thread that started it and unusable in a child forked after it started."""
 
+import atexit
 import ctypes
 import functools
 import numbers
@@ -26,7 +27,7 @@ from taichi.lang.misc import is_arch_supported
 
 __all__ = ["ARCHS", "BackendUnavailable", "ForkedProcess", "WrongThread", "arch",
            "check_caller", "cpu_threads", "ensure_init", "generation", "init", "on_cpu",
-           "pin_workers", "precision", "settings", "static_cpu_blocks"]
+           "exit_process", "pin_workers", "precision", "settings", "static_cpu_blocks"]
 
 #: the backends ``init(arch=...)`` takes
 ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda, "vulkan": ti.vulkan, "metal": ti.metal}
@@ -175,6 +176,11 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
 class _FittingLineWrapper(textwrap.TextWrapper):
     """TextWrapper with a fast path for a line that fits (see _memoize_source_positions)."""
 
+    _SETTINGS = ("width", "initial_indent", "subsequent_indent", "expand_tabs",
+                 "replace_whitespace", "fix_sentence_endings", "break_long_words",
+                 "drop_whitespace", "break_on_hyphens", "tabsize", "max_lines", "placeholder")
+    _wrapped: dict = {}
+
     def wrap(self, text):
         line = text.expandtabs(self.tabsize) if self.expand_tabs else text
         if self.replace_whitespace:
@@ -184,7 +190,18 @@ class _FittingLineWrapper(textwrap.TextWrapper):
                 and not self.subsequent_indent and self.max_lines is None):
             line = line.rstrip(" ")
             return [line] if line else []
-        return super().wrap(text)
+        # a longer line: wrapped once per text and settings (a line holds many nodes)
+        key = (text, *(getattr(self, name) for name in self._SETTINGS))
+        lines = self._wrapped.get(key)
+        if lines is None:
+            lines = self._wrapped[key] = tuple(super().wrap(text))
+        return list(lines)
+
+
+class _MemoizedTextwrap:
+    """``textwrap.fill`` and ``textwrap.dedent``, cached by their arguments."""
+    fill = staticmethod(functools.lru_cache(maxsize=None)(textwrap.fill))
+    dedent = staticmethod(functools.lru_cache(maxsize=None)(textwrap.dedent))
 
 
 def _memoize_source_positions() -> None:
@@ -225,6 +242,10 @@ def _memoize_source_positions() -> None:
         original_lookup = getattr(kernel_impl, name, None)
         if original_lookup is not None:
             setattr(kernel_impl, name, functools.lru_cache(maxsize=None)(original_lookup))
+    # and each source line's tab expansion (``textwrap.fill`` at width 9999) and the
+    # function's dedent, done again at every call site too: pure functions of the text
+    if getattr(kernel_impl, "textwrap", None) is textwrap:
+        kernel_impl.textwrap = _MemoizedTextwrap()
 
 
 def _read_decorator_line_once() -> None:
@@ -332,6 +353,24 @@ def _after_fork_in_child() -> None:
 
 if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+def exit_process(code: int):
+    """End the process with exit status ``code`` and no interpreter teardown: Taichi's
+    runtime finalised first (which writes newly compiled kernels to the offline cache),
+    the standard streams flushed, the ``atexit`` handlers run, then ``os._exit``.  The
+    teardown it skips (freeing every module and Taichi's LLVM state) took 0.06-0.08 s of
+    every command (docs/performance.md).  For the ``timpm`` command only: a caller in
+    Python keeps its interpreter."""
+    if "settings" in _state and "forked" not in _state and impl.get_runtime().prog is not None:
+        ti.reset()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe (timpm ... | head): nothing to save
+            pass
+    atexit._run_exitfuncs()
+    os._exit(code)
 
 
 def ensure_init() -> None:
