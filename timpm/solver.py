@@ -262,11 +262,12 @@ class Solver:
         t0 = time.perf_counter()
         before = len(prog.compiled)
         if self.mode == "serial" and "advance" not in prog.compiled:
-            prog.advance(0, self.record_every)  # zero steps: compiles, changes nothing
+            prog.advance(0, self.record_every, 0)  # zero steps: compiles, changes nothing
             prog.compiled.add("advance")
         if self.recording and "record" not in prog.compiled:
-            prog.record()
-            prog.rec_count[None] = 0
+            if self.mode != "serial":  # the fused mode records with advance (_record_now)
+                prog.record()
+                prog.rec_count[None] = 0
             prog.read_history(0, self.n_tracked)
             prog.compiled.add("record")
         if "io" not in prog.compiled:
@@ -309,7 +310,7 @@ class Solver:
             if self.mode == "serial":
                 chunk = 1 if loads else self.fused_chunk(min(total - done,
                                                              bar.suggested_chunk(done)))
-                done += int(prog.advance(chunk, self.record_every))
+                done += int(prog.advance(chunk, self.record_every, 0))
                 self.drain()
                 self.check()
             elif "step" not in prog.compiled:
@@ -388,7 +389,11 @@ class Solver:
                 self.drain()
 
     def _record_now(self):
-        self._program().record()
+        prog = self._program()
+        if self.mode == "serial" and "advance" in prog.compiled:
+            prog.advance(0, self.record_every, 1)  # records, no step: one kernel less to build
+        else:
+            prog.record()
         self.drain()
 
     def drain(self):

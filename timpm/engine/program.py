@@ -285,12 +285,11 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
 
     # ---- kernels -----------------------------------------------------------------------
     @ti.func
-    def _zero(self, fields: ti.template()):
-        for fld in ti.static(fields):
-            if ti.static(len(fld.shape) == 0):
-                fld[None] = ti.zero(fld[None])
-            else:
-                for I in ti.grouped(ti.ndrange(*fld.shape)):
+    def _zero(self, groups: ti.template()):
+        """Zero fields grouped by shape: one loop per shape (fewer tasks to compile)."""
+        for group in ti.static(groups):
+            for I in ti.grouped(ti.ndrange(*group[0].shape)):
+                for fld in ti.static(group):
                     fld[I] = ti.zero(fld[I])
 
     def _bind_kernels(self):
@@ -306,10 +305,13 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
             self._one_task(self._record)
 
         @ti.kernel
-        def advance(n_steps: ti.i32, every: ti.i32) -> ti.i32:
+        def advance(n_steps: ti.i32, every: ti.i32, record_first: ti.i32) -> ti.i32:
             done = 0
             ti.loop_config(serialize=True)
             for _ in range(1):  # one task on one thread: the fused serial mode
+                if ti.static(self.recording):
+                    if record_first:  # the state before the steps (no record kernel to build)
+                        self._record()
                 done = self._advance_steps(n_steps, every)
             return done
 
@@ -414,6 +416,10 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
                                *self.scratch_fields.values()]
                    if f.shape and f is not self.scratch_fields.get("track_ids")
                    and f is not self.scratch_fields.get("rank_step")]
+        by_shape = {}
+        for f in cleared:
+            by_shape.setdefault(tuple(f.shape), []).append(f)
+        cleared = list(by_shape.values())
         params, track = self.params, self.scratch_fields.get("track_ids")
         tracking = track is not None
         i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)

@@ -284,7 +284,10 @@ def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=F
     runs.  ``workers=N`` runs them in N worker processes, ``dask`` on a Dask cluster (an
     address, or "local"; :mod:`timpm.studies.sweep`): the records are those of this
     serial loop, in its order, but for the times; no progress line is drawn there.
+    The monitored particle's time series is not recorded (the records do not hold it)
+    unless ``series=True`` is given.
     """
+    kwargs.setdefault("series", False)
     if len(elements) == 0:
         raise ValueError("give at least one number of elements")
     check_executor(workers, dask)
