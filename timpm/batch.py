@@ -66,7 +66,7 @@ def _build(programs, every, n_threads, order, status):
                 for k in ti.static(range(len(programs))):
                     if order[k][1] == q:
                         prog = programs[k]  # k is static: a Python-level lookup
-                        done = prog._advance_steps(order[k][0], every[k], 0)
+                        done = prog._advance_steps(order[k][0], every[k])
                         errors = prog.err_count[None]
                         status[k] = ti.Vector([done, errors])
                         if done != order[k][0] or errors != 0:

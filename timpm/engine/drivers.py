@@ -55,19 +55,17 @@ class Drivers:
         return halted
 
     @ti.func
-    def _advance_steps(self, n_steps, every, record_first):
-        """Up to n_steps steps, recording every ``every``-th (and the state before them if
-        ``record_first``: one inlined record for both); stops before the step after a
-        failure.  Returns the steps done (the body of ``_advance`` and of a Batch)."""
+    def _advance_steps(self, n_steps, every):
+        """Up to n_steps steps, recording every ``every``-th; stops before the step after
+        a failure.  Returns the steps done (the body of ``_advance`` and of a Batch)."""
         done = 0
-        for k in range(-record_first, n_steps):
-            if k >= 0:
-                if self.err_count[None] != 0:  # no step after a failed one
-                    break
-                self._one_step()
-                done += 1
+        for _ in range(n_steps):
+            if self.err_count[None] != 0:  # no step after a failed one
+                break
+            self._one_step()
+            done += 1
             if ti.static(self.recording):
-                if k < 0 or self.step_count[None] % every == 0:
+                if self.step_count[None] % every == 0:
                     self._record()
         return done
 

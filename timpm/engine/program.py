@@ -309,7 +309,10 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
             done = 0
             ti.loop_config(serialize=True)
             for _ in range(1):  # one task on one thread: the fused serial mode
-                done = self._advance_steps(n_steps, every, record_first)
+                if ti.static(self.recording):
+                    if record_first:  # the state before the steps (no record kernel to build)
+                        self._record()
+                done = self._advance_steps(n_steps, every)
             return done
 
         @ti.kernel
