@@ -17,6 +17,7 @@ from .engine.features import MODES
 from .files import replacing, write_json as _write_json
 from .problems import PROBLEMS, get_problem
 from .runtime import exit_process
+from .model import INTEGRATORS
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .solver import SimulationError
 from .studies import speed_error, sweep
@@ -28,7 +29,8 @@ def _add_common(p):
     p.add_argument("problem", help=f"one of: {', '.join(PROBLEMS)}")
     p.add_argument("--ppc", type=int, help="particles per element (default: the problem's)")
     p.add_argument("--basis", default="linear", help=f"one of: {', '.join(BASES)}")
-    p.add_argument("--mass", default="lumped", choices=["lumped", "consistent"])
+    p.add_argument("--mass", choices=["lumped", "consistent"],
+                   help="mass matrix (default: the problem's, lumped but for mms-1d)")
     p.add_argument("--dt", type=positive_float, help="time step [s] (default: the problem's)")
     p.add_argument("--t-end", type=positive_float,
                    help="end time [s] (default: the problem's)")
@@ -43,10 +45,15 @@ def _add_common(p):
     p.add_argument("--pic-fraction", type=float, metavar="B",
                    help="PIC share b of the musl velocity update, v_p = (1-b) FLIP + b PIC "
                         "(default: the problem's, 0 but for the oedometer)")
-    p.add_argument("--projection", default="standard", choices=list(PROJECTIONS),
+    p.add_argument("--projection", choices=list(PROJECTIONS),
                    help="mls: velocity, density and stress reconstructed by moving least "
                         "squares, forces at Gauss points (4.4); beyond the linear basis "
-                        "with lumped mass, the stress only (1D)")
+                        "with lumped mass, the stress only (1D) (default: the problem's, "
+                        "standard but for mms-1d)")
+    p.add_argument("--integrator", choices=list(INTEGRATORS),
+                   help="euler-cromer: the study's; rk4: Runge-Kutta on the particles' "
+                        "equations, four grid solves a step, laws with sigma(F) (default: "
+                        "the problem's, euler-cromer but for mms-1d)")
     p.add_argument("--transfer", default="musl", choices=["musl", "apic", "mls-mpm"],
                    help="musl: the study's scheme (2.2.4); apic, mls-mpm: the affine "
                         "transfers (linear and uniform-bsplineN bases)")
@@ -329,7 +336,7 @@ def _options(args):
                 allow_unstable_dt=args.allow_unstable_dt,
                 allow_many_steps=args.allow_many_steps,
                 projection=args.projection, transfer=args.transfer,
-                mode=args.mode, params=dict(args.param))
+                integrator=args.integrator, mode=args.mode, params=dict(args.param))
 
 
 def _table(records, rates=None):

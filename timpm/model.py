@@ -23,7 +23,7 @@ from .loads import BodyForce, field_function, time_function
 from .materials import Material
 
 __all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "SIDES", "WALL_KINDS",
-           "ND_BASES", "TRANSFERS", "MASS_KINDS", "PROJECTIONS"]
+           "ND_BASES", "TRANSFERS", "MASS_KINDS", "PROJECTIONS", "INTEGRATORS"]
 
 #: the sides of a box, two per axis: x, then y, then z
 SIDES = ("left", "right", "bottom", "top", "back", "front")
@@ -39,6 +39,11 @@ MASS_KINDS = ("lumped", "consistent")
 #: "standard": particles are the integration points (2.2.4); "mls": nodal velocities,
 #: density and stress reconstructed by moving least squares, forces at Gauss points (4.4)
 PROJECTIONS = ("standard", "mls")
+#: time integration: "euler-cromer", the study's (2.2.4: v_p then x_p with the new
+#: velocity); "rk4": the classical fourth-order Runge-Kutta method on the particles'
+#: semi-discrete equations dx_p/dt = sum phi_i v_i, dv_p/dt = sum phi_i a_i, dF_p/dt =
+#: (sum v_i grad phi_i^T) F_p (four grid solves a step), for laws whose stress is sigma(F)
+INTEGRATORS = ("euler-cromer", "rk4")
 
 
 @dataclass(frozen=True)
@@ -198,7 +203,9 @@ class Model:
     on one particle (1D); ``damping`` the local damping factor alpha of A.4;
     ``pic_fraction`` b blends the MUSL particle velocity update: v_p = (1 - b)(v_p + dt
     sum phi_i a_i) + b sum phi_i (v_i + dt a_i) (0: FLIP, the study's; 1: PIC, which damps
-    the particle-velocity modes the grid cannot see).
+    the particle-velocity modes the grid cannot see).  ``integrator`` the time integration
+    (``INTEGRATORS``; ``"rk4"`` for laws whose stress is a function of F, without walls,
+    damping, tractions or prescribed node motion).
     ``velocity`` is an (n, dim) array or a function v0(X) of the (n, dim) positions.
     ``displacement`` a function u0(X) (vectorised like v0): the body starts deformed, its
     particles at x = X + u0(X) with F = I + grad u0 (central differences of u0, step
@@ -227,6 +234,7 @@ class Model:
     gravity: tuple | None = None
     damping: float = 0.0
     pic_fraction: float = 0.0
+    integrator: str = "euler-cromer"
     walls: tuple | None = None
     wall_cells: tuple | None = None
     fixed_nodes: tuple = ()
@@ -261,6 +269,7 @@ class Model:
         self._check_materials(dim)
         self._check_scheme(dim, basis)
         self._check_boundaries(dim, basis)
+        self._check_integrator(basis)
         set_("dt", positive("time step dt", self.dt))
 
     # ---- checks ----------------------------------------------------------------------
@@ -385,6 +394,34 @@ class Model:
         object.__setattr__(self, "gravity", tuple(float(c) for c in vector("gravity", g, dim)))
         object.__setattr__(self, "damping", float(self.damping))
         object.__setattr__(self, "pic_fraction", float(self.pic_fraction))
+
+    def _check_integrator(self, basis):
+        if self.integrator not in INTEGRATORS:
+            raise ValueError(f"unknown integrator {self.integrator!r}: choose one of "
+                             f"{', '.join(INTEGRATORS)}")
+        if self.integrator == "euler-cromer":
+            return
+        # rk4 integrates the particles' equations of motion: every force a function of the
+        # stage's state and time, the grid velocity the mass-weighted projection
+        conflicts = [what for what, present in (
+            (f"the {self.transfer} transfer (use musl)", self.transfer != "musl"),
+            ("the study's MLS projection (linear basis, lumped mass: its nodal velocities)",
+             self.projection == "mls" and basis.support == 2 and self.mass_matrix == "lumped"),
+            ("local damping", self.damping > 0.0), ("a PIC fraction", self.pic_fraction > 0.0),
+            ("walls (hold nodes with fixed_nodes)", self.walls is not None),
+            ("prescribed non-zero node velocities", self.prescribes_motion),
+            ("the particle traction", self.traction is not None),
+            ("surface tractions", self.particle_force is not None),
+            ("a body force in the current frame (give it in the reference frame)",
+             self.body_force is not None and self.body_force.frame != "reference"))
+            if present]
+        laws = sorted({m.name for m in self.materials if not m.stress_from_F})
+        if laws:
+            conflicts.append(f"the {', '.join(laws)} law (its stress is not a function of F "
+                             "alone)")
+        if conflicts:
+            raise ValueError("integrator 'rk4' (Runge-Kutta on the particles' equations) "
+                             f"does not take {'; '.join(conflicts)}")
 
     def _check_boundaries(self, dim, basis):
         set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731

@@ -228,7 +228,8 @@ class Scene:
     :class:`~timpm.model.Model`); ``projection`` the particle-to-grid projection (``PROJECTIONS``);
     ``transfer`` the particle-grid transfer (the study's ``"musl"``, or the affine
     ``"apic"`` and ``"mls-mpm"`` with uniformly spaced nodes); ``displacement`` a function
-    u0(X) the body starts displaced by (see :class:`~timpm.model.Model`).
+    u0(X) the body starts displaced by (see :class:`~timpm.model.Model`); ``integrator``
+    the time integration (``timpm.model.INTEGRATORS``).
     """
 
     grid: Grid1D
@@ -251,6 +252,7 @@ class Scene:
     transfer: str = "musl"
     fixed_time: object = None
     displacement: object = None
+    integrator: str = "euler-cromer"
 
     def __post_init__(self):
         basis = get_basis(self.basis)
@@ -277,7 +279,7 @@ class Scene:
                       pic_fraction=self.pic_fraction, walls=walls,
                       fixed_nodes=fixed_nodes, fixed_time=self.fixed_time,
                       traction=self.traction, name=self.name,
-                      displacement=self.displacement)
+                      displacement=self.displacement, integrator=self.integrator)
         object.__setattr__(self, "model", model)
         x, vol = model.positions[:, 0], model.volume
         object.__setattr__(self, "positions", x)

@@ -217,7 +217,8 @@ class World:
     in 1D, unless given.  ``dt=None`` picks ``courant`` (default 0.4) times the CFL
     limit h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
     (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``
-    above the limit is refused unless ``allow_unstable_dt``.
+    above the limit is refused unless ``allow_unstable_dt``.  ``integrator``: the time
+    integration (``timpm.model.INTEGRATORS``; rk4 takes no walls: hold nodes instead).
     """
 
     domain: tuple
@@ -237,6 +238,7 @@ class World:
     fixed_time: object = None
     tractions: tuple = ()
     name: str = "world"
+    integrator: str = "euler-cromer"
     _particles: dict = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -288,6 +290,7 @@ class World:
                                    else tuple(self.fixed_nodes)),
                       fixed_time=self.fixed_time, particle_force=forces,
                       particle_force_time=force_time, name=self.name,
+                      integrator=self.integrator,
                       displacement=(_BodyDisplacements(self.bodies, part["body_index"])
                                     if any(b.displacement is not None for b in self.bodies)
                                     else None))

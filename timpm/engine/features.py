@@ -74,6 +74,7 @@ class FeatureSet:
     n_copies: int                # grid copies of the private scatter (1 otherwise)
     team: bool
     volume_guard: bool           # V / V0 checked against a range every step
+    integrator: str              # "euler-cromer" (the study's) or "rk4" (Runge-Kutta)
     precision: str
     arch: str
 
@@ -113,6 +114,11 @@ class FeatureSet:
         velocity of a node a particle barely touches ~ 1 / phi and grad phi does not vanish
         with phi, so sum_i v_i grad phi_i^T is unbounded there (v_p and C_p are not)."""
         return self.transfer == "apic" and self.basis_class.support == 2
+
+    @property
+    def rk4(self) -> bool:
+        """The classical Runge-Kutta method on the particles' equations (``.rk4``)."""
+        return self.integrator == "rk4"
 
     @property
     def needs(self) -> frozenset:
@@ -266,11 +272,16 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     # team: the passes of many steps in one parallel task, each thread a fixed block of
     # particles (its own grid copy) and of nodes, the passes separated by spin barriers:
     # Taichi's pool is woken once per launch, not three to five times per step
-    team_ok = private and not strain_remap and threads >= n_copies
+    rk4 = model.integrator == "rk4"
+    team_ok = private and not strain_remap and not rk4 and threads >= n_copies
     if requested == "team" and not team_ok:
         raise ValueError("mode='team' needs the private scatter (lumped mass, standard "
                          "projection) with a thread per grid copy (two CPU threads or more); "
-                         "APIC with the linear basis (its strain remap) has no team")
+                         "APIC with the linear basis (its strain remap) and the rk4 "
+                         "integrator have no team")
+    if grid_displacement and rk4:
+        raise ValueError("grid_displacement accumulates v_i dt of the Euler-Cromer step: the "
+                         "rk4 integrator has none")
     has_u = dim == 1  # particle displacements: the 1D exact solutions compare them
     crossings = (dim == 1) if track_crossings is None else bool(track_crossings)
     features = FeatureSet(
@@ -288,6 +299,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         energies=bool(energies), tracking=len(track) > 0, mode=run_mode, scatter=scatter,
         n_copies=n_copies, team=team_ok and requested in ("team", "auto"),
         volume_guard=volume_range is not None and not all(m.initial_volume for m in materials),
+        integrator=model.integrator,
         precision=runtime.precision(), arch=runtime.arch())
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB

@@ -25,6 +25,7 @@ from .grid import GridOps
 from .mls_projection import GAUSS_POINTS, MLSProjection
 from .params import ParamBlock
 from .recorder import NUMPY_DTYPES, Recorder, components, entry_size
+from .rk4 import RungeKutta, rk4_fields
 from .scatter import ScatterOps
 from .stencil import StencilOps
 from .transfer import Transfer
@@ -104,8 +105,8 @@ def _param_spec(features):
 
 
 @ti.data_oriented
-class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads, MLSProjection,
-              Recorder, Drivers):
+class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, RungeKutta, Uploads,
+              MLSProjection, Recorder, Drivers):
     """Fields and kernels of one feature set at one capacity."""
 
     def __init__(self, features, capacity: Capacity):
@@ -129,14 +130,15 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
         self.track_crossings, self.tracking = f.track_crossings, f.tracking
         self.recording, self.record_energies = f.recording, f.energies
         self.needs, self.multi_material = f.needs, f.multi_material
-        self.update_volume = f.update_volume
+        self.update_volume, self.rk4 = f.update_volume, f.rk4
         # the strain energy: W(F) V0 of a hyperelastic law, else the work sigma : d_eps V
         # integrated along the path (a field only where some material needs it)
         self.path_work = f.energies and not all(cls.has_energy_function(flags)
                                                  for cls, flags in f.materials)
         self.bandwidth, self.node_offset = f.bandwidth, f.node_offset
         # rows of the run sums: the grid fields each scattering phase adds to
-        self.scatter_rows = {"p2g": ("gm", "gf") + (("gp",) if self.damping or self.pic else ()),
+        self.scatter_rows = {"p2g": ("gm", "gf") + (("gp",) if self.damping or self.pic
+                                                    or self.rk4 else ()),
                              "g2p-velocity": ("gp",)}
         self._allocate(capacity)
         self._bind_kernels()
@@ -224,6 +226,10 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, Uploads
             if self.mls_study:
                 scratch.update(n_mom=ti.Vector.field(3, real), n_vel=ti.Vector.field(2, real))
                 fb.dense(ti.i, nn).place(scratch["n_mom"], scratch["n_vel"])
+        if self.rk4:  # the Runge-Kutta stages' scratch
+            stages = rk4_fields(d, real, self.body_force)
+            fb.dense(ti.i, n).place(*stages.values())
+            scratch.update(stages)
         # run state and the first error
         run = {"step_count": ti.field(ti.i64), "time": ti.field(ti.f64),
                "crossings": ti.field(ti.i64), "err": ti.field(ti.i32),

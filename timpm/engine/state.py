@@ -12,6 +12,7 @@ import taichi as ti
 
 from ..basis import stencils
 from .recorder import entry_size
+from .rk4 import STAGE_TIMES
 
 __all__ = ["State"]
 
@@ -198,14 +199,19 @@ class State:
 
     def upload_body_force(self, prog, step):
         """The body force b(X, t) of every particle at the start of step ``step`` (t =
-        step dt, the time the kernels keep), evaluated in Python in one vectorised call,
-        into ``prog``."""
+        step dt, the time the kernels keep; with the rk4 integrator also at t + dt/2 and
+        t + dt), evaluated in Python in one vectorised call per time, into ``prog``."""
         force = self.model.body_force
         if force.frame == "reference":
             X = self.model.positions
         else:
             X = self.read(prog, "x").reshape(self.layout.n_particles, self.features.dim)
-        prog.set_body_force(np.ascontiguousarray(force(X, step * self.model.dt)))
+        dt = self.model.dt
+        if self.features.rk4:  # at the Runge-Kutta stage times, (n, stage, dim)
+            values = np.stack([force(X, (step + c) * dt) for c in STAGE_TIMES], axis=1)
+        else:
+            values = force(X, step * dt)
+        prog.set_body_force(np.ascontiguousarray(values))
 
     def _element_of(self, x):
         lay = self.layout

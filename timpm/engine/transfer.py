@@ -127,7 +127,8 @@ class Transfer:
                     if ti.static(not self.mls_study):
                         self.accumulate(self.gm[node], mp * phi)
                     self.accumulate(self.gf[node], phi * fp)
-                if ti.static(not self.apic and (self.damping or self.has_walls or self.pic)):
+                if ti.static(not self.apic and (self.damping or self.has_walls or self.pic
+                                                or self.rk4)):
                     node_values = self._deposit("gp", copy, node, offset, mp * phi * self.v[p],
                                                 node_values)
             if ti.static(self.consistent):
@@ -269,34 +270,40 @@ class Transfer:
                 self.accumulate(self.u[p], du)
             x_new = self.x[p] + du
             self.x[p] = x_new
-            # checks on the new state, from registers (a NaN in the MUSL particle velocity
-            # reaches vp through the grid); the first failure of the run is the one reported
-            xn = ti.Vector.zero(float, self.dim)
-            code = 0
-            for k in ti.static(range(self.dim)):
-                xn[k] = (x_new[k] - self.p.origin()[k]) * self.p.inv_h()
-                if not (xn[k] >= 0.0 and xn[k] <= self.p.elements()[k]):
-                    code = 1
-            if ti.static(self.update_volume):
-                if not (jac > 0.0):
-                    code = 3
-                elif ti.static(self.f.volume_guard):
-                    if not self._volume_in_range(p, vol_new):
-                        code = 7
-            state = x_new.sum() + vp.sum() + sig_new.sum() + vol_new
-            if not (ti.abs(state) < 1e300):  # NaN fails this comparison
-                code = 2
-            if code != 0:
-                self._fail(code, p)
-            if ti.static(self.track_crossings):
-                e = self._element(xn)
-                if (e != self.elem[p]).any():
-                    self.accumulate(self.crossings[None], 1)
-                    self.elem[p] = e
+            self._check_particle(p, x_new, vp, sig_new, vol_new, jac)
+
+    @ti.func
+    def _check_particle(self, p, x_new, vp, sig_new, vol_new, jac):
+        # checks on the new state, from registers (a NaN in the MUSL particle velocity
+        # reaches vp through the grid); the first failure of the run is the one reported
+        xn = ti.Vector.zero(float, self.dim)
+        code = 0
+        for k in ti.static(range(self.dim)):
+            xn[k] = (x_new[k] - self.p.origin()[k]) * self.p.inv_h()
+            if not (xn[k] >= 0.0 and xn[k] <= self.p.elements()[k]):
+                code = 1
+        if ti.static(self.update_volume):
+            if not (jac > 0.0):
+                code = 3
+            elif ti.static(self.f.volume_guard):
+                if not self._volume_in_range(p, vol_new):
+                    code = 7
+        state = x_new.sum() + vp.sum() + sig_new.sum() + vol_new
+        if not (ti.abs(state) < 1e300):  # NaN fails this comparison
+            code = 2
+        if code != 0:
+            self._fail(code, p)
+        if ti.static(self.track_crossings):
+            e = self._element(xn)
+            if (e != self.elem[p]).any():
+                self.accumulate(self.crossings[None], 1)
+                self.elem[p] = e
 
     @ti.func
     def _one_step(self):
-        if ti.static(self.apic):
+        if ti.static(self.rk4):
+            self._rk4_step()  # four grid solves of the Runge-Kutta stages (rk4.py)
+        elif ti.static(self.apic):
             # affine transfer: P2G of mass and momentum + dt force, v = P / m (the grid
             # pass leaves m and P cleared: no separate clearing pass), G2P
             if ti.static(self.strain_remap):

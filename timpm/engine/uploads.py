@@ -6,6 +6,8 @@ an initial displacement never compile them); neither is part of the step's phase
 """
 import taichi as ti
 
+from .rk4 import STAGE_TIMES
+
 __all__ = ["Uploads"]
 
 
@@ -14,7 +16,16 @@ class Uploads:
     ``prestrain(grads)``, bound by :meth:`_bind_uploads`."""
 
     def _bind_uploads(self):
-        if self.body_force:
+        if self.body_force and self.rk4:
+            @ti.kernel
+            def set_body_force(values: ti.types.ndarray(dtype=ti.f64, ndim=3)):
+                # b_p at the step's stage times (rk4.STAGE_TIMES), evaluated in Python
+                for p in range(self.p.n_particles()):
+                    for j, k in ti.static(ti.ndrange(len(STAGE_TIMES), self.dim)):
+                        self.b_stages[p][j, k] = values[p, j, k]
+
+            self.set_body_force = set_body_force
+        elif self.body_force:
             @ti.kernel
             def set_body_force(values: ti.types.ndarray(dtype=ti.f64, ndim=2)):
                 # b_p = b(X_p, t) of this step, evaluated in Python (one call, all particles)

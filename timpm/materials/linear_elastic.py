@@ -11,11 +11,17 @@ class LinearElastic(SolidMaterial):
 
     name = "linear-elastic"
     energy_function = True
+    stress_from_F = True
 
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         F = self._trial_F(s, p, grad_du)
         s.F[p] = F
+        return self.stress(s, F)
+
+    @ti.func
+    def stress(self, s: ti.template(), F):
+        """sigma(F) = lambda tr(eps) I + 2 mu eps, eps = sym(F) - I."""
         eps = 0.5 * (F + F.transpose()) - ti.Matrix.identity(float, s.dim)
         return (self.c.lam() * eps.trace() * ti.Matrix.identity(float, s.dim)
                 + self.c.two_mu() * eps)

@@ -12,11 +12,17 @@ class NeoHookean(SolidMaterial):
 
     name = "neo-hookean"
     energy_function = True
+    stress_from_F = True
 
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         F = self._trial_F(s, p, grad_du)
         s.F[p] = F
+        return self.stress(s, F)
+
+    @ti.func
+    def stress(self, s: ti.template(), F):
+        """sigma(F) = (mu (F F^T - I) + lambda ln J I) / J."""
         J = F.determinant()
         eye = ti.Matrix.identity(float, s.dim)
         return (self.c.mu() * (F @ F.transpose() - eye) + self.c.lam() * ti.log(J) * eye) / J

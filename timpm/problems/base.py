@@ -38,6 +38,11 @@ class Problem:
     #: the PIC share of the MUSL velocity update (0: FLIP, the study's)
     pic_fraction = 0.0
 
+    def scheme(self, basis, mass=None, projection=None, integrator=None, transfer="musl"):
+        """The mass matrix, projection and time integration of a run, the problem's
+        defaults where None: the study's (lumped, standard, euler-cromer)."""
+        return (mass or "lumped", projection or "standard", integrator or "euler-cromer")
+
     def with_params(self, **params):
         """A copy with some physical parameters changed (names are checked; a whole
         number given for an integer parameter, 4000.0 from a command line, is taken as
@@ -104,14 +109,17 @@ class Problem:
                              f"particles per element for its quadrature, got ppc = {ppc}")
         return elements, ppc, placement, basis_cls
 
-    def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
+    def scene(self, elements=None, ppc=None, basis="linear", mass=None, dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
-              damping=None, projection="standard", transfer="musl",
-              pic_fraction=None) -> Scene:
+              damping=None, projection=None, transfer="musl",
+              pic_fraction=None, integrator=None) -> Scene:
         """The problem's scene with ``elements`` elements over the body and ``ppc``
         particles per element placed by ``placement``; unset values take the defaults
-        (``pic_fraction``: the problem's :attr:`pic_fraction`)."""
+        (``pic_fraction``: the problem's :attr:`pic_fraction`; mass, projection and
+        integrator: :meth:`scheme`)."""
         elements, ppc, placement, basis_cls = self.numerics(elements, ppc, placement, basis)
+        mass, projection, integrator = self.scheme(basis_cls, mass, projection, integrator,
+                                                   transfer)
         dt = self.dt if dt is None else dt
         grid = self.grid(elements, basis_cls)
         x, vol = self.particles(elements, ppc, placement)
@@ -126,7 +134,7 @@ class Problem:
         return Scene(grid=grid, material=material, positions=x, volume=vol, dt=dt,
                      basis=basis_cls.name, mass=mass, allow_unstable_dt=allow_unstable_dt,
                      projection=projection, transfer=transfer, pic_fraction=pic_fraction,
-                     name=self.name, **extras)
+                     integrator=integrator, name=self.name, **extras)
 
     def conditions(self, x0, basis, grid) -> dict:
         """Initial velocity, boundary conditions and loads as Scene keyword arguments."""

@@ -125,16 +125,30 @@ class ManufacturedSolution(Problem):
         return X.reshape(-1, self.dim)
 
     # ---- the scene ---------------------------------------------------------------------
-    def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
+    def scheme(self, basis, mass=None, projection=None, integrator=None, transfer="musl"):
+        """In 1D with the musl transfer and a basis beyond the linear one: the consistent
+        mass, the internal force at the Gauss points (the MLS stress projection) and the
+        rk4 integrator, the scheme that converges at high order here (docs/results.md).
+        Otherwise the study's: the linear basis' grid-crossing error sets its accuracy (and
+        its consistent mass with the MLS forces breaks down at G = 0.05 from 256
+        elements, under either integrator)."""
+        if self.dim > 1 or transfer != "musl" or basis.support == 2:
+            return super().scheme(basis, mass, projection, integrator, transfer)
+        return mass or "consistent", projection or "mls", integrator or "rk4"
+
+    def scene(self, elements=None, ppc=None, basis="linear", mass=None, dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
-              damping=None, projection="standard", transfer="musl",
-              pic_fraction=None) -> "ProblemScene":
+              damping=None, projection=None, transfer="musl",
+              pic_fraction=None, integrator=None) -> "ProblemScene":
         """The model on ``elements`` cells per axis, ``ppc`` particles per cell and axis
-        placed by ``placement`` (``timpm.scene.PLACEMENTS``), dt = 0.2 h / c unless given."""
+        placed by ``placement`` (``timpm.scene.PLACEMENTS``), dt = 0.2 h / c unless given;
+        mass, projection and integrator by :meth:`scheme` where not given."""
         if stress_update != "study":
             raise ValueError(f"{self.name} is a Neo-Hookean solid: it takes no stress_update "
                              f"(got {stress_update!r})")
         elements, ppc, placement, basis_cls = self.numerics(elements, ppc, placement, basis)
+        mass, projection, integrator = self.scheme(basis_cls, mass, projection, integrator,
+                                                   transfer)
         grid = self.grid(elements, basis_cls)  # checks the count
         n, h = grid.n_elements, grid.h
         if placement not in PLACEMENTS:
@@ -153,7 +167,8 @@ class ManufacturedSolution(Problem):
                           P, 0.0), transfer=transfer, mass_matrix=mass, projection=projection,
                       damping=0.0 if damping is None else damping,
                       pic_fraction=0.0 if pic_fraction is None else pic_fraction,
-                      body_force=BodyForce(self.body_force), name=self.name, **boundary)
+                      integrator=integrator, body_force=BodyForce(self.body_force),
+                      name=self.name, **boundary)
         if self.dim == 1:
             fixed = tuple(i for (i,) in model.fixed_nodes)
             critical = discrete_critical_time_step(grid, Material(self.E, self.density),

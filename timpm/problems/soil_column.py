@@ -144,9 +144,10 @@ class SoilColumn2D(SoilColumn):
         if self.p0 != 0.0:
             raise ValueError(f"{self.name}: the top load p0 acts in 1D only (soil-column)")
 
-    def scene(self, elements=None, ppc=None, basis="linear", mass="lumped", dt=None,
+    def scene(self, elements=None, ppc=None, basis="linear", mass=None, dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
-              damping=None, projection="standard", transfer="musl", pic_fraction=None):
+              damping=None, projection=None, transfer="musl", pic_fraction=None,
+              integrator=None):
         from ..materials import LinearElastic
         from ..model import Model, Wall
 
@@ -154,6 +155,8 @@ class SoilColumn2D(SoilColumn):
             raise ValueError(f"{self.name} is linear elastic (nu = 0): it takes no "
                              f"stress_update (got {stress_update!r})")
         elements, ppc, placement, basis_cls = self.numerics(elements, ppc, placement, basis)
+        mass, projection, integrator = self.scheme(basis_cls, mass, projection, integrator,
+                                                   transfer)
         dt = self.dt if dt is None else dt
         self.grid(elements, basis_cls)  # checks the count
         n, h = int(elements), self.H / elements
@@ -169,6 +172,7 @@ class SoilColumn2D(SoilColumn):
                       transfer=transfer, mass_matrix=mass, projection=projection,
                       gravity=(0.0, self.gravity), damping=0.0 if damping is None else damping,
                       pic_fraction=0.0 if pic_fraction is None else pic_fraction,
+                      integrator=integrator,
                       walls=(Wall("slip"), Wall("slip"), Wall("sticky"), None),
                       wall_cells=((side, side + self.width), (side, side + n + top)),
                       name=self.name)

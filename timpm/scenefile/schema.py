@@ -7,7 +7,8 @@ from dataclasses import dataclass
 from ..basis import get_basis
 from ..engine.features import MODES
 from ..materials import MATERIALS
-from ..model import ND_BASES, SIDES, TRANSFERS, WALL_KINDS, MASS_KINDS, PROJECTIONS
+from ..model import (INTEGRATORS, ND_BASES, SIDES, TRANSFERS, WALL_KINDS, MASS_KINDS,
+                     PROJECTIONS)
 from ..problems import PROBLEMS
 from ..scene import PLACEMENTS, STRESS_UPDATES
 from ..world import PRESETS
@@ -147,7 +148,8 @@ PROBLEM = {
     "ppc": Key("count", "the problem's", doc="particles per element"),
     "basis": Key("string", "linear", doc="shape functions: linear, lagrange2, bsplineN "
                  "(clamped) or uniform-bsplineN (padded) of degree N", check=_basis_check),
-    "mass": Key("string", "lumped", doc="mass matrix", choices=MASS_KINDS),
+    "mass": Key("string", "the problem's", doc="mass matrix (lumped but for mms-1d)",
+                choices=MASS_KINDS),
     "dt": Key("positive", "the problem's", "s", "time step"),
     "t_end": Key("positive", "the problem's", "s", "end time"),
     "placement": Key("string", "the problem's", doc="particle positions in an element",
@@ -156,7 +158,10 @@ PROBLEM = {
     "damping": Key("non-negative", None, doc="local damping factor alpha"),
     "pic_fraction": Key("share", "the problem's", doc="PIC share b of the musl velocity "
                         "update (0: FLIP; the oedometer's 0.01)"),
-    "projection": Key("string", "standard", doc="standard or mls (4.4)", choices=PROJECTIONS),
+    "projection": Key("string", "the problem's", doc="standard or mls (4.4; standard but for "
+                      "mms-1d)", choices=PROJECTIONS),
+    "integrator": Key("string", "the problem's", doc="euler-cromer or rk4 (euler-cromer but "
+                      "for mms-1d)", choices=INTEGRATORS),
     "transfer": Key("string", "musl", doc="particle-grid transfer", choices=TRANSFERS),
     "allow_unstable_dt": Key("boolean", False, doc="run a dt above the critical time step"),
     "mode": Key("string", "auto", doc="how the steps run", choices=MODES),

@@ -33,17 +33,19 @@ def _default_record_every(steps: int) -> int:
 
 
 def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="linear",
-                mass="lumped", dt=None, t_end=None, placement=None, stress_update="study",
+                mass=None, dt=None, t_end=None, placement=None, stress_update="study",
                 damping=None, allow_unstable_dt=False, mode="auto", record_every=None,
-                progress=None, params=None, energies=True, projection="standard",
-                series=True, reuse=True, transfer="musl", pic_fraction=None, fields=None,
+                progress=None, params=None, energies=True, projection=None,
+                series=True, reuse=True, transfer="musl", pic_fraction=None,
+                integrator=None, fields=None,
                 frames=20, checkpoint=None, checkpoint_every=None,
                 interrupted_to=None, resume=None, allow_many_steps=False) -> RunResult:
     """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
 
     Unset numerical values take the problem's defaults (``placement`` too: the study's
     problems place particles as the study does, the manufactured solutions at Gauss
-    points); ``params`` overrides physical parameters (e.g. ``{"p0": 5e4}``).  The record holds at least problem, elements, ppc,
+    points; ``mass``, ``projection`` and ``integrator``: lumped, standard and
+    euler-cromer, but consistent, mls and rk4 for mms-1d, see ``Problem.scheme``); ``params`` overrides physical parameters (e.g. ``{"p0": 5e4}``).  The record holds at least problem, elements, ppc,
     basis, mass, dt, t_end, steps, rms_error, wall_seconds (stepping only; compilation is
     ``compile_seconds``) and grid_crossings.  ``series=False`` records no time series of
     the monitored particle (the study's figures need it, its tables do not);
@@ -81,16 +83,18 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                              f"{checkpoint_every!r}")
     run = _plan(problem, elements, ppc, basis, mass, dt, t_end, placement, stress_update,
                 damping, allow_unstable_dt, record_every, params, energies, projection, series,
-                transfer, pic_fraction, reuse=reuse)
+                transfer, pic_fraction, integrator, reuse=reuse)
     description = None
     if isinstance(problem, str):
+        model = run.scene.model
         description = dict(problem=problem, elements=run.elements, ppc=run.ppc, basis=basis,
-                           mass=mass, dt=run.scene.dt, placement=run.placement,
+                           mass=model.mass_matrix, dt=run.scene.dt, placement=run.placement,
                            stress_update=stress_update, damping=damping,
                            allow_unstable_dt=allow_unstable_dt, mode=mode,
                            record_every=run.every, params=dict(params or {}),
-                           energies=bool(energies), projection=projection,
-                           series=bool(series), transfer=transfer, pic_fraction=pic_fraction)
+                           energies=bool(energies), projection=model.projection,
+                           series=bool(series), transfer=transfer, pic_fraction=pic_fraction,
+                           integrator=model.integrator)
     steps = step_count(run.t_end, run.scene.dt, allow_many_steps)  # before any is built
     t_build = time.perf_counter()
     solver = Solver(run.scene, track=run.track, record_every=run.every, energies=energies,
@@ -187,7 +191,7 @@ class _Run:
 
     def __init__(self, problem, elements, ppc, basis, mass, dt, t_end, placement,
                  stress_update, damping, allow_unstable_dt, record_every, params, energies,
-                 projection, series, transfer, pic_fraction=None):
+                 projection, series, transfer, pic_fraction=None, integrator=None):
         self.prob = prob = get_problem(problem, **(params or {}))
         self.elements = prob.elements if elements is None else elements
         self.ppc = prob.ppc if ppc is None else ppc
@@ -195,13 +199,14 @@ class _Run:
         if not self.t_end > 0:
             raise ValueError(f"t_end must be a positive time, got {t_end!r}")
         placement = prob.placement if placement is None else placement
-        self.placement, self.stress_update, self.projection = placement, stress_update, projection
+        self.placement, self.stress_update = placement, stress_update
         self.energies, self.series = bool(energies), bool(series)
         self.scene = prob.scene(elements=self.elements, ppc=self.ppc, basis=basis, mass=mass,
                                 dt=dt, placement=placement, stress_update=stress_update,
                                 allow_unstable_dt=allow_unstable_dt, damping=damping,
                                 projection=projection, transfer=transfer,
-                                pic_fraction=pic_fraction)
+                                pic_fraction=pic_fraction, integrator=integrator)
+        self.projection = self.scene.model.projection
         self.x0 = self.scene.positions.copy()
         self.monitor = prob.monitored_particle(self.x0)
         self.track = [self.monitor] if series else []
@@ -247,7 +252,8 @@ class _Run:
             "build_seconds": build_seconds, "grid_crossings": state["grid_crossings"],
             "particles": scene.n_particles, "placement": self.placement,
             "stress_update": stress_update, "projection": self.projection,
-            "transfer": solver.transfer, "mode": solver.mode,
+            "transfer": solver.transfer, "integrator": scene.model.integrator,
+            "mode": solver.mode,
             "critical_dt": scene.critical_dt, "monitored_particle": monitor,
             # damping dissipates energy by design: no conservation measure then
             "energy_drift": energy_drift(en) if en is not None and scene.damping == 0 else None,
@@ -320,7 +326,7 @@ def _check_options(problem, elements, options) -> None:
     _plan(problem, elements, a["ppc"], a["basis"], a["mass"], a["dt"], a["t_end"],
           a["placement"], a["stress_update"], a["damping"], a["allow_unstable_dt"],
           a["record_every"], a["params"], a["energies"], a["projection"], a["series"],
-          a["transfer"], a["pic_fraction"], reuse=a["reuse"])
+          a["transfer"], a["pic_fraction"], a["integrator"], reuse=a["reuse"])
 
 
 def _mesh_record(problem, elements, options) -> dict:
@@ -328,16 +334,17 @@ def _mesh_record(problem, elements, options) -> dict:
     return run_problem(problem, elements=elements, **options).record
 
 
-def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass="lumped", dt=None,
+def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass=None, dt=None,
                 t_end=None, placement=None, stress_update="study", damping=None,
                 allow_unstable_dt=False, record_every=None, progress=None, params=None,
-                energies=True, projection="standard", series=True, mode="serial",
-                reuse=True, transfer="musl", pic_fraction=None, allow_many_steps=False):
+                energies=True, projection=None, series=True, mode="serial",
+                reuse=True, transfer="musl", pic_fraction=None, integrator=None,
+                allow_many_steps=False):
     if mode != "serial":
         raise ValueError("a batch runs fused serial solvers: mode must be 'serial'")
     runs = [_plan(problem, n, ppc, basis, mass, dt, t_end, placement, stress_update, damping,
                   allow_unstable_dt, record_every, params, energies, projection, series,
-                  transfer, pic_fraction, reuse=reuse)
+                  transfer, pic_fraction, integrator, reuse=reuse)
             for n in elements]
     if len({r.t_end for r in runs}) != 1:
         raise ValueError("the runs of a batch share t_end")

@@ -1,0 +1,117 @@
+"""The rk4 integrator (Runge-Kutta on the particles' equations): its order in time, its
+energy balance under a body force, its parallel stages, and what it refuses."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from timpm import Solver
+from timpm.cli import main
+from timpm.model import Wall
+from timpm.problems import get_problem
+from timpm.studies.study import run_problem
+
+
+def _final_displacements(integrator, dt, G=0.05, **kw):
+    return run_problem("mms-1d", elements=16, basis="bspline3", integrator=integrator,
+                       params={"G": G}, dt=dt, t_end=0.005, series=False, energies=False,
+                       **kw).displacement
+
+
+@pytest.mark.parametrize("integrator, lowest, highest", [("rk4", 3.5, 4.5),
+                                                         ("euler-cromer", 1.9, 2.1)])
+def test_the_time_order_on_one_mesh(integrator, lowest, highest):
+    # one mesh, the step halved three times: the change of the final displacements falls
+    # by 2^q per halving, q the order in time (measured on 2026-11-25: rk4 3.27 then 3.78,
+    # approaching 4 as dt resolves the grid's fast modes; Euler-Cromer 2.00 and 2.00)
+    dt = 0.2 * (1.0 / 16) / 100.0  # the problem's 0.2 h / c
+    u = [_final_displacements(integrator, dt / k) for k in (1, 2, 4, 8)]
+    changes = [np.abs(a - b).max() for a, b in zip(u, u[1:])]
+    order = np.log2(changes[1] / changes[2])
+    assert lowest < order < highest, (changes, order)
+
+
+def test_the_energy_balance_holds_under_the_body_force():
+    # kinetic + strain - work of the body force (the stages' power m b . x', by the
+    # method's own weights) stays put, and closer as the mesh is refined (Euler-Cromer:
+    # 2e-2 and 1e-2 of the energy on these meshes)
+    drifts = []
+    for n in (16, 32):
+        r = run_problem("mms-1d", elements=n, basis="bspline3", params={"G": 0.05},
+                        series=False, record_every=1)
+        assert r.record["integrator"] == "rk4"
+        en = r.energies
+        assert abs(en["external_work"]).max() > 1e-3 * en["kinetic"].max()  # it works
+        drifts.append(r.record["energy_drift"])
+    assert drifts[0] < 1e-4 and drifts[1] < drifts[0] / 4, drifts
+
+
+def test_parallel_stages_compute_what_the_serial_loop_does():
+    # the fused serial mode loops over the four stages at run time, the parallel mode
+    # unrolls them into top-level passes: the same arithmetic
+    scene = get_problem("mms-1d", G=0.05).scene(elements=16, basis="bspline3")
+    runs = {}
+    for mode in ("serial", "parallel"):
+        solver = Solver(scene, mode=mode, energies=False)
+        solver.run(n_steps=40)
+        runs[mode] = (solver.positions(), solver.velocities(), solver.read("F"))
+        solver.release()
+    for a, b in zip(runs["serial"], runs["parallel"]):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+
+
+def _mms_model(**changes):
+    model = get_problem("mms-1d").scene(elements=8, basis="bspline3").model
+    return dataclasses.replace(model, **changes)
+
+
+@pytest.mark.parametrize("changes, message", [
+    (dict(integrator="rk2"), "unknown integrator 'rk2'"),
+    (dict(damping=0.1), "local damping"),
+    (dict(transfer="apic", basis="uniform-bspline3", mass_matrix="lumped",
+          projection="standard"), "the apic transfer"),
+    (dict(mass_matrix="lumped", projection="standard", fixed_nodes=(),
+          walls=(Wall("roller"), Wall("roller"))), r"walls \(hold nodes"),
+])
+def test_what_rk4_refuses_names_the_conflict(changes, message):
+    with pytest.raises(ValueError, match=message):
+        _mms_model(**changes)
+
+
+def test_rk4_refuses_a_law_whose_stress_is_not_a_function_of_F(capsys):
+    # the study's 1D problems update the stress along the path (2.2.4)
+    with pytest.raises(ValueError, match="not a function of F"):
+        get_problem("vibrating-string").scene(integrator="rk4")
+    assert main(["run", "vibrating-string", "--integrator", "rk4"]) == 2
+    assert "not a function of F" in capsys.readouterr().err
+
+
+def test_rk4_refuses_the_team_and_the_grid_displacement():
+    scene = get_problem("mms-1d").scene(elements=8, basis="bspline3", mass="lumped",
+                                        projection="standard")
+    with pytest.raises(ValueError, match="rk4 integrator have no team"):
+        Solver(scene, mode="team")
+    with pytest.raises(ValueError, match="grid_displacement"):
+        Solver(scene, grid_displacement=True)
+
+
+def test_a_free_body_translates_exactly_in_2d():
+    # no walls, no gravity: a uniform velocity projects to the same nodal velocity
+    # (partition of unity), so x' = v, v' = 0, F' = 0 at every stage: x = X + v t, F = I
+    from timpm import Body, Box, World
+    from timpm.materials import NeoHookean
+
+    v = np.array([0.5, -0.25])
+    world = World(domain=(1.0, 1.0), cells=8, basis="bspline2", transfer="musl",
+                  walls=None, gravity=(0.0, 0.0), integrator="rk4",
+                  bodies=[Body(Box((0.3, 0.3), (0.6, 0.6)), NeoHookean(1e4, 0.3, 1e3),
+                               velocity=tuple(v))])
+    solver = Solver(world, mode="serial")
+    x0 = solver.positions()
+    solver.run(n_steps=40)
+    np.testing.assert_allclose(solver.positions(), x0 + v * solver.t, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(solver.velocities(), np.tile(v, (len(x0), 1)), atol=1e-13)
+    np.testing.assert_allclose(solver.read("F"), np.tile(np.eye(2), (len(x0), 1, 1)),
+                               atol=1e-13)
+    en = solver.energies()
+    assert abs(en["total"][-1] - en["total"][0]) < 1e-12 * en["total"][0]

@@ -1,0 +1,160 @@
+"""The classical Runge-Kutta method (RK4) on the particles' semi-discrete equations.
+
+Mixed into :class:`~timpm.engine.program.Program` for ``Model(integrator="rk4")``.  A step
+integrates the particle state y = (x_p, v_p, F_p) by
+
+    dx_p/dt = sum_i phi_i(x_p) v_i,   dv_p/dt = sum_i phi_i(x_p) a_i,
+    dF_p/dt = (sum_i v_i grad phi_i(x_p)^T) F_p,
+
+where v_i = M^-1 P_i and a_i = M^-1 F_i come from one P2G of the state y (mass, momentum
+P_i = sum m_p phi_i v_p, and the forces: sigma(F_p) on V_p = det F_p V0_p, gravity and the
+body force at the stage's time), the Dirichlet nodes held at rest.  Four such grid solves
+a step: stage s evaluates the rates k_s at y_n + A_s dt k_(s-1), t_n + A_s dt with
+A = (0, 1/2, 1/2, 1), and y_(n+1) = y_n + dt sum_s B_s k_s with B = (1/6, 1/3, 1/3, 1/6).
+Fourth order in time, so that with dt ~ h the spatial error sets the rate (Euler-Cromer's
+O(dt^2) caps it at 2; docs/results.md, manufactured solutions).  The law's stress must be a function of F
+(``Material.stress_from_F``); the Model refuses what would make the right-hand side depend
+on anything else (walls, damping, tractions: ``Model._check_integrator``).
+"""
+import taichi as ti
+
+__all__ = ["RungeKutta", "rk4_fields", "STAGE_TIMES"]
+
+#: the times, in steps from t_n, at which Python gives the body force for a step: stage
+#: s = 0..3 runs at t_n + A_s dt, A = (0, 1/2, 1/2, 1), and reads slot (s + 1) // 2
+STAGE_TIMES = (0.0, 0.5, 1.0)
+
+
+def rk4_fields(d, real, body_force):
+    """Per-particle scratch of a step: the state at its start, the B-weighted sums of the
+    stage rates, and the body force at the ``STAGE_TIMES``."""
+    fields = {"x_start": ti.Vector.field(d, real), "v_start": ti.Vector.field(d, real),
+              "F_start": ti.Matrix.field(d, d, real), "x_rate": ti.Vector.field(d, real),
+              "v_rate": ti.Vector.field(d, real), "F_rate": ti.Matrix.field(d, d, real)}
+    if body_force:
+        fields["b_stages"] = ti.Matrix.field(len(STAGE_TIMES), d, real)
+    return fields
+
+
+class RungeKutta:
+    """See the module."""
+
+    @ti.func
+    def _rk4_step(self):
+        # y_n kept for the stages
+        for p in range(self.p.n_particles()):
+            self.x_start[p] = self.x[p]
+            self.v_start[p] = self.v[p]
+            self.F_start[p] = self.F[p]
+        if ti.static(self.mode == "serial"):
+            for s in range(4):  # one serial task: the stage compiled once
+                self._rk4_stage(s)
+        else:
+            for s in ti.static(range(4)):  # parallel passes stay top-level loops: unrolled
+                self._rk4_stage(s)
+
+    @ti.func
+    def _rk4_stage(self, s):
+        if ti.static(self.body_force):
+            slot = (s + 1) // 2  # b_p at t_n, t_n + dt/2, t_n + dt/2, t_n + dt
+            for p in range(self.p.n_particles()):
+                for k in ti.static(range(self.dim)):
+                    self.b[p][k] = self.b_stages[p][slot, k]
+        self._rk4_grid()
+        for p in range(self.p.n_particles()):
+            self._rk4_particle(p, s)
+
+    @ti.func
+    def _rk4_grid(self):
+        # P2G of the stage's state: m_i, P_i = sum m_p phi_i v_p, F_i = sum phi_i m_p (g +
+        # b_p) - sigma_p V_p grad phi_i (at the Gauss points with the MLS projection);
+        # then a_i = M^-1 F_i and v_i = M^-1 P_i, zero at Dirichlet and empty nodes
+        self._clear_grid()
+        if ti.static(self.mls):
+            self._body_extent()
+        self._p2g()
+        if ti.static(self.mls):
+            self._integrate_gauss()
+        if ti.static(self.consistent):
+            self._banded_factorise()
+        self._grid_acceleration()
+        self._solve_mass(self.gp, True)
+
+    @ti.func
+    def _rk4_particle(self, p, s):
+        # G2P of the stage's rates: x' = sum phi_i v_i, v' = sum phi_i a_i, F' = (sum v_i
+        # grad phi_i^T) F; their sums weighted by B; the next stage's state (the step's end
+        # after the fourth) with sigma(F) and V = det F V0
+        base, w, dw, xi, inside = self._stencil(p)
+        if inside and not self._halted(p):
+            x_rate = ti.Vector.zero(float, self.dim)
+            v_rate = ti.Vector.zero(float, self.dim)
+            grad_v = ti.Matrix.zero(float, self.dim, self.dim)
+            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                phi, grad = self._weight(w, dw, offset)
+                vi = self.gp[base + offset]
+                x_rate += phi * vi
+                v_rate += phi * self.gf[base + offset]
+                grad_v += vi.outer_product(grad)
+            F_rate = grad_v @ self.F[p]
+            weight = 1.0 / 6.0 if s == 0 or s == 3 else 1.0 / 3.0  # B_s
+            if s == 0:
+                self.x_rate[p] = weight * x_rate
+                self.v_rate[p] = weight * v_rate
+                self.F_rate[p] = weight * F_rate
+            else:
+                self.x_rate[p] += weight * x_rate
+                self.v_rate[p] += weight * v_rate
+                self.F_rate[p] += weight * F_rate
+            if ti.static(self.record_energies and self.body_force):
+                # the body force's work: its power m_p b_p . x' by the same quadrature
+                self.accumulate(self.ext_work[None],
+                                self.p.dt() * weight * self.m[p] * self.b[p].dot(x_rate))
+            x_new = self.x_start[p]
+            v_new = self.v_start[p]
+            F_new = self.F_start[p]
+            if s < 3:  # the next stage's state, at A_(s+1) dt
+                c = (0.5 if s < 2 else 1.0) * self.p.dt()
+                x_new += c * x_rate
+                v_new += c * v_rate
+                F_new += c * F_rate
+            else:  # the step's end
+                x_new += self.p.dt() * self.x_rate[p]
+                v_new += self.p.dt() * self.v_rate[p]
+                F_new += self.p.dt() * self.F_rate[p]
+            self.x[p] = x_new
+            self.v[p] = v_new
+            self.F[p] = F_new
+            jac = F_new.determinant()
+            sig = self._stress_of_F(p, F_new)
+            vol = jac * self._initial_volume_of(p)
+            self.sigma[p] = sig
+            self.vol[p] = vol
+            if s == 3:
+                if ti.static(self.has_u):
+                    self.accumulate(self.u[p], x_new - self.x_start[p])
+                self._check_particle(p, x_new, v_new, sig, vol, jac)
+
+    @ti.func
+    def _stress_of_F(self, p, F):
+        """sigma(F) of the particle's law."""
+        sig = ti.Matrix.zero(float, self.dim, self.dim)
+        if ti.static(not self.multi_material):
+            sig = self.material_units[0].stress(self, F)
+        else:
+            for k in ti.static(range(len(self.material_units))):
+                if self.mat[p] == k:
+                    sig = self.material_units[k].stress(self, F)
+        return sig
+
+    @ti.func
+    def _initial_volume_of(self, p):
+        """V0_p = m_p / density of the particle's law."""
+        vol0 = 0.0
+        if ti.static(not self.multi_material):
+            vol0 = self.material_units[0]._initial_volume(self, p)
+        else:
+            for k in ti.static(range(len(self.material_units))):
+                if self.mat[p] == k:
+                    vol0 = self.material_units[k]._initial_volume(self, p)
+        return vol0
