@@ -9,11 +9,15 @@ particles per cell and axis, 1e4 steps), critical step the CFL limit h / c_p.  A
 *gains* energy when its total energy at the end exceeds the start by more than 1e-3 of the
 energy in motion.  ``--stress-update`` picks the 1D law (default the study's forward-Euler
 update; ``study-exact`` integrates it exactly and records the stored energy W(F) V0 instead
-of the path work).  Writes a Markdown table (stdout) and, with ``--json``, the records::
+of the path work).  ``--integrator rk4`` runs the 1D musl rows with the Runge-Kutta
+integrator (with an exactly integrated law; the affine rows are skipped: rk4 takes musl
+only).  Writes a Markdown table (stdout) and, with ``--json``, the records::
 
     python benchmarks/stability_audit.py --json docs/stability_audit.json
     python benchmarks/stability_audit.py --only 1d --stress-update study-exact \
         --json docs/stability_audit_exact.json
+    python benchmarks/stability_audit.py --only 1d --stress-update study-exact \
+        --integrator rk4 --json docs/stability_audit_rk4.json
 """
 import argparse
 import dataclasses
@@ -43,30 +47,34 @@ def _drift(energies):
             float((total[-1] - total[0]) / scale))
 
 
-def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projection="standard"):
+def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projection="standard",
+             integrator="euler-cromer"):
     from timpm.model import pic_applies
     from timpm.problems import get_problem
 
     problem = get_problem("vibrating-string")
     rows = []
     for basis, mass, transfer in ROWS_1D:
+        if integrator == "rk4" and transfer != "musl":
+            continue
         pic = pic_fraction if pic_applies(transfer, mass) else 0.0
         proj = projection if transfer == "musl" else "standard"  # mls: a musl projection
         for placement in PLACEMENTS:
             base = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
                                  placement=placement, transfer=transfer, dt=1e-9,
                                  stress_update=stress_update, pic_fraction=pic,
-                                 projection=proj)
+                                 projection=proj, integrator=integrator)
             critical = base.critical_dt
             for factor in FACTORS:
                 scene = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
                                       placement=placement, transfer=transfer,
                                       dt=factor * critical, stress_update=stress_update,
-                                      pic_fraction=pic, projection=proj)
+                                      pic_fraction=pic, projection=proj,
+                                      integrator=integrator)
                 rows.append(_run(scene, steps, progress, dim=1, basis=basis, mass=mass,
                                  transfer=transfer, placement=placement, factor=factor,
                                  critical_dt=critical, stress_update=stress_update,
-                                 pic_fraction=pic, projection=proj))
+                                 pic_fraction=pic, projection=proj, integrator=integrator))
     return rows
 
 
@@ -160,6 +168,8 @@ def main(argv=None):
                          "(default 0, the study's FLIP)")
     ap.add_argument("--projection", default="standard", choices=("standard", "mls"),
                     help="1D: the musl rows' projection (mls: forces at Gauss points)")
+    ap.add_argument("--integrator", default="euler-cromer", choices=("euler-cromer", "rk4"),
+                    help="1D: the time integration (rk4: the musl rows, an exact law)")
     ap.add_argument("--json")
     args = ap.parse_args(argv)
 
@@ -172,7 +182,7 @@ def main(argv=None):
     rows = []
     if args.only in (None, "1d"):
         rows += audit_1d(args.steps_1d, progress, args.stress_update, args.pic_fraction,
-                         args.projection)
+                         args.projection, args.integrator)
     if args.only in (None, "2d"):
         rows += audit_2d(args.steps_2d, progress)
     print(table(rows))

@@ -417,8 +417,10 @@ class Model:
             if present]
         laws = sorted({m.name for m in self.materials if not m.stress_from_F})
         if laws:
+            exact = (": the study's 1D law is, integrated exactly (stress_update "
+                     "'study-exact' or 'small-exact')" if "hypoelastic-1d" in laws else "")
             conflicts.append(f"the {', '.join(laws)} law (its stress is not a function of F "
-                             "alone)")
+                             f"alone{exact})")
         if conflicts:
             raise ValueError("integrator 'rk4' (Runge-Kutta on the particles' equations) "
                              f"does not take {'; '.join(conflicts)}")

@@ -122,7 +122,9 @@ class FeatureSet:
 
     @property
     def needs(self) -> frozenset:
-        return frozenset().union(*(cls.needs for cls, _ in self.materials))
+        """The particle state the materials keep; F for every law under rk4."""
+        needs = frozenset().union(*(cls.needs for cls, _ in self.materials))
+        return needs | {"F"} if self.rk4 else needs
 
     @property
     def multi_material(self) -> bool:

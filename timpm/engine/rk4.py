@@ -140,11 +140,11 @@ class RungeKutta:
         """sigma(F) of the particle's law."""
         sig = ti.Matrix.zero(float, self.dim, self.dim)
         if ti.static(not self.multi_material):
-            sig = self.material_units[0].stress(self, F)
+            sig = self.material_units[0].stress(self, p, F)
         else:
             for k in ti.static(range(len(self.material_units))):
                 if self.mat[p] == k:
-                    sig = self.material_units[k].stress(self, F)
+                    sig = self.material_units[k].stress(self, p, F)
         return sig
 
     @ti.func

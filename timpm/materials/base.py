@@ -15,9 +15,10 @@ value says what the engine compiles and with which numbers:
   gives ``energy(s, p)`` = W(F_p) V0_p, which the records report as the strain energy
   (otherwise the work sigma : d_eps V integrated along the path, which holds dissipation);
   a law whose compile-time flags decide it overrides ``has_energy_function(flags)``.
-- ``stress_from_F``: the Cauchy stress is a function of F alone (no path, no state
-  besides F); its unit then gives ``stress(s, F)``, which the Runge-Kutta integrator
-  evaluates at each stage (``Model(integrator="rk4")``).
+- ``stress_from_F``: the Cauchy stress is a function of F alone (no path); its unit
+  then gives ``stress(s, p, F)``, which the Runge-Kutta integrator evaluates at each
+  stage (``Model(integrator="rk4")``) after setting F_p; a law that keeps more state
+  (a strain) sets it from F there.
 
 The compiled unit is the same class built by :meth:`unit` with a getter per constant
 (``self.c.mu()``) and one ``@ti.func``::
@@ -60,7 +61,7 @@ class Material:
     free_expansion = False
     #: the law has a stored energy W(F): ``energy(s, p)`` gives W(F_p) V0_p
     energy_function = False
-    #: the stress is a function of F alone: ``stress(s, F)`` gives sigma(F)
+    #: the stress is a function of F alone: ``stress(s, p, F)`` gives sigma(F)
     stress_from_F = False
 
     def __init__(self, density):

@@ -35,6 +35,7 @@ class Hypoelastic1D(Material):
         super().__init__(density)
         self.E, self.study = positive(f"{self.name}: Young's modulus E", E), bool(study)
         self.exact = bool(exact)
+        self.stress_from_F = self.exact  # exactly integrated: sigma(F), F = V / V0
         self.wave_speed = math.sqrt(self.E / self.density)
 
     def parameters(self) -> dict:
@@ -72,6 +73,17 @@ class Hypoelastic1D(Material):
                 sig_new = sigma_old + (self.c.E() - sigma_old) * deps
             s.accumulate(s.eps[p], deps)
         return sig_new
+
+    @ti.func
+    def stress(self, s: ti.template(), p, F):
+        """The exactly integrated laws (``exact``) at F: sigma = E (1 - 1 / F) or E ln F;
+        the accumulated strain eps = ln F."""
+        stretch = F[0, 0]
+        s.eps[p] = ti.log(stretch) * ti.Matrix.identity(float, 1)
+        sig = self.c.E() * ti.log(stretch)
+        if ti.static(self.study):
+            sig = self.c.E() * (1.0 - 1.0 / stretch)
+        return sig * ti.Matrix.identity(float, 1)
 
     @ti.func
     def energy(self, s: ti.template(), p):

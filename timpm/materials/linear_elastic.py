@@ -17,10 +17,10 @@ class LinearElastic(SolidMaterial):
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         F = self._trial_F(s, p, grad_du)
         s.F[p] = F
-        return self.stress(s, F)
+        return self.stress(s, p, F)
 
     @ti.func
-    def stress(self, s: ti.template(), F):
+    def stress(self, s: ti.template(), p, F):
         """sigma(F) = lambda tr(eps) I + 2 mu eps, eps = sym(F) - I."""
         eps = 0.5 * (F + F.transpose()) - ti.Matrix.identity(float, s.dim)
         return (self.c.lam() * eps.trace() * ti.Matrix.identity(float, s.dim)

@@ -18,10 +18,10 @@ class NeoHookean(SolidMaterial):
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         F = self._trial_F(s, p, grad_du)
         s.F[p] = F
-        return self.stress(s, F)
+        return self.stress(s, p, F)
 
     @ti.func
-    def stress(self, s: ti.template(), F):
+    def stress(self, s: ti.template(), p, F):
         """sigma(F) = (mu (F F^T - I) + lambda ln J I) / J."""
         J = F.determinant()
         eye = ti.Matrix.identity(float, s.dim)
