@@ -130,3 +130,50 @@ def test_a_free_body_translates_exactly_in_2d():
                                atol=1e-13)
     en = solver.energies()
     assert abs(en["total"][-1] - en["total"][0]) < 1e-12 * en["total"][0]
+
+
+def test_rk4s_critical_step_is_sqrt2_times_euler_cromers():
+    # the stability limit of |w dt| on the imaginary axis: 2 for Euler-Cromer, 2 sqrt(2)
+    # for RK4.  At 1.3x Euler-Cromer's critical step Euler-Cromer blows up within steps,
+    # rk4 stays bounded and keeps its energy
+    from timpm import SimulationError
+
+    problem = get_problem("vibrating-string")
+    kw = dict(elements=16, basis="bspline3", mass="consistent", placement="gauss",
+              stress_update="study-exact")
+    ec_critical = problem.scene(dt=1e-9, **kw).critical_dt
+    rk_critical = problem.scene(dt=1e-9, integrator="rk4", **kw).critical_dt
+    assert rk_critical == pytest.approx(np.sqrt(2.0) * ec_critical, rel=1e-12)
+    dt = 1.3 * ec_critical
+    with pytest.raises(ValueError, match="exceeds the critical time step"):
+        problem.scene(dt=dt, **kw)
+    steps = 400
+    rk = Solver(problem.scene(dt=dt, integrator="rk4", **kw), mode="serial")
+    rk.run(n_steps=steps)
+    energy = rk.energies()["total"]
+    assert np.all(np.isfinite(rk.positions()))
+    assert energy[-1] <= energy[0] * (1 + 1e-9)  # bounded: no growth
+    ec = Solver(problem.scene(dt=dt, allow_unstable_dt=True, **kw), mode="serial",
+                energy_guard=None, volume_range=None)
+    with pytest.raises(SimulationError):
+        ec.run(n_steps=steps)
+
+
+def test_an_rk4_run_resumed_from_its_checkpoint_ends_where_the_straight_run_ends(tmp_path):
+    # the state between steps is (x, v, F, sigma, V, u): the stages' scratch is rebuilt
+    # every step and the body force evaluated at the resumed step's stage times
+    from timpm.checkpoint import load_checkpoint
+    from timpm.studies.study import resume_problem
+
+    straight, part, resumed = (tmp_path / f"{k}.npz" for k in ("straight", "part", "resumed"))
+    common = dict(elements=16, basis="bspline3", params={"G": 0.05}, mode="serial",
+                  series=False, energies=False)
+    end = run_problem("mms-1d", t_end=0.01, checkpoint=straight, **common).record
+    assert end["integrator"] == "rk4"
+    run_problem("mms-1d", t_end=0.005, checkpoint=part, **common)
+    again = resume_problem(part, 0.01, checkpoint=resumed).record
+    a, b = load_checkpoint(straight), load_checkpoint(resumed)
+    assert a["step"] == b["step"] == end["steps"]
+    for block in a["arrays"]:
+        assert np.array_equal(a["arrays"][block], b["arrays"][block]), block
+    assert again["rms_error"] == end["rms_error"] and again["integrator"] == "rk4"

@@ -23,7 +23,8 @@ from .loads import BodyForce, field_function, time_function
 from .materials import Material
 
 __all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "SIDES", "WALL_KINDS",
-           "ND_BASES", "TRANSFERS", "MASS_KINDS", "PROJECTIONS", "INTEGRATORS"]
+           "ND_BASES", "TRANSFERS", "MASS_KINDS", "PROJECTIONS", "INTEGRATORS",
+           "CRITICAL_STEP_FACTOR"]
 
 #: the sides of a box, two per axis: x, then y, then z
 SIDES = ("left", "right", "bottom", "top", "back", "front")
@@ -44,6 +45,9 @@ PROJECTIONS = ("standard", "mls")
 #: semi-discrete equations dx_p/dt = sum phi_i v_i, dv_p/dt = sum phi_i a_i, dF_p/dt =
 #: (sum v_i grad phi_i^T) F_p (four grid solves a step), for laws whose stress is sigma(F)
 INTEGRATORS = ("euler-cromer", "rk4")
+#: each integrator's critical time step relative to Euler-Cromer's 2 / w_max: the
+#: stability limit of |w dt| on the imaginary axis, 2 for Euler-Cromer, 2 sqrt(2) for RK4
+CRITICAL_STEP_FACTOR = {"euler-cromer": 1.0, "rk4": math.sqrt(2.0)}
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from .basis import get_basis
 from .checks import check_size, finite, positive as _positive, positive_int as _positive_int
 from .loads import Constant, Ramp, Sine, Traction
 from .materials import Hypoelastic1D
-from .model import MASS_KINDS, PROJECTIONS, Model, walls_from
+from .model import CRITICAL_STEP_FACTOR, MASS_KINDS, PROJECTIONS, Model, walls_from
 
 __all__ = [
     "Material", "Grid1D", "Traction", "Constant", "Sine", "Ramp", "Scene",
@@ -295,6 +295,7 @@ class Scene:
         else:
             dt_crit = discrete_critical_time_step(self.grid, self.material, basis, x, vol,
                                                   self.mass, fixed)
+        dt_crit *= CRITICAL_STEP_FACTOR[model.integrator]
         object.__setattr__(self, "_critical_dt", dt_crit)
         if dt_crit == 0.0 and not self.allow_unstable_dt:
             raise ValueError(
@@ -304,6 +305,8 @@ class Scene:
         if dt > dt_crit and not self.allow_unstable_dt:
             rule = ("Eq. 2.4: h / sqrt(E / rho)" if self.mass == "lumped" and basis.name == "linear"
                     else "2 / w_max of the particle discretisation")
+            if model.integrator == "rk4":
+                rule += ", times sqrt(2) for rk4"
             raise ValueError(
                 f"time step dt = {dt:g} s exceeds the critical time step {dt_crit:g} s "
                 f"({rule}, h = {self.grid.h:g} m, {basis.name} basis, {self.mass} mass); "
@@ -320,7 +323,8 @@ class Scene:
 
     @property
     def critical_dt(self) -> float:
-        """Eq. 2.4 (lumped mass) or the element bound of the particles' consistent mass."""
+        """Eq. 2.4 (lumped mass) or the element bound of the particles' consistent mass;
+        times sqrt(2) under rk4 (``timpm.model.CRITICAL_STEP_FACTOR``)."""
         return self._critical_dt
 
     @property

@@ -5,7 +5,7 @@ import numpy as np
 
 from ..basis import get_basis
 from ..checks import check_size
-from ..model import pic_applies
+from ..model import CRITICAL_STEP_FACTOR, pic_applies
 from ..scene import Grid1D, Material, Scene, equidistant_particles
 
 __all__ = ["Problem", "ProblemScene", "lattice"]
@@ -193,6 +193,9 @@ class ProblemScene:
     ``allow_unstable_dt``."""
 
     def __init__(self, model, critical_dt, rule, allow_unstable_dt=False):
+        if model.integrator != "euler-cromer":  # Euler-Cromer's bound times the method's
+            critical_dt *= CRITICAL_STEP_FACTOR[model.integrator]
+            rule += f", times {CRITICAL_STEP_FACTOR[model.integrator]:.4g} for {model.integrator}"
         if model.dt > critical_dt and not allow_unstable_dt:
             raise ValueError(f"time step dt = {model.dt:g} s exceeds the critical time step "
                              f"{critical_dt:g} s ({rule}, h = {model.h:g} m) of {model.name}; "
