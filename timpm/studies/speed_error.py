@@ -81,7 +81,7 @@ __all__ = ["speed_error_study", "merge_studies", "choose_dt", "pareto_front", "c
 RECORD_KEYS = ("problem", "basis", "mass", "elements", "ppc", "placement", "dt", "steps",
                "t_end", "rms_error", "time_error_estimate", "time_error_separated",
                "wall_seconds", "compile_seconds", "particles", "grid_crossings",
-               "critical_dt", "pareto")
+               "critical_dt", "projection", "integrator", "pareto")
 
 
 # ---- one run --------------------------------------------------------------------------------
@@ -113,6 +113,8 @@ class _Run:
                 "wall_seconds": s.run_seconds, "compile_seconds": s.compile_seconds,
                 "particles": scene.n_particles, "grid_crossings": s.grid_crossings(),
                 "critical_dt": scene.critical_dt, "mode": s.mode,
+                # the problem's scheme for this basis and mass (mms-1d: mls, rk4)
+                "projection": scene.model.projection, "integrator": scene.model.integrator,
             }
         except BaseException:
             self.release()
