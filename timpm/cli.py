@@ -313,6 +313,7 @@ def _run(args, start):
     doc = {"command": args.command, "problem": result.record["problem"],
            "runs": [result.record]}
     if not args.quiet:
+        print(_scheme(result.record))
         print(_table(doc["runs"]))
         extra = {k: v for k, v in result.record.items() if k in
                  ("strain", "exact_strain", "strain_relative_error", "energy_drift")}
@@ -337,6 +338,14 @@ def _options(args):
                 allow_many_steps=args.allow_many_steps,
                 projection=args.projection, transfer=args.transfer,
                 integrator=args.integrator, mode=args.mode, params=dict(args.param))
+
+
+def _scheme(record) -> str:
+    """The line above a table: the scheme the runs used (defaults depend on the problem
+    and the basis, e.g. mms-1d)."""
+    return (f"{record['problem']}: {record['basis']} basis, {record['mass']} mass, "
+            f"{record['projection']} projection, {record['transfer']} transfer, "
+            f"{record['integrator']}, {record['placement']} placement")
 
 
 def _table(records, rates=None):
@@ -507,6 +516,7 @@ def _main(argv=None):
                               dask=args.dask, **opts)
             doc["command"] = "convergence"
             if not args.quiet:
+                print(_scheme(doc["runs"][0]))
                 print(_table(doc["runs"], doc.get("rates")))
             if args.json:
                 _write_json(args.json, doc)
