@@ -11,7 +11,7 @@ import numpy as np
 from . import __version__
 from .argtypes import (add_runtime_arguments, numbers_as_values, param, positive_float,
                        positive_int, setting)
-from .basis import BASES
+from .basis import BASES, get_basis
 from .checks import MAX_STEPS, step_count
 from .engine.features import MODES
 from .files import replacing, write_json as _write_json
@@ -259,6 +259,10 @@ def _listing() -> str:
         lines.append(f"  {name:16s} {p.title}; defaults: {p.elements} elements, {p.ppc} PPC, "
                      f"dt = {p.dt_rule}, t_end = {p.t_end:g} s")
         lines.append(f"  {'':16s} parameters: {params(p)}")
+        linear, higher = (p.scheme(get_basis(b)) for b in ("linear", "bspline3"))
+        if higher != linear:  # a scheme of its own beyond the linear basis (mms-1d)
+            lines.append(f"  {'':16s} scheme: {', '.join(higher)} beyond the linear basis, "
+                         f"{', '.join(linear)} with it (mass, projection, integrator)")
     lines.append("bases (--basis): " + ", ".join(BASES) + f"; bsplineN and uniform-bsplineN "
                  f"for degree N = 1 to {MAX_BSPLINE_DEGREE} (clamped, padded uniform)")
     lines.append("demos (timpm demo NAME --out FILE.gif --param NAME=VALUE):")

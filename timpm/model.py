@@ -208,8 +208,8 @@ class Model:
     ``pic_fraction`` b blends the MUSL particle velocity update: v_p = (1 - b)(v_p + dt
     sum phi_i a_i) + b sum phi_i (v_i + dt a_i) (0: FLIP, the study's; 1: PIC, which damps
     the particle-velocity modes the grid cannot see).  ``integrator`` the time integration
-    (``INTEGRATORS``; ``"rk4"`` for laws whose stress is a function of F, without walls,
-    damping, tractions or prescribed node motion).
+    (``INTEGRATORS``; ``"rk4"`` for laws whose stress is a function of F, with roller and
+    sticky walls only, no damping, tractions or prescribed node motion).
     ``velocity`` is an (n, dim) array or a function v0(X) of the (n, dim) positions.
     ``displacement`` a function u0(X) (vectorised like v0): the body starts deformed, its
     particles at x = X + u0(X) with F = I + grad u0 (central differences of u0, step
@@ -412,7 +412,10 @@ class Model:
             ("the study's MLS projection (linear basis, lumped mass: its nodal velocities)",
              self.projection == "mls" and basis.support == 2 and self.mass_matrix == "lumped"),
             ("local damping", self.damping > 0.0), ("a PIC fraction", self.pic_fraction > 0.0),
-            ("walls (hold nodes with fixed_nodes)", self.walls is not None),
+            ("slip, friction or driven walls (roller and sticky walls are linear "
+             "constraints: those it takes)",
+             any(w is not None and (w.kind not in ("roller", "sticky") or w.moves)
+                 for w in self.walls or ())),
             ("prescribed non-zero node velocities", self.prescribes_motion),
             ("the particle traction", self.traction is not None),
             ("surface tractions", self.particle_force is not None),

@@ -218,7 +218,7 @@ class World:
     limit h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
     (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``
     above the limit is refused unless ``allow_unstable_dt``.  ``integrator``: the time
-    integration (``timpm.model.INTEGRATORS``; rk4 takes no walls: hold nodes instead).
+    integration (``timpm.model.INTEGRATORS``; rk4 takes roller and sticky walls only).
     """
 
     domain: tuple

@@ -14,7 +14,8 @@ A = (0, 1/2, 1/2, 1), and y_(n+1) = y_n + dt sum_s B_s k_s with B = (1/6, 1/3, 1
 Fourth order in time, so that with dt ~ h the spatial error sets the rate (Euler-Cromer's
 O(dt^2) caps it at 2; docs/results.md, manufactured solutions).  The law's stress must be a function of F
 (``Material.stress_from_F``); the Model refuses what would make the right-hand side depend
-on anything else (walls, damping, tractions: ``Model._check_integrator``).
+on anything else (slip walls, damping, tractions: ``Model._check_integrator``); roller and
+sticky walls, linear constraints, hold v_i and a_i alike.
 """
 import taichi as ti
 
@@ -68,17 +69,17 @@ class RungeKutta:
     def _rk4_grid(self):
         # P2G of the stage's state: m_i, P_i = sum m_p phi_i v_p, F_i = sum phi_i m_p (g +
         # b_p) - sigma_p V_p grad phi_i (at the Gauss points with the MLS projection);
-        # then a_i = M^-1 F_i and v_i = M^-1 P_i, zero at Dirichlet and empty nodes
-        self._clear_grid()
-        if ti.static(self.mls):
-            self._body_extent()
-        self._p2g()
-        if ti.static(self.mls):
-            self._integrate_gauss()
-        if ti.static(self.consistent):
-            self._banded_factorise()
-        self._grid_acceleration()
-        self._solve_mass(self.gp, True)
+        # then a_i = M^-1 F_i and v_i = M^-1 P_i, zero at Dirichlet and empty nodes, the wall
+        # conditions on both
+        self._p2g_assembled()
+        if ti.static(self.has_walls):
+            # roller and sticky walls are linear constraints: the same on v_i and a_i
+            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                self.gf[I] = self._wall(I, self._lumped_solve(I, self.gf[I]))
+                self.gp[I] = self._wall(I, self._lumped_solve(I, self.gp[I]))
+        else:
+            self._grid_acceleration()
+            self._solve_mass(self.gp, True)
 
     @ti.func
     def _rk4_particle(self, p, s):

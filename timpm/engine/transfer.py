@@ -300,6 +300,20 @@ class Transfer:
                 self.elem[p] = e
 
     @ti.func
+    def _p2g_assembled(self):
+        # the grid cleared, P2G of mass, forces (and momentum where a phase needs it); with
+        # the MLS projection the body's extent before and the Gauss-point forces after; the
+        # consistent mass factorised
+        self._clear_grid()
+        if ti.static(self.mls):
+            self._body_extent()
+        self._p2g()
+        if ti.static(self.mls):
+            self._integrate_gauss()
+        if ti.static(self.consistent):
+            self._banded_factorise()
+
+    @ti.func
     def _one_step(self):
         if ti.static(self.rk4):
             self._rk4_step()  # four grid solves of the Runge-Kutta stages (rk4.py)
@@ -316,15 +330,8 @@ class Transfer:
                 self._solve_mass(self.gp, True)
             self._g2p_update()
         else:
-            self._clear_grid()
             # the study's MUSL scheme with Euler-Cromer stepping (2.2.4, Figure 2.7)
-            if ti.static(self.mls):
-                self._body_extent()
-            self._p2g()
-            if ti.static(self.mls):
-                self._integrate_gauss()
-            if ti.static(self.consistent):
-                self._banded_factorise()
+            self._p2g_assembled()
             self._grid_acceleration()
             self._g2p_velocity()
             if ti.static(self.mls_study):
