@@ -15,9 +15,9 @@ from .basis import BASES, get_basis
 from .checks import MAX_STEPS, step_count
 from .engine.features import MODES
 from .files import replacing, write_json as _write_json
+from .model import INTEGRATORS
 from .problems import PROBLEMS, get_problem
 from .runtime import exit_process
-from .model import INTEGRATORS
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .solver import SimulationError
 from .studies import speed_error, sweep

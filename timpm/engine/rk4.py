@@ -12,10 +12,12 @@ body force at the stage's time), the Dirichlet nodes held at rest.  Four such gr
 a step: stage s evaluates the rates k_s at y_n + A_s dt k_(s-1), t_n + A_s dt with
 A = (0, 1/2, 1/2, 1), and y_(n+1) = y_n + dt sum_s B_s k_s with B = (1/6, 1/3, 1/3, 1/6).
 Fourth order in time, so that with dt ~ h the spatial error sets the rate (Euler-Cromer's
-O(dt^2) caps it at 2; docs/results.md, manufactured solutions).  The law's stress must be a function of F
-(``Material.stress_from_F``); the Model refuses what would make the right-hand side depend
-on anything else (slip walls, damping, tractions: ``Model._check_integrator``); roller and
-sticky walls, linear constraints, hold v_i and a_i alike.
+O(dt^2) caps it at 2; docs/results.md, manufactured solutions).  The law's stress must be
+a function of F (``Material.stress_from_F``); the Model refuses what would make the
+right-hand side depend on anything else (slip walls, damping, tractions:
+``Model._check_integrator``); roller and sticky walls, linear constraints, hold v_i and
+a_i alike.  The critical step is sqrt(2) times Euler-Cromer's
+(``timpm.model.CRITICAL_STEP_FACTOR``).
 """
 import taichi as ti
 

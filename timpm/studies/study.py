@@ -45,7 +45,9 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     Unset numerical values take the problem's defaults (``placement`` too: the study's
     problems place particles as the study does, the manufactured solutions at Gauss
     points; ``mass``, ``projection`` and ``integrator``: lumped, standard and
-    euler-cromer, but consistent, mls and rk4 for mms-1d, see ``Problem.scheme``); ``params`` overrides physical parameters (e.g. ``{"p0": 5e4}``).  The record holds at least problem, elements, ppc,
+    euler-cromer, but consistent, mls and rk4 for mms-1d beyond the linear basis, see
+    ``Problem.scheme``); ``params`` overrides physical parameters (e.g. ``{"p0": 5e4}``).
+    The record holds at least problem, elements, ppc,
     basis, mass, dt, t_end, steps, rms_error, wall_seconds (stepping only; compilation is
     ``compile_seconds``) and grid_crossings.  ``series=False`` records no time series of
     the monitored particle (the study's figures need it, its tables do not);
@@ -290,8 +292,8 @@ def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=F
     runs.  ``workers=N`` runs them in N worker processes, ``dask`` on a Dask cluster (an
     address, or "local"; :mod:`timpm.studies.sweep`): the records are those of this
     serial loop, in its order, but for the times; no progress line is drawn there.
-    The monitored particle's time series is not recorded (the records do not hold it)
-    unless ``series=True`` is given.
+    No time series of the monitored particle is recorded by default: the records do not
+    hold one.
     """
     kwargs.setdefault("series", False)
     if len(elements) == 0:
