@@ -230,6 +230,11 @@ def test_meshes_after_the_first_compile_nothing_and_a_batch_gives_the_same_table
         assert third.record["rms_error"] == first.record["rms_error"]
         with pytest.raises(ValueError, match="mode must be 'serial'"):
             convergence("vibrating-string", elements=(4, 8), batch=True, mode="parallel")
+        with pytest.raises(ValueError, match="a batch writes no outputs of its own: "
+                                             "checkpoint apply to single runs"):
+            convergence("vibrating-string", elements=(4, 8), batch=True, checkpoint="c.npz")
+        with pytest.raises(TypeError, match="unexpected keyword argument 'bases'"):
+            convergence("vibrating-string", elements=(4, 8), batch=True, bases="linear")
     finally:
         clear_solvers()
 

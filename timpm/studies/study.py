@@ -70,6 +70,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     ``resume`` (a :func:`timpm.checkpoint.load_checkpoint` dict) continues a saved run of
     the same arguments from its step (see :func:`resume_problem`).
     """
+    given = dict(locals())  # the arguments: the first statement, before any other name
     from ..checkpoint import save_checkpoint
     from ..interrupt import RunInterrupted
 
@@ -83,9 +84,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                 or checkpoint_every < 1):
             raise ValueError("checkpoint_every must be a positive number of steps, got "
                              f"{checkpoint_every!r}")
-    run = _plan(problem, elements, ppc, basis, mass, dt, t_end, placement, stress_update,
-                damping, allow_unstable_dt, record_every, params, energies, projection, series,
-                transfer, pic_fraction, integrator, reuse=reuse)
+    run = _plan(problem, {name: given[name] for name in RUN_OPTIONS}, reuse=reuse)
     description = None
     if isinstance(problem, str):
         model = run.scene.model
@@ -166,22 +165,37 @@ def resume_problem(path, t_end, **options) -> RunResult:
     return run_problem(kwargs.pop("problem"), t_end=t_end, resume=saved, **kwargs)
 
 
-def _plan(problem, *options, reuse=True):
-    """The :class:`_Run` of these arguments; with ``reuse`` one built earlier from equal
-    arguments (a problem named by a string, hashable options), whose scene is then built
-    once: a warm study spends no time on its scenes."""
+#: the arguments of :func:`run_problem` that build a run's scene and say what it records
+#: (one :class:`_Run` each)
+RUN_OPTIONS = ("elements", "ppc", "basis", "mass", "dt", "t_end", "placement", "stress_update",
+               "damping", "allow_unstable_dt", "record_every", "params", "energies",
+               "projection", "series", "transfer", "pic_fraction", "integrator")
+
+
+def _run_options(elements, options) -> dict:
+    """The ``RUN_OPTIONS`` of ``run_problem(..., elements=elements, **options)``, its
+    defaults filled in (an unknown option raises TypeError, as run_problem would)."""
+    given = inspect.signature(run_problem).bind(None, elements=elements, **options)
+    given.apply_defaults()
+    return {name: given.arguments[name] for name in RUN_OPTIONS}
+
+
+def _plan(problem, options, reuse=True):
+    """The :class:`_Run` of ``options`` (``RUN_OPTIONS`` by name); with ``reuse`` one built
+    earlier from equal options (a problem named by a string, hashable values), whose scene
+    is then built once: a warm study spends no time on its scenes."""
     key = None
     if reuse and isinstance(problem, str):
-        # options hold one dict, the physical params: its items stand for it
-        key = (problem, *(tuple(sorted(o.items())) if isinstance(o, dict) else o
-                          for o in options))
+        # the physical params are a dict: its items stand for it
+        key = (problem, *((name, tuple(sorted(value.items())) if isinstance(value, dict)
+                           else value) for name, value in sorted(options.items())))
         try:
             hash(key)
         except TypeError:
             key = None
     run = _PLANS.pop(key, None) if key is not None else None
     if run is None:
-        run = _Run(problem, *options)
+        run = _Run(problem, **options)
     if key is not None:
         _keep(_PLANS, key, run)
     return run
@@ -191,9 +205,9 @@ class _Run:
     """One run of a problem: its scene and what is recorded, then its result (a run keeps
     no state of its own: :func:`_plan` may hand the same one out again)."""
 
-    def __init__(self, problem, elements, ppc, basis, mass, dt, t_end, placement,
+    def __init__(self, problem, *, elements, ppc, basis, mass, dt, t_end, placement,
                  stress_update, damping, allow_unstable_dt, record_every, params, energies,
-                 projection, series, transfer, pic_fraction=None, integrator=None):
+                 projection, series, transfer, pic_fraction, integrator):
         self.prob = prob = get_problem(problem, **(params or {}))
         self.elements = prob.elements if elements is None else elements
         self.ppc = prob.ppc if ppc is None else ppc
@@ -322,13 +336,7 @@ def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=F
 def _check_options(problem, elements, options) -> None:
     """Build the scene of one mesh here (NumPy only), so that a bad option raises before
     worker processes start."""
-    given = inspect.signature(run_problem).bind(problem, elements=elements, **options)
-    given.apply_defaults()
-    a = given.arguments
-    _plan(problem, elements, a["ppc"], a["basis"], a["mass"], a["dt"], a["t_end"],
-          a["placement"], a["stress_update"], a["damping"], a["allow_unstable_dt"],
-          a["record_every"], a["params"], a["energies"], a["projection"], a["series"],
-          a["transfer"], a["pic_fraction"], a["integrator"], reuse=a["reuse"])
+    _plan(problem, _run_options(elements, options), reuse=options.get("reuse", True))
 
 
 def _mesh_record(problem, elements, options) -> dict:
@@ -336,18 +344,18 @@ def _mesh_record(problem, elements, options) -> dict:
     return run_problem(problem, elements=elements, **options).record
 
 
-def _batch_runs(problem, elements, *, ppc=None, basis="linear", mass=None, dt=None,
-                t_end=None, placement=None, stress_update="study", damping=None,
-                allow_unstable_dt=False, record_every=None, progress=None, params=None,
-                energies=True, projection=None, series=True, mode="serial",
-                reuse=True, transfer="musl", pic_fraction=None, integrator=None,
-                allow_many_steps=False):
+def _batch_runs(problem, elements, *, mode="serial", progress=None, reuse=True,
+                allow_many_steps=False, **options):
+    """The runs of ``elements`` side by side (``options``: run_problem's)."""
     if mode != "serial":
         raise ValueError("a batch runs fused serial solvers: mode must be 'serial'")
-    runs = [_plan(problem, n, ppc, basis, mass, dt, t_end, placement, stress_update, damping,
-                  allow_unstable_dt, record_every, params, energies, projection, series,
-                  transfer, pic_fraction, integrator, reuse=reuse)
-            for n in elements]
+    per_mesh = [_run_options(n, options) for n in elements]  # an unknown name raises here
+    other = sorted(set(options) - set(RUN_OPTIONS))
+    if other:
+        raise ValueError(f"a batch writes no outputs of its own: {', '.join(other)} "
+                         "apply to single runs (run_problem)")
+    runs = [_plan(problem, run_options, reuse=reuse) for run_options in per_mesh]
+    energies = runs[0].energies
     if len({r.t_end for r in runs}) != 1:
         raise ValueError("the runs of a batch share t_end")
     for r in runs:
