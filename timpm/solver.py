@@ -23,7 +23,7 @@ from .checks import (check_steps, index, is_whole, matrices, solver_options, ste
                      whole)
 from .engine.failures import energy_balance, recorded_failure
 from .engine.features import SCATTERS, auto_mode, plan
-from .engine.program import program_for
+from .engine.program_cache import program_for, release_state_of
 from .engine.recorder import energy_series, tracked_series
 from .engine.state import State
 from .errors import ERRORS, Released, SimulationError
@@ -227,9 +227,7 @@ class Solver:
         """Free this solver's state (it cannot be used afterwards; the compiled program
         stays for other solvers)."""
         if not self._released:
-            from .engine.program import _PROGRAMS
-            for prog in list(_PROGRAMS.values()):
-                prog.deactivate(self)
+            release_state_of(self)
             self.state.host = None
             self._released = True
 

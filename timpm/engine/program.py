@@ -2,19 +2,16 @@
 
 A :class:`Program` is compiled once per :class:`~timpm.engine.features.FeatureSet` per
 process (and loaded from Taichi's offline cache across processes): its fields hold up to
-a capacity of particles, nodes and records, the live sizes and every other scene value
-are run-time values (:mod:`.params`).  Scenes of one feature set take turns in the same
-fields: a solver *activates* its state (uploads it) before it runs or reads, and the
-state it replaces is saved to host memory first.  A scene larger than the capacity grows
-it (doubling), which builds a new program and compiles again: log2 of the size range at
-most.
+a capacity of particles, nodes and records (:mod:`.program_cache`), the live sizes and
+every other scene value are run-time values (:mod:`.params`).  Scenes of one feature set
+take turns in the same fields: a solver *activates* its state (uploads it) before it runs
+or reads, and the state it replaces is saved to host memory first.
 
 The phases of a step come from the mixins, one unit each: the stencil, the scatter
 strategies, the grid phases, the consistent mass, the transfers, the MLS projection,
 recording and the drivers (fused serial, parallel, team).
 """
 import weakref
-from dataclasses import dataclass
 
 import numpy as np
 import taichi as ti
@@ -31,48 +28,7 @@ from .stencil import StencilOps
 from .transfer import Transfer
 from .uploads import Uploads
 
-__all__ = ["Program", "Capacity", "program_for", "clear_programs"]
-
-
-@dataclass(frozen=True)
-class Capacity:
-    """How much a program's fields hold."""
-
-    particles: int
-    nodes: tuple
-    tracked: int
-    history: int
-
-    def holds(self, layout) -> bool:
-        return (layout.n_particles <= self.particles and layout.n_tracked <= self.tracked
-                and layout.history <= self.history
-                and all(n <= c for n, c in zip(layout.room, self.nodes)))
-
-    def grown(self, layout) -> "Capacity":
-        """A capacity that holds ``layout``: every size too small doubles (at least),
-        but the grid axes of 2D and 3D grow to what is needed (doubling each axis of a 3D
-        grid would take eight times its memory)."""
-        def grow(have, need, factor=2):
-            return have if need <= have else max(need, factor * have)
-        axis = 2 if len(self.nodes) == 1 else 1
-        return Capacity(grow(self.particles, layout.n_particles),
-                        tuple(grow(c, n, axis) for c, n in zip(self.nodes, layout.room)),
-                        grow(self.tracked, layout.n_tracked),
-                        grow(self.history, layout.history))
-
-    @staticmethod
-    def first(features, layout) -> "Capacity":
-        """The first capacity of a feature set: room for a 1D study's meshes (1024 particles,
-        2064 nodes: 1024 quadratic Lagrange elements), a 2D or 3D one's (16384 particles and
-        72^2 nodes, 32768 and 40^3: a few MiB), or the scene's own sizes where larger: each
-        larger capacity compiles the program again."""
-        if features.dim == 1:
-            return Capacity(max(1024, layout.n_particles), (max(2064, layout.room[0]),),
-                            max(8, layout.n_tracked), max(1024, layout.history))
-        particles, axis = (16384, 72) if features.dim == 2 else (32768, 40)
-        return Capacity(max(particles, layout.n_particles),
-                        tuple(max(axis, n) for n in layout.room), max(8, layout.n_tracked),
-                        layout.history)
+__all__ = ["Program"]
 
 
 def _param_spec(features):
@@ -109,7 +65,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, RungeKu
               MLSProjection, Recorder, Drivers):
     """Fields and kernels of one feature set at one capacity."""
 
-    def __init__(self, features, capacity: Capacity):
+    def __init__(self, features, capacity):
         f = self.f = features
         self.capacity = capacity
         # compile-time choices the phases read (through ti.static)
@@ -557,46 +513,3 @@ def _numpy_shape(fld):
     if not isinstance(fld, ti.MatrixField):
         return tuple(fld.shape)
     return tuple(fld.shape) + ((fld.n,) if fld.m == 1 else (fld.n, fld.m))
-
-
-_PROGRAMS: dict = {}
-
-
-def program_for(features, layout, slot: int = 0):
-    """The process's program of ``features`` (``slot``: another copy, for a Batch), grown
-    to hold ``layout``; built and compiled on first use."""
-    from .. import runtime
-
-    runtime.check_caller()
-    for old in [k for k in _PROGRAMS if k[2] != runtime.generation()]:
-        del _PROGRAMS[old]  # Taichi restarted: their fields are gone with it
-    key = (features, slot, runtime.generation())
-    prog = _PROGRAMS.get(key)
-    if prog is not None and prog.capacity.holds(layout):
-        return prog
-    if prog is None:
-        cap = Capacity.first(features, layout)
-    else:
-        cap = prog.capacity.grown(layout)
-        owner = prog.active
-        if owner is not None:
-            owner.save_to_host(prog)
-        prog.release()
-    prog = Program(features, cap)
-    _PROGRAMS[key] = prog
-    return prog
-
-
-def clear_programs():
-    """Free every program's fields and forget the compiled kernels: the state a program
-    holds is saved to its solver first, and a solver used again uploads it into a new
-    program (compiled again)."""
-    from .. import runtime
-
-    for (_, _, gen), prog in _PROGRAMS.items():
-        if gen == runtime.generation():  # else Taichi freed them at its restart
-            owner = prog.active
-            if owner is not None:
-                owner.save_to_host(prog)
-            prog.release()
-    _PROGRAMS.clear()
