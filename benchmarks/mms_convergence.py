@@ -1,6 +1,6 @@
 """Convergence and speed against error of the manufactured solutions in 2D (or 1D, 3D).
 
-Every basis and transfer on ``mms-2d`` (Neo-Hookean, G = 0.05 by default) over a series
+Every basis, transfer and projection on ``mms-2d`` (Neo-Hookean, G = 0.05 by default) over a series
 of meshes: the RMS and L2 errors, the observed rates, the stepping time and the time a
 user waits (compilation, the scene and the run), in one process, one after the other.
 Writes a JSON record, a Markdown table on stdout and, with ``--plot``, error against
@@ -15,9 +15,13 @@ import time
 
 import numpy as np
 
-SCHEMES = (("linear", "musl"), ("linear", "apic"), ("bspline2", "musl"), ("bspline3", "musl"),
-           ("uniform-bspline2", "apic"), ("uniform-bspline2", "mls-mpm"),
-           ("uniform-bspline3", "apic"))
+#: (basis, transfer, projection): "mls" integrates the internal force at the Gauss points
+#: (the problem's default with the musl transfer and a B-spline basis)
+SCHEMES = (("linear", "musl", "standard"), ("linear", "apic", "standard"),
+           ("bspline2", "musl", "standard"), ("bspline2", "musl", "mls"),
+           ("bspline3", "musl", "standard"), ("bspline3", "musl", "mls"),
+           ("uniform-bspline2", "apic", "standard"), ("uniform-bspline2", "mls-mpm", "standard"),
+           ("uniform-bspline3", "apic", "standard"))
 
 
 def main(argv=None):
@@ -25,8 +29,8 @@ def main(argv=None):
     ap.add_argument("--problem", default="mms-2d")
     ap.add_argument("--G", type=float, default=0.05)
     ap.add_argument("--elements", type=int, nargs="+", default=[8, 16, 32, 64])
-    ap.add_argument("--schemes", nargs="+", metavar="BASIS:TRANSFER",
-                    default=[f"{b}:{t}" for b, t in SCHEMES])
+    ap.add_argument("--schemes", nargs="+", metavar="BASIS:TRANSFER[:PROJECTION]",
+                    default=[":".join(s) for s in SCHEMES])
     ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--json")
     ap.add_argument("--plot")
@@ -38,14 +42,15 @@ def main(argv=None):
     timpm.init(threads=args.threads)
     rows = []
     for scheme in args.schemes:
-        basis, transfer = scheme.split(":")
+        basis, transfer, projection = (scheme.split(":") + ["standard"])[:3]
         for n in args.elements:
             t0 = time.perf_counter()
             r = run_problem(args.problem, elements=n, basis=basis, transfer=transfer,
-                            params={"G": args.G}, series=False, energies=False).record
+                            projection=projection, params={"G": args.G}, series=False,
+                            energies=False).record
             r["end_to_end_seconds"] = time.perf_counter() - t0
             rows.append(r)
-            print(f"{basis:17s} {transfer:8s} {n:4d} rms {r['rms_error']:.3e} "
+            print(f"{basis:17s} {transfer:8s} {projection:8s} {n:4d} rms {r['rms_error']:.3e} "
                   f"step {r['wall_seconds']:.2f} s, end to end {r['end_to_end_seconds']:.2f} s",
                   file=sys.stderr, flush=True)
     doc = {"problem": args.problem, "G": args.G, "elements": args.elements,
@@ -64,7 +69,8 @@ def main(argv=None):
 def _groups(doc):
     out = {}
     for r in doc["runs"]:
-        out.setdefault((r["basis"], r["transfer"]), []).append(r)
+        out.setdefault((r["basis"], r["transfer"], r.get("projection", "standard")),
+                       []).append(r)
     return out
 
 
@@ -72,14 +78,14 @@ def table(doc) -> str:
     """Markdown: per scheme the errors per mesh, the rates, and at the finest mesh the
     stepping and end-to-end seconds."""
     els = doc["elements"]
-    head = ("| basis, transfer | " + " | ".join(str(n) for n in els)
+    head = ("| basis, transfer, projection | " + " | ".join(str(n) for n in els)
             + " | rates | step [s] | end to end [s] |")
     lines = [head, "|---|" + "---:|" * len(els) + "---|---:|---:|"]
-    for (basis, transfer), runs in _groups(doc).items():
+    for (basis, transfer, projection), runs in _groups(doc).items():
         errors = [r["rms_error"] for r in runs]
         rates = [np.log(a / b) / np.log(m / n) for a, b, n, m in
                  zip(errors, errors[1:], els, els[1:])]
-        lines.append(f"| {basis}, {transfer} | " + " | ".join(f"{e:.2e}" for e in errors)
+        lines.append(f"| {basis}, {transfer}, {projection} | " + " | ".join(f"{e:.2e}" for e in errors)
                      + f" | {' '.join(f'{q:.2f}' for q in rates)} | "
                      f"{runs[-1]['wall_seconds']:.2f} | {runs[-1]['end_to_end_seconds']:.2f} |")
     return "\n".join(lines)
@@ -92,10 +98,10 @@ def plot(doc, path):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
-    for (basis, transfer), runs in _groups(doc).items():
+    for (basis, transfer, projection), runs in _groups(doc).items():
         errors = [r["rms_error"] for r in runs]
         for ax, key in zip(axes, ("wall_seconds", "end_to_end_seconds")):
-            ax.loglog([r[key] for r in runs], errors, "o-", label=f"{basis}, {transfer}")
+            ax.loglog([r[key] for r in runs], errors, "o-", label=f"{basis}, {transfer}, {projection}")
     axes[0].set_xlabel("stepping time [s]")
     axes[1].set_xlabel("end-to-end time [s] (compilation, scene, run)")
     axes[0].set_ylabel("RMS displacement error [m]")

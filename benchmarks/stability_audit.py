@@ -86,7 +86,7 @@ def audit_2d(steps, progress):
     for basis, transfer in ROWS_2D:
         for placement in PLACEMENTS:
             scene = problem.scene(elements=16, basis=basis, transfer=transfer,
-                                  placement=placement)
+                                  placement=placement, projection="standard")
             model = dataclasses.replace(scene.model, body_force=None)
             critical = model.h / problem.material_law.wave_speed
             for factor in FACTORS:

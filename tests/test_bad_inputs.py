@@ -215,6 +215,12 @@ CALLS = [
     (lambda: _run_problem(elements=10 ** 12), "4e+12 particles, " + INDEX),
     (lambda: _run_problem(ppc=10 ** 8), "1.6e+09 particles and 17 grid nodes need at least"),
     (lambda: _problem("mms-2d").scene(elements=30000), "3.6e+09 particles, " + INDEX),
+    # the MLS projection: the 1D study's, and the Gauss-point stress of 2D
+    (lambda: _problem("mms-3d").scene(elements=4, basis="bspline2", projection="mls"),
+     "the MLS projection is implemented in 1D and 2D, not 3D"),
+    (lambda: _problem("mms-2d").scene(elements=4, basis="linear", projection="mls"),
+     "in 2D the MLS projection reconstructs the stress only (Gauss-point forces): it takes "
+     "a B-spline basis of degree 2 or more and the lumped mass, got linear with lumped mass"),
     (lambda: _renderer(100000),
      "an image of 100000 x 100000 pixels has more than the 2147483647 pixels"),
     # step counts

@@ -151,9 +151,15 @@ def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standar
     if projection not in PROJECTIONS:
         raise ValueError(f"unknown projection {projection!r}: choose one of "
                          f"{', '.join(PROJECTIONS)}")
-    if projection == "mls" and (dim != 1 or transfer != "musl"):
-        raise ValueError(f"the MLS projection (4.4) is implemented in 1D with the musl "
-                         f"transfer, got {dim}D with {transfer}")
+    if projection == "mls" and transfer != "musl":
+        raise ValueError(f"the MLS projection (4.4) is implemented with the musl transfer, "
+                         f"got {transfer}")
+    if projection == "mls" and dim == 3:
+        raise ValueError("the MLS projection is implemented in 1D and 2D, not 3D")
+    if projection == "mls" and dim == 2 and (basis.support == 2 or mass != "lumped"):
+        raise ValueError("in 2D the MLS projection reconstructs the stress only (Gauss-point "
+                         "forces): it takes a B-spline basis of degree 2 or more and the "
+                         f"lumped mass, got {basis.name} with {mass} mass")
     given = damping
     try:
         damping = float(damping)
@@ -398,6 +404,14 @@ class Model:
         object.__setattr__(self, "gravity", tuple(float(c) for c in vector("gravity", g, dim)))
         object.__setattr__(self, "damping", float(self.damping))
         object.__setattr__(self, "pic_fraction", float(self.pic_fraction))
+        if self.projection == "mls" and dim > 1:
+            # the Gauss-point forces integrate over every cell: the body must fill the grid
+            grid = float(np.prod([e * self.h for e in self.elements]))
+            bodies = float(np.sum(self.volume))
+            if abs(bodies - grid) > 1e-9 * grid:
+                raise ValueError(f"in {dim}D the MLS projection integrates the stress over "
+                                 f"every cell: the bodies must fill the grid (particle volumes "
+                                 f"sum to {bodies:.6g}, the grid's volume is {grid:.6g})")
 
     def _check_integrator(self, basis):
         if self.integrator not in INTEGRATORS:
@@ -453,10 +467,12 @@ class Model:
                     raise ValueError(f"the {side} wall's velocity must lie along the wall (it "
                                      f"stays in place): its component {'xyz'[axis]} is "
                                      f"{w.velocity[axis]:g}, not 0")
-        if walls is not None and (self.mass_matrix != "lumped" or self.projection != "standard"):
+        # the study's MLS projection (linear basis) reconstructs the nodal velocities
+        study_mls = self.projection == "mls" and basis.support == 2
+        if walls is not None and (self.mass_matrix != "lumped" or study_mls):
             raise ValueError("walls act on the lumped nodal velocities: with the consistent "
-                             "mass or the MLS projection hold the end nodes fixed instead "
-                             "(fixed_nodes)")
+                             "mass or the study's MLS projection (linear basis) hold the end "
+                             "nodes fixed instead (fixed_nodes)")
         set_("walls", walls)
         cells = self.wall_cells
         if cells is None:

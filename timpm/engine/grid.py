@@ -77,7 +77,9 @@ class GridOps:
         if ti.static(self.consistent):
             for i, k in ti.ndrange(self.p.nodes()[0], 2 * self.bandwidth + 1):
                 self.band[i, k] = 0.0
-        if ti.static(self.mls):
+        if ti.static(self.mls and self.dim > 1):
+            self._clear_gauss_nd()
+        elif ti.static(self.mls):
             for e, g in ti.ndrange(self.p.elements()[0], ti.static(len(GAUSS_POINTS))):
                 self.g_mom[e, g] = ti.Vector.zero(float, 2 * self.mls_order + 1)
                 self.g_rho[e, g] = ti.Vector.zero(float, 2)

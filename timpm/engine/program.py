@@ -20,6 +20,7 @@ from .consistent_mass import ConsistentMass
 from .drivers import Drivers
 from .grid import GridOps
 from .mls_projection import GAUSS_POINTS, MLSProjection
+from .mls_stress_nd import MLSStressND, mls_nd_fields
 from .params import ParamBlock
 from .recorder import NUMPY_DTYPES, Recorder, components, entry_size
 from .rk4 import RungeKutta, rk4_fields
@@ -62,7 +63,7 @@ def _param_spec(features):
 
 @ti.data_oriented
 class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, RungeKutta, Uploads,
-              MLSProjection, Recorder, Drivers):
+              MLSProjection, MLSStressND, Recorder, Drivers):
     """Fields and kernels of one feature set at one capacity."""
 
     def __init__(self, features, capacity):
@@ -171,7 +172,11 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, RungeKu
             scratch["inactive"] = ti.field(ti.i32)  # fixed or untouched rows of M
             fb.dense(ti.ij, (nn, 2 * self.bandwidth + 1)).place(scratch["band"])
             fb.dense(ti.i, nn).place(scratch["inactive"])
-        if self.mls:
+        if self.mls and d > 1:  # Gauss points per cell: 2 per axis (mls_stress_nd)
+            fields = mls_nd_fields(d, self.mls_order, real)
+            fb.dense(ti.axes(*range(d + 1)), (*cap.nodes, 2 ** d)).place(*fields.values())
+            scratch.update(fields)
+        elif self.mls:
             ng = len(GAUSS_POINTS)
             k = self.mls_order  # MLS sums: w d^0..2k, w rho_p d^0..1, w sigma_p d^0..k
             scratch.update(g_mom=ti.Vector.field(2 * k + 1, real), g_rho=ti.Vector.field(2, real),

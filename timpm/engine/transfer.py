@@ -94,7 +94,10 @@ class Transfer:
             if ti.static(self.mls):
                 if ti.static(self.mls_study):
                     fp[0] -= mp * self.p.gravity()[0]  # gravity and mass: from the Gauss points
-                self._scatter_gauss_moments(p)
+                if ti.static(self.dim == 1):
+                    self._scatter_gauss_moments(p)
+                else:
+                    self._scatter_gauss_moments_nd(p)
             # the affine momentum A (x_i - x_p) with x_i - x_p = h o - d (o: the node's
             # offset in the stencil) is h A o - A d: one vector per particle, then adds
             d = self._from_first_node(xi, base)
@@ -305,11 +308,13 @@ class Transfer:
         # the MLS projection the body's extent before and the Gauss-point forces after; the
         # consistent mass factorised
         self._clear_grid()
-        if ti.static(self.mls):
+        if ti.static(self.mls and self.dim == 1):
             self._body_extent()
         self._p2g()
-        if ti.static(self.mls):
+        if ti.static(self.mls and self.dim == 1):
             self._integrate_gauss()
+        elif ti.static(self.mls):
+            self._integrate_gauss_nd()
         if ti.static(self.consistent):
             self._banded_factorise()
 

@@ -126,14 +126,17 @@ class ManufacturedSolution(Problem):
 
     # ---- the scene ---------------------------------------------------------------------
     def scheme(self, basis, mass=None, projection=None, integrator=None, transfer="musl"):
-        """In 1D with the musl transfer and a basis beyond the linear one: the consistent
-        mass, the internal force at the Gauss points (the MLS stress projection) and the
-        rk4 integrator, the scheme that converges at high order here (docs/results.md).
-        Otherwise the study's: the linear basis' grid-crossing error sets its accuracy (and
-        its consistent mass with the MLS forces breaks down at G = 0.05 from 256
-        elements, under either integrator)."""
-        if self.dim > 1 or transfer != "musl" or basis.support == 2:
+        """With the musl transfer and a basis beyond the linear one, the internal force at
+        the Gauss points (the MLS stress projection): in 1D with the consistent mass and
+        the rk4 integrator, in 2D with the lumped mass and Euler-Cromer, the schemes that
+        converge at order 2 and more here (docs/results.md).  Otherwise the study's: the
+        linear basis' grid-crossing error sets its accuracy (and its consistent mass with
+        the MLS forces breaks down at G = 0.05 from 256 elements, under either
+        integrator); in 3D the MLS projection is not implemented."""
+        if self.dim == 3 or transfer != "musl" or basis.support == 2:
             return super().scheme(basis, mass, projection, integrator, transfer)
+        if self.dim == 2:
+            return super().scheme(basis, mass, projection or "mls", integrator, transfer)
         return mass or "consistent", projection or "mls", integrator or "rk4"
 
     def scene(self, elements=None, ppc=None, basis="linear", mass=None, dt=None,
