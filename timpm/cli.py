@@ -260,7 +260,7 @@ def _listing() -> str:
                      f"dt = {p.dt_rule}, t_end = {p.t_end:g} s")
         lines.append(f"  {'':16s} parameters: {params(p)}")
         linear, higher = (p.scheme(get_basis(b)) for b in ("linear", "bspline3"))
-        if higher != linear:  # a scheme of its own beyond the linear basis (mms-1d)
+        if higher != linear:  # a scheme of its own beyond the linear basis (mms-1d, 2d)
             lines.append(f"  {'':16s} scheme: {', '.join(higher)} beyond the linear basis, "
                          f"{', '.join(linear)} with it (mass, projection, integrator)")
     lines.append("bases (--basis): " + ", ".join(BASES) + f"; bsplineN and uniform-bsplineN "
