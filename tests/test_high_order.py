@@ -115,9 +115,9 @@ def test_mls_projection_converges_on_the_string():
     assert doc["runs"][-1]["rms_error"] == pytest.approx(std["runs"][0]["rms_error"], rel=0.4)
 
 
-def test_mls_projection_is_1d_musl():
-    with pytest.raises(ValueError, match="MLS projection .* in 1D with the musl transfer, "
-                                         "got 1D with apic"):
+def test_mls_projection_is_musl():
+    with pytest.raises(ValueError, match="MLS projection .* implemented with the musl "
+                                         "transfer, got apic"):
         get_problem("vibrating-string").scene(projection="mls", transfer="apic")
     with pytest.raises(ValueError, match="unknown projection 'kriging'"):
         get_problem("vibrating-string").scene(projection="kriging")
