@@ -29,6 +29,14 @@ ENV = dict(os.environ, TIMPM_THREADS="1", ENABLE_TAICHI_HEADER_PRINT="false",
            TI_LOG_LEVEL="warn")
 
 
+def _default_sigint():
+    """In the child before it starts: SIGINT at its default, as in a terminal.  A process
+    inherits an ignored SIGINT (Python then installs no handler, and Ctrl-C does nothing):
+    the test's own worker may have been left ignoring it by a pool of an earlier test, and
+    the child then ran on past the signal (2026-11-25, the full suite on two workers)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @contextlib.contextmanager
 def _killed_at_exit(process):
     """A failed wait leaves no run behind."""
@@ -171,7 +179,8 @@ def test_ctrl_c_stops_the_run_saves_it_and_exits_130(tmp_path):
         [sys.executable, "-m", "timpm", "run", "vibrating-string", "--t-end", "1e5",
          "--allow-many-steps",
          "--checkpoint", str(saved), "--checkpoint-every", "20000", "--json", str(record)],
-        env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=_default_sigint)
     with _killed_at_exit(run):
         deadline = time.monotonic() + 120
         while not saved.exists():  # running: its first checkpoint is on disk
@@ -272,7 +281,8 @@ def test_ctrl_c_stops_a_scene_file_run_and_keeps_its_frames(tmp_path):
         [sys.executable, "-m", "timpm", "run", str(ROOT / "examples" / "disks.toml"),
          "--set", "domain.cells=16", "--t-end", "1000", "--frames", "100000",
          "--npz", str(frames), "--json", str(tmp_path / "run.json")],
-        cwd=tmp_path, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        cwd=tmp_path, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=_default_sigint)
     with _killed_at_exit(run):
         deadline = time.monotonic() + 120
         while len(list(frames.glob("particles_*.npz"))) < 3:  # running: frames on disk
