@@ -1,7 +1,9 @@
-"""The MLS stress projection in 2D and 3D: internal forces at the Gauss points.
+"""The MLS stress projection in 2D: internal forces at the Gauss points.
 
-Mixed into :class:`~timpm.engine.program.Program` (``projection="mls"`` on a 2D or 3D
-grid with a B-spline basis).  The 1D projection of study 4.4 (:mod:`.mls_projection`)
+Mixed into :class:`~timpm.engine.program.Program` (``projection="mls"`` on a 2D grid with
+a B-spline basis of degree 2 or more and the lumped mass).  The code is written for any
+dimension, but the Model refuses 3D (10 x 10 fits, 10^3 candidate points per particle:
+neither compiled nor measured).  The 1D projection of study 4.4 (:mod:`.mls_projection`)
 taken to tensor products, stress part only: each particle adds its moments to the Gauss
 points (2 per cell and axis) within 1.5 h along every axis, weight the product of the
 quadratic-spline weights of 4.4 per axis; at each Gauss point the Cauchy stress is the
