@@ -48,8 +48,8 @@ def _add_common(p):
     p.add_argument("--projection", choices=list(PROJECTIONS),
                    help="mls: velocity, density and stress reconstructed by moving least "
                         "squares, forces at Gauss points (4.4); beyond the linear basis "
-                        "with lumped mass, the stress only (1D) (default: the problem's, "
-                        "standard but for mms-1d)")
+                        "with lumped mass (and in 2D), the stress only (default: the "
+                        "problem's, standard but for mms-1d and mms-2d)")
     p.add_argument("--integrator", choices=list(INTEGRATORS),
                    help="euler-cromer: the study's; rk4: Runge-Kutta on the particles' "
                         "equations, four grid solves a step, laws with sigma(F) (default: "
@@ -346,7 +346,7 @@ def _options(args):
 
 def _scheme(record) -> str:
     """The line above a table: the scheme the runs used (defaults depend on the problem
-    and the basis, e.g. mms-1d)."""
+    and the basis, e.g. mms-1d and mms-2d)."""
     return (f"{record['problem']}: {record['basis']} basis, {record['mass']} mass, "
             f"{record['projection']} projection, {record['transfer']} transfer, "
             f"{record['integrator']}, {record['placement']} placement")

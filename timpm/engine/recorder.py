@@ -94,7 +94,7 @@ class Recorder:
         cols = {1: 0, 2: 0}
         for name, fld in fields.items():
             rows, columns = components(fld)
-            size = rows * max(columns, 1)  # a scalar (columns -1) takes one column
+            size = entry_size(fld)
             axes = len(fld.shape)
             layout[axes].append((name, fld, cols[axes], (rows, columns)))
             cols[axes] += size

@@ -159,7 +159,7 @@ PROBLEM = {
     "pic_fraction": Key("share", "the problem's", doc="PIC share b of the musl velocity "
                         "update (0: FLIP; the oedometer's 0.01)"),
     "projection": Key("string", "the problem's", doc="standard or mls (4.4; standard but for "
-                      "mms-1d)", choices=PROJECTIONS),
+                      "mms-1d and mms-2d)", choices=PROJECTIONS),
     "integrator": Key("string", "the problem's", doc="euler-cromer or rk4 (euler-cromer but "
                       "for mms-1d)", choices=INTEGRATORS),
     "transfer": Key("string", "musl", doc="particle-grid transfer", choices=TRANSFERS),

@@ -113,7 +113,7 @@ class _Run:
                 "wall_seconds": s.run_seconds, "compile_seconds": s.compile_seconds,
                 "particles": scene.n_particles, "grid_crossings": s.grid_crossings(),
                 "critical_dt": scene.critical_dt, "mode": s.mode,
-                # the problem's scheme for this basis and mass (mms-1d: mls, rk4)
+                # the problem's scheme for this basis and mass (mms-1d: mls, rk4; mms-2d: mls)
                 "projection": scene.model.projection, "integrator": scene.model.integrator,
             }
         except BaseException:
