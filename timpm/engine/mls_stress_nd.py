@@ -141,17 +141,11 @@ class MLSStressND:
                     sig = ti.Matrix.zero(float, self.dim, self.dim)
                     for j, k in ti.static(ti.ndrange(self.dim, self.dim)):
                         sig[j, k] = s[j * self.dim + k]
-                    base = ti.Vector.zero(ti.i32, self.dim)
-                    w = ti.Matrix.zero(float, self.basis.support, self.dim)
-                    dw = ti.Matrix.zero(float, self.basis.support, self.dim)
+                    y = ti.Vector.zero(float, self.dim)  # the Gauss point, element units
                     for k in ti.static(range(self.dim)):
-                        y = I[k] + GAUSS_POINTS[0] + ((g >> k) & 1) * (GAUSS_POINTS[1]
-                                                                      - GAUSS_POINTS[0])
-                        b, wk, dwk = self.basis.stencil(y, self.p.elements()[k])
-                        base[k] = b
-                        for a in ti.static(range(self.basis.support)):
-                            w[a, k] = wk[a]
-                            dw[a, k] = dwk[a] * self.p.inv_h()
+                        y[k] = I[k] + GAUSS_POINTS[0] + ((g >> k) & 1) * (GAUSS_POINTS[1]
+                                                                         - GAUSS_POINTS[0])
+                    base, w, dw, _ = self._stencil_at(y)
                     scale = jw * self.p.h() ** self.dim
                     for offset in ti.static(ti.grouped(ti.ndrange(
                             *((self.basis.support,) * self.dim)))):

@@ -17,12 +17,20 @@ class StencilOps:
         """Node base, weights and gradients of particle p, its coordinate in element units,
         and whether p is on the grid."""
         xi = ti.Vector.zero(float, self.dim)
+        for k in ti.static(range(self.dim)):
+            xi[k] = (self.x[p][k] - self.p.origin()[k]) * self.p.inv_h()
+        base, w, dw, inside = self._stencil_at(xi)
+        return base, w, dw, xi, inside
+
+    @ti.func
+    def _stencil_at(self, xi):
+        """Node base, weights and gradients at a point ``xi`` (element units), and whether
+        it is on the grid."""
         base = ti.Vector.zero(ti.i32, self.dim)
         w = ti.Matrix.zero(float, self.basis.support, self.dim)
         dw = ti.Matrix.zero(float, self.basis.support, self.dim)
         inside = 1
         for k in ti.static(range(self.dim)):
-            xi[k] = (self.x[p][k] - self.p.origin()[k]) * self.p.inv_h()
             # NaN fails both comparisons, so it is caught here too
             if not (xi[k] >= 0.0 and xi[k] <= self.p.elements()[k]):
                 inside = 0
@@ -33,7 +41,7 @@ class StencilOps:
             for a in ti.static(range(self.basis.support)):
                 w[a, k] = wk[a]
                 dw[a, k] = dwk[a] * self.p.inv_h()
-        return base, w, dw, xi, inside
+        return base, w, dw, inside
 
     @ti.func
     def _weight(self, w, dw, offset):
