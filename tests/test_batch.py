@@ -200,6 +200,25 @@ def test_batch_refuses_what_it_cannot_run():
     par.release()
 
 
+def test_a_solver_books_all_the_compilation_it_causes():
+    """compile_seconds counts the state upload, the step and the readers of a new program,
+    all that the process compile clock saw while the solver worked."""
+    clear_solvers()
+    scene = get_problem("vibrating-string").scene(elements=8, basis="bspline2")
+    clock = runtime.compile_clock()
+    solver = Solver(scene, energies=False)
+    try:
+        built = solver.compile_seconds
+        assert built > 0  # the first upload into the new program compiled it
+        solver.run(0.01)
+        solver.displacements()
+        caused = runtime.compile_clock() - clock
+        assert solver.compile_seconds > built
+        assert solver.compile_seconds == pytest.approx(caused, rel=1e-9)
+    finally:
+        solver.release()
+
+
 @pytest.mark.cpu_only("compared bit for bit")
 def test_meshes_after_the_first_compile_nothing_and_a_batch_gives_the_same_table():
     """Solvers of one feature set share one compiled program: a second run of the same

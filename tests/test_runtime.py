@@ -336,3 +336,29 @@ def test_the_class_body_check_reads_the_line_inspect_reads():
 
     assert [answer for answer, _ in seen] == [expected for _, expected in seen]
     assert [answer for answer, _ in seen] == [True, True, False]
+
+
+def test_the_compile_clock_books_a_kernels_first_call_only():
+    """The clock moves when a kernel instance is built (frontend and JIT), not when it
+    runs again; a new template instance is a new build."""
+    runtime.ensure_init()
+    out = ti.field(ti.f64, shape=4)
+
+    @ti.kernel
+    def fill(value: ti.f64, shift: ti.template()):
+        for i in out:
+            out[i] = value + shift
+
+    clock = runtime.compile_clock()
+    fill(1.0, 0)
+    built = runtime.compile_clock()
+    assert built > clock
+    fill(2.0, 0)
+    assert runtime.compile_clock() == built
+    assert out.to_numpy().tolist() == [2.0] * 4  # to_numpy builds its reader: booked
+    read = runtime.compile_clock()
+    assert read > built
+    fill(3.0, 1)  # another instance of the template
+    assert runtime.compile_clock() > read
+    runtime.book_compilation(0.5)
+    assert runtime.compile_clock() >= read + 0.5

@@ -9,6 +9,7 @@ import os
 import sys
 import textwrap
 import threading
+import time
 
 # Taichi prints its banner when imported: timpm imports it quietly and prints the banner
 # when it starts Taichi (timpm --help, timpm list and refused arguments print none), unless
@@ -26,8 +27,9 @@ from taichi.lang import impl
 from taichi.lang.misc import is_arch_supported
 
 __all__ = ["ARCHS", "BackendUnavailable", "ForkedProcess", "WrongThread", "arch",
-           "check_caller", "cpu_threads", "ensure_init", "generation", "init", "on_cpu",
-           "exit_process", "pin_workers", "precision", "settings", "static_cpu_blocks"]
+           "book_compilation", "check_caller", "compile_clock", "cpu_threads", "ensure_init",
+           "generation", "init", "on_cpu", "exit_process", "pin_workers", "precision",
+           "settings", "static_cpu_blocks"]
 
 #: the backends ``init(arch=...)`` takes
 ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda, "vulkan": ti.vulkan, "metal": ti.metal}
@@ -278,6 +280,51 @@ def _read_decorator_line_once() -> None:
 
 
 _read_decorator_line_once()
+
+_compile_clock = [0.0]  # seconds in kernel calls that built a new kernel instance
+
+
+def _time_compilation() -> None:
+    """Book every call of a Taichi kernel that built a new instance of it (its frontend,
+    its JIT or its load from the offline cache, and that first launch) on one process-wide
+    clock, :func:`compile_clock`: Taichi's own kernels (``to_numpy``) and timpm's state
+    transfers too, not only the step kernels a solver compiles on purpose."""
+    from taichi.lang import kernel_impl
+
+    kernel = kernel_impl.Kernel
+    if getattr(kernel, "_timpm_timed", False):
+        return
+    call = kernel.__call__
+    clock, now = _compile_clock, time.perf_counter
+
+    @functools.wraps(call)
+    def timed_call(self, *args, **kwargs):
+        built = len(self.compiled_kernels)
+        start = now()
+        try:
+            return call(self, *args, **kwargs)
+        finally:
+            if len(self.compiled_kernels) != built:
+                clock[0] += now() - start
+
+    kernel.__call__ = timed_call
+    kernel._timpm_timed = True
+
+
+_time_compilation()
+
+
+def compile_clock() -> float:
+    """Seconds this process has spent in kernel calls that compiled (the frontend, the
+    JIT or the load from Taichi's offline cache, and that first launch), all kernels
+    counted.  Differences of two readings time the compilation a piece of work caused."""
+    return _compile_clock[0]
+
+
+def book_compilation(seconds: float) -> None:
+    """Add compilation that no kernel call timed to :func:`compile_clock` (the readers
+    Taichi builds in C++ for ``field[None]``, timed by their caller)."""
+    _compile_clock[0] += seconds
 
 
 def _print_banner() -> None:

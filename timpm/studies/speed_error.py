@@ -278,7 +278,7 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
     settings = dict(t_end=t_end, mode=mode, stress_update=stress_update,
                     dt_tolerance=dt_tolerance, max_halvings=max_halvings, repeats=repeats)
     runs, skipped = [], []
-    compiled = []  # compile seconds of every run, the dt trials included
+    compiled = []  # compile seconds of every configuration, all its kernels included
 
     def collect(_, outcome):
         compiled.extend(outcome["compile_seconds"])
@@ -313,18 +313,26 @@ def _configuration(prob, conf, settings) -> dict:
     """One configuration of :func:`speed_error_study` (a task of its sweep): its dt chosen
     by the rule and its timed record, or why it was skipped.  Returns ``{"record": ...}``
     or ``{"skipped": ...}``, with ``note`` (the progress line) and ``compile_seconds``
-    (of every run, the dt trials included)."""
+    (a list of one entry: all the kernel compilation it caused, its scenes' stencils, the
+    dt trials, the state uploads and saves and the readers included)."""
+    from .. import runtime
+
+    clock = runtime.compile_clock()
+    outcome = _configuration_runs(prob, conf, settings)
+    outcome["compile_seconds"] = [runtime.compile_clock() - clock]
+    return outcome
+
+
+def _configuration_runs(prob, conf, settings) -> dict:
     from ..solver import SimulationError
 
     t_end, mode, stress_update = settings["t_end"], settings["mode"], settings["stress_update"]
     repeats = settings["repeats"]
     tag = f"{conf['basis']}/{conf['mass']}/{conf['placement']} {conf['elements']} el x " \
           f"{conf['ppc']} PPC"
-    compiled = []
 
     def skip(reason, **extra):
-        return {"skipped": {**conf, "reason": reason, **extra}, "note": f"skip {tag}: {reason}",
-                "compile_seconds": compiled}
+        return {"skipped": {**conf, "reason": reason, **extra}, "note": f"skip {tag}: {reason}"}
 
     try:
         crit = critical_dt(prob, **conf)
@@ -338,7 +346,6 @@ def _configuration(prob, conf, settings) -> dict:
     def run(dt):
         tried.append(dt)
         r = _Run(prob, dt=dt, t_end=t_end, mode=mode, stress_update=stress_update, **conf)
-        compiled.append(r.record["compile_seconds"])
         return r
 
     others = []
@@ -369,7 +376,7 @@ def _configuration(prob, conf, settings) -> dict:
     note = (f"{tag}: dt = {rec['dt']:.4g} s ({rec['steps']} steps"
             f"{'' if rec['time_error_separated'] else ', time error not separated'}),"
             f" e = {rec['rms_error']:.3e}, wall = {rec['wall_seconds']:.4f} s")
-    return {"record": rec, "note": note, "compile_seconds": compiled}
+    return {"record": rec, "note": note}
 
 
 # ---- command line -----------------------------------------------------------------------------
