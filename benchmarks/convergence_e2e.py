@@ -8,8 +8,8 @@
    of ``--repeats`` and the ratio, with the compile and stepping seconds timpm reports
    per mesh (``--json`` of the command).
 2. ``--speed-error``: ``timpm study speed-error vibrating-string`` and
-   ``timpm study speed-error soil-column`` (defaults), end to end, with the compilation
-   and the stepping the study reports.
+   ``timpm study speed-error soil-column`` (defaults), end to end (the fastest of
+   ``--speed-error-repeats``), with the compilation and the stepping the study reports.
 
 Timings depend on the machine and on Taichi's offline kernel cache (warm after the first
 run of a command: ``--cold`` points Taichi at an empty cache for every run).  The commands
@@ -65,23 +65,33 @@ def convergence(repeats, cold):
     return out
 
 
-def speed_error(problem, cold):
-    with tempfile.TemporaryDirectory() as tmp:
-        doc = Path(tmp) / "study.json"
-        wall = timed(["timpm", "study", "speed-error", problem, "--quiet", "--json", str(doc)],
-                     environment(cold))
-        study = json.loads(doc.read_text())
-    runs = study["runs"]
-    compile_s = study["compile_seconds"]  # every run's, the dt trials included
-    stepping = sum(r["wall_seconds"] for r in runs)
-    return {"problem": problem, "end_to_end_seconds": wall, "compile_seconds": compile_s,
-            "stepping_seconds": stepping, "runs": len(runs)}
+def speed_error(problem, cold, repeats):
+    """The fastest of ``repeats`` runs of the study, each a fresh process."""
+    best = None
+    for _ in range(repeats):
+        with tempfile.TemporaryDirectory() as tmp:
+            doc = Path(tmp) / "study.json"
+            wall = timed(["timpm", "study", "speed-error", problem, "--quiet", "--json",
+                          str(doc)], environment(cold))
+            study = json.loads(doc.read_text())
+        runs = study["runs"]
+        # all the kernel compilation the study caused (runtime.compile_clock): the step
+        # kernels, state uploads and saves, readers and the scenes' stencils
+        compile_s = study["compile_seconds"]
+        stepping = sum(r["wall_seconds"] for r in runs)
+        if best is None or wall < best["end_to_end_seconds"]:
+            best = {"problem": problem, "end_to_end_seconds": wall,
+                    "compile_seconds": compile_s, "stepping_seconds": stepping,
+                    "runs": len(runs), "repeats": repeats}
+    return best
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--speed-error", action="store_true")
+    ap.add_argument("--speed-error-repeats", type=int, default=3,
+                    help="runs of each study, the fastest kept (default 3)")
     ap.add_argument("--cold", action="store_true", help="an empty Taichi cache for every run")
     ap.add_argument("--json", metavar="FILE")
     args = ap.parse_args(argv)
@@ -97,7 +107,7 @@ def main(argv=None):
     if args.speed_error:
         doc["speed_error"] = []
         for problem in ("vibrating-string", "soil-column"):
-            r = speed_error(problem, args.cold)
+            r = speed_error(problem, args.cold, args.speed_error_repeats)
             doc["speed_error"].append(r)
             print(f"timpm study speed-error {problem}: {r['end_to_end_seconds']:.1f} s end to "
                   f"end, compilation {r['compile_seconds']:.1f} s "
