@@ -9,6 +9,7 @@ import pytest
 from timpm import Body, Box, Solver, World
 from timpm.loads import BodyForce
 from timpm.materials import NeoHookean
+from timpm.model import Wall
 from timpm.problems import get_problem
 from timpm.studies.study import convergence
 
@@ -412,3 +413,39 @@ def test_a_body_force_may_take_more_parameters_with_defaults():
     model = dataclasses.replace(_block().model,
                                 body_force=BodyForce(lambda X, t, scale=2.0: scale * X))
     assert model.body_force(np.ones((3, 2)), 0.0).tolist() == [[2.0, 2.0]] * 3
+
+
+def test_2d_consistent_mass_takes_linear_walls_and_lowers_the_step():
+    """In 2D the consistent mass solve holds roller (and fixed sticky) walls as
+    constraints; slip walls, which act on a velocity, are refused, and so are the affine
+    transfers.  Its critical step is the CFL step times sqrt(lambda_min(M_L^-1 M)) over the
+    axes, and the default dt stays below it."""
+    prob = get_problem("mms-2d")
+    lumped = prob.scene(elements=8, basis="bspline2", mass="lumped")
+    consistent = prob.scene(elements=8, basis="bspline2", mass="consistent")
+    factor = consistent.critical_dt / lumped.critical_dt
+    assert 0.0 < factor < 1.0
+    assert consistent.dt <= 0.9 * consistent.critical_dt * (1 + 1e-12)
+    with pytest.raises(ValueError, match=r"sqrt\(lambda_min\(M_L\^-1 M\)\)"):
+        prob.scene(elements=8, basis="bspline2", mass="consistent",
+                   dt=1.01 * consistent.critical_dt)
+    with pytest.raises(ValueError, match="roller or fixed sticky walls"):
+        dataclasses.replace(consistent.model, walls=(Wall("slip"),) * 4)
+    with pytest.raises(ValueError, match="consistent mass matrix is implemented with the "
+                                         "musl transfer"):
+        prob.scene(elements=8, basis="uniform-bspline2", mass="consistent", transfer="apic")
+
+
+@pytest.mark.slow
+def test_mms_2d_consistent_mass_converges_below_the_lumped_error():
+    """mms-2d with the quadratic B-spline, the consistent mass (conjugate gradients) and
+    the Gauss-point forces: monotone at order >= 2 on 8-32 cells, under the lumped
+    mass's error on every mesh."""
+    runs = {mass: convergence("mms-2d", elements=(8, 16, 32), basis="bspline2", mass=mass,
+                              params={"G": 0.05}, series=False, energies=False)
+            for mass in ("consistent", "lumped")}
+    errors = [r["rms_error"] for r in runs["consistent"]["runs"]]
+    assert all(b < a for a, b in zip(errors, errors[1:])), errors
+    assert min(r["rate"] for r in runs["consistent"]["rates"]) >= 2.0
+    lumped = [r["rms_error"] for r in runs["lumped"]["runs"]]
+    assert all(c < l for c, l in zip(errors, lumped)), (errors, lumped)

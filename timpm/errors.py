@@ -17,6 +17,7 @@ class ErrorCode(enum.IntEnum):
     ENERGY_GROWTH = 5
     TEAM_BARRIER = 6
     VOLUME_RANGE = 7
+    MASS_SOLVE = 8
 
     @property
     def message(self) -> str:
@@ -31,6 +32,7 @@ _MESSAGES = {
     ErrorCode.ENERGY_GROWTH: "energy grew without a source",
     ErrorCode.TEAM_BARRIER: "the threads of a team step did not meet at a barrier",
     ErrorCode.VOLUME_RANGE: "was crushed or torn apart: its volume left the allowed range",
+    ErrorCode.MASS_SOLVE: "the consistent mass solve (conjugate gradients) did not converge",
 }
 
 #: code -> message, as the kernels record it

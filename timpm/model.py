@@ -145,9 +145,9 @@ def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standar
         raise ValueError(f"the {basis.name} basis takes negative values, so its mass matrix "
                          "cannot be lumped (study 5.1): use the consistent mass "
                          "(mass='consistent', --mass consistent)")
-    if mass == "consistent" and (dim != 1 or transfer != "musl"):
-        raise ValueError("the consistent mass matrix is implemented for 1D scenes with "
-                         f"the musl transfer, not {dim}D with {transfer}")
+    if mass == "consistent" and transfer != "musl":
+        raise ValueError("the consistent mass matrix is implemented with the musl transfer, "
+                         f"not {transfer}")
     if projection not in PROJECTIONS:
         raise ValueError(f"unknown projection {projection!r}: choose one of "
                          f"{', '.join(PROJECTIONS)}")
@@ -156,10 +156,10 @@ def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standar
                          f"got {transfer}")
     if projection == "mls" and dim == 3:
         raise ValueError("the MLS projection is implemented in 1D and 2D, not 3D")
-    if projection == "mls" and dim == 2 and (basis.support == 2 or mass != "lumped"):
+    if projection == "mls" and dim == 2 and basis.support == 2:
         raise ValueError("in 2D the MLS projection reconstructs the stress only (Gauss-point "
-                         "forces): it takes a B-spline basis of degree 2 or more and the "
-                         f"lumped mass, got {basis.name} with {mass} mass")
+                         "forces): it takes a B-spline basis of degree 2 or more, got "
+                         f"{basis.name}")
     given = damping
     try:
         damping = float(damping)
@@ -469,7 +469,16 @@ class Model:
                                      f"{w.velocity[axis]:g}, not 0")
         # the study's MLS projection (linear basis) reconstructs the nodal velocities
         study_mls = self.projection == "mls" and basis.support == 2
-        if walls is not None and (self.mass_matrix != "lumped" or study_mls):
+        # in 2D and 3D the consistent mass solve holds roller and sticky walls' components
+        # as linear constraints; slip and friction walls act on a velocity, not a solve
+        linear = all(w is None or (w.kind in ("roller", "sticky") and not w.moves)
+                     for w in walls or ())
+        if walls is not None and self.mass_matrix != "lumped" and dim > 1 and not linear:
+            raise ValueError("with the consistent mass in 2D and 3D the walls must be roller "
+                             "or fixed sticky walls (constraints of the mass solve), got "
+                             + ", ".join(sorted({w.kind + (" moving" if w.moves else "")
+                                                 for w in walls if w is not None})))
+        if walls is not None and ((self.mass_matrix != "lumped" and dim == 1) or study_mls):
             raise ValueError("walls act on the lumped nodal velocities: with the consistent "
                              "mass or the study's MLS projection (linear basis) hold the end "
                              "nodes fixed instead (fixed_nodes)")

@@ -212,6 +212,24 @@ def discrete_critical_time_step(grid: Grid1D, material: Material, basis, positio
     return float(2.0 / np.sqrt(w2)) if w2 > 0 else float("inf")
 
 
+def consistent_mass_ratio(grid: Grid1D, basis, positions, volume) -> float:
+    """The smallest eigenvalue of M_L^-1 M on one axis, M the consistent particle mass
+    matrix and M_L its lumping (unit density).  On a tensor lattice of particles the 2D or
+    3D matrices are Kronecker products of the axes': the product of the axes' ratios bounds
+    the consistent step from the lumped one, w_max^2(M) <= w_max^2(M_L) / that product
+    (the Rayleigh quotient x'Kx / x'Mx is x'Kx / x'M_L x times x'M_L x / x'Mx)."""
+    basis = get_basis(basis)
+    base, _, m = particle_matrices(grid, Material(1.0, 1.0), basis, positions, volume)
+    nn = basis.n_nodes(grid.n_elements)
+    rows = base[:, None] + np.arange(basis.support)[None, :]
+    M = _window(rows, m, 0, nn)
+    lumped = M.sum(axis=1)
+    keep = lumped > 0
+    M, lumped = M[np.ix_(keep, keep)], lumped[keep]
+    scale = 1.0 / np.sqrt(lumped)
+    return float(np.linalg.eigvalsh(scale[:, None] * M * scale[None, :]).min())
+
+
 @dataclass(frozen=True, eq=False)
 class Scene:
     """One 1D MPM simulation (the study's problems), checked on construction: a builder of

@@ -4,6 +4,7 @@ or node: ``Drivers._fail``) and the energy balance of the recorded energies, eac
 import numpy as np
 
 from ..errors import ErrorCode, SimulationError, TEAM_SPIN_LIMIT
+from .consistent_mass_cg import CG_MAX_ITERATIONS
 
 __all__ = ["recorded_failure", "energy_balance"]
 
@@ -28,6 +29,11 @@ def recorded_failure(prog, state):
     if code == ErrorCode.SINGULAR_MASS:
         return SimulationError(f"{when}: {code.message} at node {where}", code, step,
                                node=where)
+    if code == ErrorCode.MASS_SOLVE:
+        return SimulationError(f"{when}: {code.message} in {CG_MAX_ITERATIONS} iterations; "
+                               "the mass matrix is near singular (nodes that particles "
+                               "barely touch): raise small_mass or use the lumped mass",
+                               code, step)
     x = prog.x[where].to_numpy()
     if state.features.dim == 1:
         lo, hi = lay.origin[0], lay.origin[0] + lay.elements[0] * lay.h

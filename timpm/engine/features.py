@@ -51,7 +51,7 @@ class FeatureSet:
     dim: int
     basis: str
     transfer: str                # "musl", "apic" or "mls-mpm"
-    consistent: bool             # consistent mass matrix (1D)
+    consistent: bool             # consistent mass matrix (1D banded LU, 2D/3D CG)
     mls: bool                    # MLS projection of 4.4 (1D)
     materials: tuple             # ((material class, its flags()), ...) in material-index order
     walls: tuple | None          # wall kind per side ("open": none there, "driven": a moving

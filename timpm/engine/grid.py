@@ -74,7 +74,7 @@ class GridOps:
             self.gp[I] = ti.Vector.zero(float, self.dim)
             if ti.static(not self.apic):
                 self.gf[I] = ti.Vector.zero(float, self.dim)
-        if ti.static(self.consistent):
+        if ti.static(self.consistent and self.dim == 1):
             for i, k in ti.ndrange(self.p.nodes()[0], 2 * self.bandwidth + 1):
                 self.band[i, k] = 0.0
         if ti.static(self.mls and self.dim > 1):
@@ -96,14 +96,14 @@ class GridOps:
         # wall a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
         for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
             self._grid_acceleration_node(I)
-        if ti.static(self.consistent and not self.has_walls):
+        if ti.static(self.consistent and (self.dim > 1 or not self.has_walls)):
             self._solve_mass(self.gf, False)
 
     @ti.func
     def _grid_acceleration_node(self, I):
         if ti.static(self.damping):
             self.gf[I] -= self.p.damping() * ti.math.sign(self.gp[I]) * ti.abs(self.gf[I])
-        if ti.static(self.has_walls):
+        if ti.static(self.has_walls and not self.consistent):
             a = ti.Vector.zero(float, self.dim)  # Dirichlet and empty nodes: a = 0
             if self.gm[I] > self.p.mass_tol() and not self._is_fixed(I):
                 vn = self.gp[I] / self.gm[I]
@@ -162,6 +162,8 @@ class GridOps:
         if ti.static(not self.consistent):
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                 self._solve_mass_node(rhs, walls, I)
+        elif ti.static(self.dim > 1):
+            self._cg_solve(rhs)  # the walls' held components are constraints of the solve
         else:
             self._banded_substitute(rhs)
 

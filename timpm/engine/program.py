@@ -17,6 +17,7 @@ import numpy as np
 import taichi as ti
 
 from .consistent_mass import ConsistentMass
+from .consistent_mass_cg import ConsistentMassCG, cg_fields, cg_particle_fields
 from .drivers import Drivers
 from .grid import GridOps
 from .mls_projection import GAUSS_POINTS, MLSProjection
@@ -62,8 +63,8 @@ def _param_spec(features):
 
 
 @ti.data_oriented
-class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, RungeKutta, Uploads,
-              MLSProjection, MLSStressND, Recorder, Drivers):
+class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG, Transfer,
+              RungeKutta, Uploads, MLSProjection, MLSStressND, Recorder, Drivers):
     """Fields and kernels of one feature set at one capacity."""
 
     def __init__(self, features, capacity):
@@ -167,7 +168,14 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, Transfer, RungeKu
                 *self.copies.values())
         scratch = {}
         nn = cap.nodes[0]
-        if self.consistent:
+        if self.consistent and d > 1:  # matrix-free conjugate gradients (consistent_mass_cg)
+            fields = cg_fields(d, real)
+            fb.dense(ti.axes(*range(d)), cap.nodes).place(*fields.values())
+            scratch.update(fields)
+            fields = cg_particle_fields(d, self.basis.support, real)
+            fb.dense(ti.i, n).place(*fields.values())
+            scratch.update(fields)
+        elif self.consistent:
             scratch["band"] = ti.field(real)  # M[i, i + k - b] stored at band[i, k]
             scratch["inactive"] = ti.field(ti.i32)  # fixed or untouched rows of M
             fb.dense(ti.ij, (nn, 2 * self.bandwidth + 1)).place(scratch["band"])

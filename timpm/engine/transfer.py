@@ -134,7 +134,7 @@ class Transfer:
                                                 or self.rk4)):
                     node_values = self._deposit("gp", copy, node, offset, mp * phi * self.v[p],
                                                 node_values)
-            if ti.static(self.consistent):
+            if ti.static(self.consistent and self.dim == 1):
                 for a, c in ti.static(ti.ndrange(self.basis.support, self.basis.support)):
                     self.accumulate(self.band[base[0] + a, c - a + self.bandwidth],
                                    mp * w[a, 0] * w[c, 0])
@@ -315,8 +315,10 @@ class Transfer:
             self._integrate_gauss()
         elif ti.static(self.mls):
             self._integrate_gauss_nd()
-        if ti.static(self.consistent):
+        if ti.static(self.consistent and self.dim == 1):
             self._banded_factorise()
+        elif ti.static(self.consistent):
+            self._cg_keep_weights()
 
     @ti.func
     def _one_step(self):

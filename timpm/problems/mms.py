@@ -30,7 +30,8 @@ import numpy as np
 from ..loads import BodyForce
 from ..materials import NeoHookean
 from ..model import Model, Wall
-from ..scene import PLACEMENTS, Material, discrete_critical_time_step
+from ..scene import (PLACEMENTS, Material, consistent_mass_ratio, discrete_critical_time_step,
+                     equidistant_particles)
 from .base import Problem, ProblemScene, check_positive, lattice
 
 __all__ = ["ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D"]
@@ -158,7 +159,17 @@ class ManufacturedSolution(Problem):
             raise ValueError(f"unknown placement {placement!r}: choose one of "
                              f"{', '.join(PLACEMENTS)}")
         X, volume = lattice((n,) * self.dim, ppc, h, placement)
-        dt = self.courant * h / self.c if dt is None else dt
+        # the consistent mass in 2D/3D lowers the CFL step by sqrt(lambda_min(M_L^-1 M))
+        # over the axes of the lattice (the same on every axis): a rigorous bound, the
+        # Rayleigh quotient factors (scene.consistent_mass_ratio)
+        mass_factor = 1.0
+        if self.dim > 1 and mass == "consistent":
+            x1, v1 = equidistant_particles(n, ppc, h, placement=placement)
+            mass_factor = float(np.sqrt(consistent_mass_ratio(grid, basis_cls, x1, v1)
+                                        ** self.dim))
+        if dt is None:  # 0.2 h / c, or 0.9 of the consistent mass's critical step
+            dt = min(self.courant * h / self.c,
+                     0.9 * mass_factor * h / self.material_law.wave_speed)
         boundary = {}
         if self.dim == 1:
             boundary["fixed_nodes"] = tuple((i,) for i in sum(basis_cls.boundary_nodes(n), ()))
@@ -179,6 +190,9 @@ class ManufacturedSolution(Problem):
             rule = "2 / w_max of the particle discretisation"
         else:
             critical, rule = h / self.material_law.wave_speed, "the CFL limit h / c_p"
+            if mass_factor < 1.0:
+                critical *= mass_factor
+                rule += f" times sqrt(lambda_min(M_L^-1 M)) = {mass_factor:.4g}"
         return ProblemScene(model, critical, rule, allow_unstable_dt)
 
     def summary(self, x0, solver, stress_update) -> dict:
