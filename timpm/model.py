@@ -158,8 +158,7 @@ def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standar
         raise ValueError("the MLS projection is implemented in 1D and 2D, not 3D")
     if projection == "mls" and dim == 2 and basis.support == 2:
         raise ValueError("in 2D the MLS projection reconstructs the stress only (Gauss-point "
-                         "forces): it takes a B-spline basis of degree 2 or more, got "
-                         f"{basis.name}")
+                         f"forces): it takes a B-spline of degree 2 or more, not {basis.name}")
     given = damping
     try:
         damping = float(damping)
@@ -469,15 +468,11 @@ class Model:
                                      f"{w.velocity[axis]:g}, not 0")
         # the study's MLS projection (linear basis) reconstructs the nodal velocities
         study_mls = self.projection == "mls" and basis.support == 2
-        # in 2D and 3D the consistent mass solve holds roller and sticky walls' components
-        # as linear constraints; slip and friction walls act on a velocity, not a solve
-        linear = all(w is None or (w.kind in ("roller", "sticky") and not w.moves)
-                     for w in walls or ())
-        if walls is not None and self.mass_matrix != "lumped" and dim > 1 and not linear:
+        bad = sorted({w.kind + " moving" * w.moves for w in walls or () if w is not None
+                      and (w.kind not in ("roller", "sticky") or w.moves)})
+        if bad and self.mass_matrix != "lumped" and dim > 1:
             raise ValueError("with the consistent mass in 2D and 3D the walls must be roller "
-                             "or fixed sticky walls (constraints of the mass solve), got "
-                             + ", ".join(sorted({w.kind + (" moving" if w.moves else "")
-                                                 for w in walls if w is not None})))
+                             f"or fixed sticky walls (constraints of the solve), not {bad}")
         if walls is not None and ((self.mass_matrix != "lumped" and dim == 1) or study_mls):
             raise ValueError("walls act on the lumped nodal velocities: with the consistent "
                              "mass or the study's MLS projection (linear basis) hold the end "
