@@ -220,7 +220,7 @@ CALLS = [
      "the MLS projection is implemented in 1D and 2D, not 3D"),
     (lambda: _problem("mms-2d").scene(elements=4, basis="linear", projection="mls"),
      "in 2D the MLS projection reconstructs the stress only (Gauss-point forces): it takes "
-     "a B-spline basis of degree 2 or more and the lumped mass, got linear with lumped mass"),
+     "a B-spline of degree 2 or more, not linear"),
     (lambda: _renderer(100000),
      "an image of 100000 x 100000 pixels has more than the 2147483647 pixels"),
     # step counts
