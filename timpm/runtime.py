@@ -27,9 +27,9 @@ from taichi.lang import impl
 from taichi.lang.misc import is_arch_supported
 
 __all__ = ["ARCHS", "BackendUnavailable", "ForkedProcess", "WrongThread", "arch",
-           "book_compilation", "check_caller", "compile_clock", "cpu_threads", "ensure_init",
-           "generation", "init", "on_cpu", "exit_process", "pin_workers", "precision",
-           "settings", "static_cpu_blocks"]
+           "check_caller", "compile_clock", "cpu_threads", "ensure_init", "generation",
+           "init", "on_cpu", "exit_process", "pin_workers", "precision", "settings",
+           "static_cpu_blocks"]
 
 #: the backends ``init(arch=...)`` takes
 ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda, "vulkan": ti.vulkan, "metal": ti.metal}
@@ -288,7 +288,9 @@ def _time_compilation() -> None:
     """Book every call of a Taichi kernel that built a new instance of it (its frontend,
     its JIT or its load from the offline cache, and that first launch) on one process-wide
     clock, :func:`compile_clock`: Taichi's own kernels (``to_numpy``) and timpm's state
-    transfers too, not only the step kernels a solver compiles on purpose."""
+    transfers too, not only the step kernels a solver compiles on purpose; and the first
+    read and write of each field element from Python (``field[None]``), where Taichi
+    builds that field's reader or writer kernel."""
     from taichi.lang import kernel_impl
 
     kernel = kernel_impl.Kernel
@@ -296,6 +298,30 @@ def _time_compilation() -> None:
         return
     call = kernel.__call__
     clock, now = _compile_clock, time.perf_counter
+    accessor = getattr(sys.modules.get("taichi.lang.field"), "SNodeHostAccessor", None)
+    if accessor is not None:
+        build = accessor.__init__
+
+        def timed_first(obj, name):
+            # obj.name timed at its first call, then the plain function again
+            plain = getattr(obj, name)
+
+            def first(*args):
+                start = now()
+                try:
+                    return plain(*args)
+                finally:
+                    clock[0] += now() - start
+                    setattr(obj, name, plain)
+            setattr(obj, name, first)
+
+        @functools.wraps(build)
+        def timed_build(self, snode):
+            build(self, snode)
+            timed_first(self, "getter")
+            timed_first(self, "setter")
+
+        accessor.__init__ = timed_build
 
     @functools.wraps(call)
     def timed_call(self, *args, **kwargs):
@@ -316,15 +342,10 @@ _time_compilation()
 
 def compile_clock() -> float:
     """Seconds this process has spent in kernel calls that compiled (the frontend, the
-    JIT or the load from Taichi's offline cache, and that first launch), all kernels
-    counted.  Differences of two readings time the compilation a piece of work caused."""
+    JIT or the load from Taichi's offline cache, and that first launch), all kernels and
+    field readers counted.  Differences of two readings time the compilation a piece of
+    work caused."""
     return _compile_clock[0]
-
-
-def book_compilation(seconds: float) -> None:
-    """Add compilation that no kernel call timed to :func:`compile_clock` (the readers
-    Taichi builds in C++ for ``field[None]``, timed by their caller)."""
-    _compile_clock[0] += seconds
 
 
 def _print_banner() -> None:

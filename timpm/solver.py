@@ -14,6 +14,7 @@ outside the grid, a NaN, an inverted volume or a singular mass matrix sets an er
 (code, step, particle or node) and the run stops with a :class:`SimulationError` that
 names them.
 """
+import contextlib
 import time
 
 import numpy as np
@@ -125,11 +126,25 @@ class Solver:
     def _program(self):
         """The program of this solver's feature set, holding this solver's state."""
         self._require()
-        clock = runtime.compile_clock()
-        prog = program_for(self.features, self.layout, self._slot)
-        prog.activate(self)  # the first upload (or save) of a program compiles it
-        self.compile_seconds += runtime.compile_clock() - clock
+        with self._compiling():  # the first upload (or save) of a program compiles it
+            prog = program_for(self.features, self.layout, self._slot)
+            prog.activate(self)
         return prog
+
+    @contextlib.contextmanager
+    def _compiling(self):
+        """Book the kernels and field readers built inside in ``compile_seconds``."""
+        clock = runtime.compile_clock()
+        try:
+            yield
+        finally:
+            self.compile_seconds += runtime.compile_clock() - clock
+
+    def _scalar(self, name: str):
+        """The run scalar ``name`` (``step_count``, ``time``, ...) of this state."""
+        prog = self._program()
+        with self._compiling():  # Taichi builds a field's reader at its first read
+            return getattr(prog, name)[None]
 
     def move_to_slot(self, slot: int):
         """Keep this solver's state in copy ``slot`` of its feature set's program (a
@@ -165,11 +180,8 @@ class Solver:
         prog = self._program()
         if not hasattr(prog, name) or name.startswith("_"):
             raise KeyError(f"this solver has no state field {name!r}")
-        clock = runtime.compile_clock()
-        try:
+        with self._compiling():  # Taichi's to_numpy compiles a reader per field
             return self.state.read(prog, name)
-        finally:  # Taichi's to_numpy compiles a reader per field at its first use
-            self.compile_seconds += runtime.compile_clock() - clock
 
     def write(self, name: str, values):
         """Set the live values of state field ``name`` (for tests and inspection)."""
@@ -246,11 +258,11 @@ class Solver:
     # ---- running -------------------------------------------------------------------------
     @property
     def step(self) -> int:
-        return int(self._program().step_count[None])
+        return int(self._scalar("step_count"))
 
     @property
     def t(self) -> float:
-        return float(self._program().time[None])
+        return float(self._scalar("time"))
 
     def steps_for(self, t_end: float, allow_many_steps: bool = False) -> int:
         """Number of steps of size dt that reach ``t_end`` (rounded to the nearest step);
@@ -263,25 +275,19 @@ class Solver:
         if self._compiled:
             return
         prog = self._program()
-        t0, clock = time.perf_counter(), runtime.compile_clock()
-        before = len(prog.compiled)
-        if self.mode == "serial" and "advance" not in prog.compiled:
-            prog.advance(0, self.record_every, 0)  # zero steps: compiles, changes nothing
-            prog.compiled.add("advance")
-        if self.recording and "record" not in prog.compiled:
-            if self.mode != "serial":  # the fused mode records with advance (_record_now)
-                prog.record()
-                prog.rec_count[None] = 0
-            prog.read_history(0, self.n_tracked)
-            prog.compiled.add("record")
-        if "io" not in prog.compiled:
-            int(prog.err[None]) + int(prog.err_count[None])
-            prog.compiled.add("io")
-        if len(prog.compiled) > before:
-            took = time.perf_counter() - t0
-            self.compile_seconds += took
-            # the kernels' share is on the clock already; the field readers' is not
-            runtime.book_compilation(max(took - (runtime.compile_clock() - clock), 0.0))
+        with self._compiling():
+            if self.mode == "serial" and "advance" not in prog.compiled:
+                prog.advance(0, self.record_every, 0)  # zero steps: compiles, changes nothing
+                prog.compiled.add("advance")
+            if self.recording and "record" not in prog.compiled:
+                if self.mode != "serial":  # the fused mode records with advance (_record_now)
+                    prog.record()
+                    prog.rec_count[None] = 0
+                prog.read_history(0, self.n_tracked)
+                prog.compiled.add("record")
+            if "io" not in prog.compiled:
+                int(prog.err[None]) + int(prog.err_count[None])
+                prog.compiled.add("io")
         self._compiled = True
 
     def run(self, t_end: float | None = None, n_steps: int | None = None, progress=None,
@@ -512,11 +518,11 @@ class Solver:
     def grid_crossings(self) -> int:
         if not self.track_crossings:
             raise RuntimeError("this solver was built with track_crossings=False")
-        return int(self._program().crossings[None])
+        return int(self._scalar("crossings"))
 
     def negative_pivots(self) -> int:
         """Steps x nodes at which the consistent mass matrix had a negative pivot."""
-        return int(self._program().neg_pivots[None])
+        return int(self._scalar("neg_pivots"))
 
     def energies(self) -> dict:
         """Recorded energies over time: kinetic, strain, gravity (potential), external work
