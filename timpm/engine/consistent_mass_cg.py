@@ -49,9 +49,9 @@ class ConsistentMassCG:
             if inside:
                 for k in ti.static(range(len(offsets))):
                     value, _ = self._weight(w, dw, offsets[k])
-                    phi[k] = value * self.m[p]
+                    phi[k] = value
             self.cg_base[p] = base
-            self.cg_phi[p] = phi  # m_p phi_i(x_p); zero off the grid
+            self.cg_phi[p] = phi  # zero off the grid
 
     def _cg_offsets(self):
         """The stencil's node offsets in the order of ``cg_phi``."""
@@ -63,10 +63,15 @@ class ConsistentMassCG:
         """C v at node I: zero at Dirichlet and empty nodes, the walls' held components
         zeroed (roller and sticky walls only: the Model refuses the others)."""
         out = ti.Vector.zero(float, self.dim)
-        if not (self._is_fixed(I) or self.gm[I] <= self.p.mass_tol()):
-            out = v
-            if ti.static(self.has_walls):
-                out = self._wall(I, v)
+        if self._is_free(I):
+            out = self._held_by_walls(I, v)
+        return out
+
+    @ti.func
+    def _held_by_walls(self, I, v):
+        out = v
+        if ti.static(self.has_walls):
+            out = self._wall(I, v)
         return out
 
     @ti.func
@@ -74,7 +79,7 @@ class ConsistentMassCG:
         """z = C M_L^-1 r and the sums r . z per component."""
         rz = ti.Vector.zero(float, self.dim)
         for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
-            z = self._constrained(I, self.cg_r[I] / ti.max(self.gm[I], self.p.mass_tol()))
+            z = self._held_by_walls(I, self._lumped_solve(I, self.cg_r[I]))
             self.cg_z[I] = z
             rz += self.cg_r[I] * z
         return rz
@@ -91,13 +96,12 @@ class ConsistentMassCG:
                 b = self._constrained(I, rhs[I])
                 b2 += b * b
                 self.cg_r[I] = b
-                self.cg_x[I] = self._constrained(I, rhs[I] / ti.max(self.gm[I],
-                                                                    self.p.mass_tol()))
+                self.cg_x[I] = self._held_by_walls(I, self._lumped_solve(I, rhs[I]))
                 self.cg_d[I] = self.cg_x[I]
             rz = ti.Vector.zero(float, self.dim)
             converged = False
             for it in range(CG_MAX_ITERATIONS + 1):
-                # q = C M d: gather sum_j phi_j d_j per particle, scatter phi_i m_p (...)
+                # q = C M d: gather s = m_p sum_j phi_j d_j per particle, scatter phi_i s
                 for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                     self.cg_q[I] = ti.Vector.zero(float, self.dim)
                 for p in range(self.p.n_particles()):
@@ -105,7 +109,7 @@ class ConsistentMassCG:
                     s = ti.Vector.zero(float, self.dim)
                     for k in ti.static(range(len(offsets))):
                         s += phi[k] * self.cg_d[base + ti.Vector(offsets[k])]
-                    s /= ti.max(self.m[p], 1e-300)
+                    s *= self.m[p]
                     for k in ti.static(range(len(offsets))):
                         self.cg_q[base + ti.Vector(offsets[k])] += phi[k] * s
                 dq = ti.Vector.zero(float, self.dim)

@@ -96,7 +96,7 @@ class GridOps:
         # wall a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
         for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
             self._grid_acceleration_node(I)
-        if ti.static(self.consistent and (self.dim > 1 or not self.has_walls)):
+        if ti.static(self.consistent):  # (in 1D the Model refuses walls with it)
             self._solve_mass(self.gf, False)
 
     @ti.func
@@ -181,6 +181,11 @@ class GridOps:
     def _lumped_solve(self, I, value):
         """value / m_i at node I; zero at Dirichlet and empty nodes."""
         out = ti.Vector.zero(float, self.dim)
-        if not (self._is_fixed(I) or self.gm[I] <= self.p.mass_tol()):
+        if self._is_free(I):
             out = value / self.gm[I]
         return out
+
+    @ti.func
+    def _is_free(self, I):
+        """Node I carries mass (above ``mass_tol``) and is not a Dirichlet node."""
+        return not (self._is_fixed(I) or self.gm[I] <= self.p.mass_tol())
