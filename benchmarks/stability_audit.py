@@ -55,7 +55,7 @@ def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projectio
     problem = get_problem("vibrating-string")
     rows = []
     for basis, mass, transfer in ROWS_1D:
-        if integrator == "rk4" and transfer != "musl":
+        if integrator != "euler-cromer" and transfer != "musl":
             continue
         pic = pic_fraction if pic_applies(transfer, mass) else 0.0
         proj = projection if transfer == "musl" else "standard"  # mls: a musl projection
@@ -78,22 +78,27 @@ def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projectio
     return rows
 
 
-def audit_2d(steps, progress):
+def audit_2d(steps, progress, integrator="euler-cromer"):
+    from timpm.model import CRITICAL_STEP_FACTOR
     from timpm.problems import get_problem
 
     problem = get_problem("mms-2d", G=1e-3)
     rows = []
     for basis, transfer in ROWS_2D:
+        if integrator != "euler-cromer" and transfer != "musl":
+            continue
         for placement in PLACEMENTS:
             scene = problem.scene(elements=16, basis=basis, transfer=transfer,
-                                  placement=placement, projection="standard")
-            model = dataclasses.replace(scene.model, body_force=None)
-            critical = model.h / problem.material_law.wave_speed
+                                  placement=placement, projection="standard",
+                                  integrator="euler-cromer", mass="lumped")
+            model = dataclasses.replace(scene.model, body_force=None, integrator=integrator)
+            critical = (model.h / problem.material_law.wave_speed
+                        * CRITICAL_STEP_FACTOR[integrator])
             for factor in FACTORS:
                 rows.append(_run(dataclasses.replace(model, dt=factor * critical), steps,
                                  progress, dim=2, basis=basis, mass="lumped",
                                  transfer=transfer, placement=placement, factor=factor,
-                                 critical_dt=critical))
+                                 critical_dt=critical, integrator=integrator))
     return rows
 
 
@@ -168,8 +173,10 @@ def main(argv=None):
                          "(default 0, the study's FLIP)")
     ap.add_argument("--projection", default="standard", choices=("standard", "mls"),
                     help="1D: the musl rows' projection (mls: forces at Gauss points)")
-    ap.add_argument("--integrator", default="euler-cromer", choices=("euler-cromer", "rk4"),
-                    help="1D: the time integration (rk4: the musl rows, an exact law)")
+    ap.add_argument("--integrator", default="euler-cromer",
+                    choices=("euler-cromer", "rk4", "midpoint"),
+                    help="the time integration (rk4 and midpoint: the musl rows; in 1D "
+                         "with an exact law; the critical step times the method's factor)")
     ap.add_argument("--json")
     args = ap.parse_args(argv)
 
@@ -184,7 +191,7 @@ def main(argv=None):
         rows += audit_1d(args.steps_1d, progress, args.stress_update, args.pic_fraction,
                          args.projection, args.integrator)
     if args.only in (None, "2d"):
-        rows += audit_2d(args.steps_2d, progress)
+        rows += audit_2d(args.steps_2d, progress, args.integrator)
     print(table(rows))
     print()
     print(grouped_table(rows))

@@ -19,7 +19,7 @@ LAYERS = (
     ("timpm.runtime", "timpm.argtypes", "timpm.progress", "timpm.interrupt",
      "timpm.files"),
     ("timpm.scene", "timpm.world", "timpm.basis", "timpm.materials*", "timpm.model*",
-     "timpm.engine*", "timpm.errors", "timpm.checks", "timpm.loads"),
+     "timpm.walls", "timpm.engine*", "timpm.errors", "timpm.checks", "timpm.loads"),
     ("timpm.solver", "timpm.batch", "timpm.checkpoint"),
     ("timpm.problems*", "timpm.scenarios*"),
     ("timpm.studies*",),

@@ -104,7 +104,7 @@ def test_the_string_with_the_exact_law_keeps_its_energy_under_rk4():
 def test_rk4_refuses_the_team_and_the_grid_displacement():
     scene = get_problem("mms-1d").scene(elements=8, basis="bspline3", mass="lumped",
                                         projection="standard")
-    with pytest.raises(ValueError, match="rk4 integrator have no team"):
+    with pytest.raises(ValueError, match="rk4 and midpoint integrators have no team"):
         Solver(scene, mode="team")
     with pytest.raises(ValueError, match="grid_displacement"):
         Solver(scene, grid_displacement=True)

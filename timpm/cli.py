@@ -52,8 +52,9 @@ def _add_common(p):
                         "problem's, standard but for mms-1d and mms-2d)")
     p.add_argument("--integrator", choices=list(INTEGRATORS),
                    help="euler-cromer: the study's; rk4: Runge-Kutta on the particles' "
-                        "equations, four grid solves a step, laws with sigma(F) (default: "
-                        "the problem's, euler-cromer but for mms-1d)")
+                        "equations, four grid solves a step; midpoint: energy-conserving, "
+                        "the step iterated on one thread; rk4 and midpoint for laws with "
+                        "sigma(F) (default: the problem's, euler-cromer but for mms-1d)")
     p.add_argument("--transfer", default="musl", choices=["musl", "apic", "mls-mpm"],
                    help="musl: the study's scheme (2.2.4); apic, mls-mpm: the affine "
                         "transfers (linear and uniform-bsplineN bases)")

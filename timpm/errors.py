@@ -18,6 +18,7 @@ class ErrorCode(enum.IntEnum):
     TEAM_BARRIER = 6
     VOLUME_RANGE = 7
     MASS_SOLVE = 8
+    MIDPOINT = 9
 
     @property
     def message(self) -> str:
@@ -33,6 +34,7 @@ _MESSAGES = {
     ErrorCode.TEAM_BARRIER: "the threads of a team step did not meet at a barrier",
     ErrorCode.VOLUME_RANGE: "was crushed or torn apart: its volume left the allowed range",
     ErrorCode.MASS_SOLVE: "the consistent mass solve (conjugate gradients) did not converge",
+    ErrorCode.MIDPOINT: "the midpoint integrator's iteration did not converge",
 }
 
 #: code -> message, as the kernels record it

@@ -21,14 +21,12 @@ from .basis import get_basis
 from .checks import check_size, positive, positive_int, vector
 from .loads import BodyForce, field_function, time_function
 from .materials import Material
+from .walls import SIDES, WALL_KINDS, Wall, walls_from
 
 __all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "SIDES", "WALL_KINDS",
            "ND_BASES", "TRANSFERS", "MASS_KINDS", "PROJECTIONS", "INTEGRATORS",
            "CRITICAL_STEP_FACTOR"]
 
-#: the sides of a box, two per axis: x, then y, then z
-SIDES = ("left", "right", "bottom", "top", "back", "front")
-WALL_KINDS = ("sticky", "slip", "friction", "roller")
 #: bases on multi-dimensional grids (tensor products; B-splines of any degree N as
 #: bsplineN, clamped, or uniform-bsplineN, padded); every basis works in 1D
 ND_BASES = ("linear", "bspline2", "bspline3", "uniform-bspline2", "uniform-bspline3")
@@ -43,76 +41,14 @@ PROJECTIONS = ("standard", "mls")
 #: time integration: "euler-cromer", the study's (2.2.4: v_p then x_p with the new
 #: velocity); "rk4": the classical fourth-order Runge-Kutta method on the particles'
 #: semi-discrete equations dx_p/dt = sum phi_i v_i, dv_p/dt = sum phi_i a_i, dF_p/dt =
-#: (sum v_i grad phi_i^T) F_p (four grid solves a step), for laws whose stress is sigma(F)
-INTEGRATORS = ("euler-cromer", "rk4")
+#: (sum v_i grad phi_i^T) F_p (four grid solves a step), for laws whose stress is sigma(F);
+#: "midpoint": the energy-conserving MUSL step at the mid-step velocity and averaged stress
+#: (engine/midpoint.py), iterated within each step, for the same laws
+INTEGRATORS = ("euler-cromer", "rk4", "midpoint")
 #: each integrator's critical time step relative to Euler-Cromer's 2 / w_max: the
-#: stability limit of |w dt| on the imaginary axis, 2 for Euler-Cromer, 2 sqrt(2) for RK4
-CRITICAL_STEP_FACTOR = {"euler-cromer": 1.0, "rk4": math.sqrt(2.0)}
-
-
-@dataclass(frozen=True)
-class Wall:
-    """A wall: ``sticky`` (material touching it is held: no motion, no separation),
-    ``slip`` (no penetration, no friction), ``friction`` (Coulomb, coefficient ``mu``) or
-    ``roller`` (no normal motion either way, no friction: the symmetry plane and the
-    bilateral u_n = 0 of a Dirichlet side); slip and friction walls let the material
-    separate.  A sticky wall with a ``velocity`` (a vector along the wall: the wall stays
-    where it is) drives the material touching it at ``velocity`` f(t), f the model's time
-    function ``fixed_time`` (a lid-driven cavity, a shear box)."""
-
-    kind: str = "slip"
-    mu: float = 0.0
-    velocity: tuple | None = None
-
-    def __post_init__(self):
-        if self.kind not in WALL_KINDS:
-            raise ValueError(f"unknown wall {self.kind!r}: choose one of {', '.join(WALL_KINDS)}")
-        mu = float(self.mu)
-        if not (math.isfinite(mu) and mu >= 0.0):
-            raise ValueError(f"wall friction coefficient must be finite and >= 0, got {self.mu!r}")
-        if self.kind != "friction" and mu != 0.0:
-            raise ValueError(f"a {self.kind} wall takes no friction coefficient (got mu={mu})")
-        object.__setattr__(self, "mu", mu)
-        if self.velocity is not None:
-            if self.kind != "sticky":
-                raise ValueError(f"a {self.kind} wall takes no velocity: a moving wall is "
-                                 "sticky (it drives the material touching it)")
-            v = tuple(float(c) for c in vector("wall velocity", self.velocity))
-            object.__setattr__(self, "velocity", v if any(v) else None)
-
-    @property
-    def moves(self) -> bool:
-        return self.velocity is not None
-
-
-def _wall(value, where, open_ok):
-    if value is None and open_ok:
-        return None
-    if isinstance(value, Wall):
-        return value
-    if isinstance(value, str):
-        return Wall(value)
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return Wall("friction", value)
-    raise ValueError(f"wall {where}: give a Wall, a kind ({', '.join(WALL_KINDS)}) or a "
-                     f"friction coefficient{', or None for no wall' if open_ok else ''}, "
-                     f"got {value!r}")
-
-
-def walls_from(spec, dim: int, default="slip", open_ok=False):
-    """One wall (or None: no wall, where ``open_ok``) per side of a ``dim``-dimensional
-    box from ``spec``: one wall for every side, or a dict of side name to wall with an
-    optional ``"default"``."""
-    sides = SIDES[:2 * dim]
-    if isinstance(spec, dict):
-        unknown = set(spec) - set(sides) - {"default"}
-        if unknown:
-            raise ValueError(f"unknown wall side(s) {sorted(unknown)}: the sides of a "
-                             f"{dim}D domain are {', '.join(sides)}")
-        default = spec.get("default", default)
-        return tuple(_wall(spec.get(s, default), s, open_ok) for s in sides)
-    wall = _wall(spec, "for every side", open_ok)
-    return (wall,) * (2 * dim)
+#: stability limit of |w dt| on the imaginary axis, 2 for Euler-Cromer, 2 sqrt(2) for RK4;
+#: the midpoint iteration converges for |w dt| < 2
+CRITICAL_STEP_FACTOR = {"euler-cromer": 1.0, "rk4": math.sqrt(2.0), "midpoint": 1.0}
 
 
 def pic_applies(transfer="musl", mass="lumped", projection="standard") -> bool:
@@ -213,8 +149,8 @@ class Model:
     ``pic_fraction`` b blends the MUSL particle velocity update: v_p = (1 - b)(v_p + dt
     sum phi_i a_i) + b sum phi_i (v_i + dt a_i) (0: FLIP, the study's; 1: PIC, which damps
     the particle-velocity modes the grid cannot see).  ``integrator`` the time integration
-    (``INTEGRATORS``; ``"rk4"`` for laws whose stress is a function of F, with roller and
-    sticky walls only, no damping, tractions or prescribed node motion).
+    (``INTEGRATORS``; ``"rk4"`` and ``"midpoint"`` for laws whose stress is a function
+    of F, with roller and sticky walls only, no damping, tractions or prescribed motion).
     ``velocity`` is an (n, dim) array or a function v0(X) of the (n, dim) positions.
     ``displacement`` a function u0(X) (vectorised like v0): the body starts deformed, its
     particles at x = X + u0(X) with F = I + grad u0 (central differences of u0, step
@@ -418,8 +354,9 @@ class Model:
                              f"{', '.join(INTEGRATORS)}")
         if self.integrator == "euler-cromer":
             return
-        # rk4 integrates the particles' equations of motion: every force a function of the
-        # stage's state and time, the grid velocity the mass-weighted projection
+        # rk4 and midpoint integrate the particles' equations of motion: every force a
+        # function of the state and time, the grid velocity the mass-weighted projection
+        midpoint = self.integrator == "midpoint"  # its body force: not at mid-step yet
         conflicts = [what for what, present in (
             (f"the {self.transfer} transfer (use musl)", self.transfer != "musl"),
             ("the study's MLS projection (linear basis, lumped mass: its nodal velocities)",
@@ -432,8 +369,10 @@ class Model:
             ("prescribed non-zero node velocities", self.prescribes_motion),
             ("the particle traction", self.traction is not None),
             ("surface tractions", self.particle_force is not None),
+            ("a body force", midpoint and self.body_force is not None),
             ("a body force in the current frame (give it in the reference frame)",
-             self.body_force is not None and self.body_force.frame != "reference"))
+             not midpoint and self.body_force is not None
+             and self.body_force.frame != "reference"))
             if present]
         laws = sorted({m.name for m in self.materials if not m.stress_from_F})
         if laws:
@@ -442,8 +381,9 @@ class Model:
             conflicts.append(f"the {', '.join(laws)} law (its stress is not a function of F "
                              f"alone{exact})")
         if conflicts:
-            raise ValueError("integrator 'rk4' (Runge-Kutta on the particles' equations) "
-                             f"does not take {'; '.join(conflicts)}")
+            what = ("midpoint' (the energy-conserving midpoint iteration" if midpoint else
+                    "rk4' (Runge-Kutta on the particles' equations")
+            raise ValueError(f"integrator '{what}) does not take {'; '.join(conflicts)}")
 
     def _check_boundaries(self, dim, basis):
         set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731

@@ -323,8 +323,9 @@ class Scene:
         if dt > dt_crit and not self.allow_unstable_dt:
             rule = ("Eq. 2.4: h / sqrt(E / rho)" if self.mass == "lumped" and basis.name == "linear"
                     else "2 / w_max of the particle discretisation")
-            if model.integrator == "rk4":
-                rule += ", times sqrt(2) for rk4"
+            if model.integrator != "euler-cromer":
+                rule += (f", times {CRITICAL_STEP_FACTOR[model.integrator]:.4g} for "
+                         f"{model.integrator}")
             raise ValueError(
                 f"time step dt = {dt:g} s exceeds the critical time step {dt_crit:g} s "
                 f"({rule}, h = {self.grid.h:g} m, {basis.name} basis, {self.mass} mass); "

@@ -5,6 +5,7 @@ import numpy as np
 
 from ..errors import ErrorCode, SimulationError, TEAM_SPIN_LIMIT
 from .consistent_mass_cg import CG_MAX_ITERATIONS
+from .midpoint import MIDPOINT_MAX_ITERATIONS
 
 __all__ = ["recorded_failure", "energy_balance"]
 
@@ -34,6 +35,10 @@ def recorded_failure(prog, state):
                                "the mass matrix is near singular (nodes that particles "
                                "barely touch): raise small_mass or use the lumped mass",
                                code, step)
+    if code == ErrorCode.MIDPOINT:
+        return SimulationError(f"{when}: {code.message} in {MIDPOINT_MAX_ITERATIONS} "
+                               "iterations; it contracts by about (w dt / 2)^2: take a smaller "
+                               "dt (below the critical step, further from it)", code, step)
     x = prog.x[where].to_numpy()
     if state.features.dim == 1:
         lo, hi = lay.origin[0], lay.origin[0] + lay.elements[0] * lay.h

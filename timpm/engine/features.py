@@ -74,7 +74,7 @@ class FeatureSet:
     n_copies: int                # grid copies of the private scatter (1 otherwise)
     team: bool
     volume_guard: bool           # V / V0 checked against a range every step
-    integrator: str              # "euler-cromer" (the study's) or "rk4" (Runge-Kutta)
+    integrator: str              # "euler-cromer" (the study's), "rk4" or "midpoint"
     precision: str
     arch: str
 
@@ -121,10 +121,15 @@ class FeatureSet:
         return self.integrator == "rk4"
 
     @property
+    def midpoint(self) -> bool:
+        """The energy-conserving midpoint iteration (``.midpoint``)."""
+        return self.integrator == "midpoint"
+
+    @property
     def needs(self) -> frozenset:
-        """The particle state the materials keep; F for every law under rk4."""
+        """The particle state the materials keep; F for every law under rk4 and midpoint."""
         needs = frozenset().union(*(cls.needs for cls, _ in self.materials))
-        return needs | {"F"} if self.rk4 else needs
+        return needs | {"F"} if self.rk4 or self.midpoint else needs
 
     @property
     def multi_material(self) -> bool:
@@ -249,6 +254,11 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     requested = mode
     on_cpu = runtime.on_cpu()
     threads = runtime.cpu_threads() if on_cpu else 0
+    if model.integrator == "midpoint":  # its iteration runs each step on one thread
+        if mode in ("parallel", "team"):
+            raise ValueError(f"mode={mode!r}: the midpoint integrator iterates each step on "
+                             "one thread; use mode='serial' or 'auto'")
+        mode = "serial"
     if mode == "auto":
         mode = auto_mode(n, serial_threshold, threads)
     run_mode = "parallel" if mode == "team" else mode  # a team runs the parallel kernels
@@ -274,16 +284,16 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     # team: the passes of many steps in one parallel task, each thread a fixed block of
     # particles (its own grid copy) and of nodes, the passes separated by spin barriers:
     # Taichi's pool is woken once per launch, not three to five times per step
-    rk4 = model.integrator == "rk4"
-    team_ok = private and not strain_remap and not rk4 and threads >= n_copies
+    team_ok = (private and not strain_remap and model.integrator == "euler-cromer"
+               and threads >= n_copies)
     if requested == "team" and not team_ok:
         raise ValueError("mode='team' needs the private scatter (lumped mass, standard "
                          "projection) with a thread per grid copy (two CPU threads or more); "
                          "APIC with the linear basis (its strain remap) and the rk4 "
-                         "integrator have no team")
-    if grid_displacement and rk4:
+                         "and midpoint integrators have no team")
+    if grid_displacement and model.integrator != "euler-cromer":
         raise ValueError("grid_displacement accumulates v_i dt of the Euler-Cromer step: the "
-                         "rk4 integrator has none")
+                         f"{model.integrator} integrator has none")
     has_u = dim == 1  # particle displacements: the 1D exact solutions compare them
     crossings = (dim == 1) if track_crossings is None else bool(track_crossings)
     features = FeatureSet(

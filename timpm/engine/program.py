@@ -24,6 +24,7 @@ from .mls_projection import GAUSS_POINTS, MLSProjection
 from .mls_stress_nd import MLSStressND, mls_nd_fields
 from .params import ParamBlock
 from .recorder import NUMPY_DTYPES, Recorder, components, entry_size
+from .midpoint import Midpoint, midpoint_fields
 from .rk4 import RungeKutta, rk4_fields
 from .scatter import ScatterOps
 from .stencil import StencilOps
@@ -64,7 +65,7 @@ def _param_spec(features):
 
 @ti.data_oriented
 class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG, Transfer,
-              RungeKutta, Uploads, MLSProjection, MLSStressND, Recorder, Drivers):
+              RungeKutta, Midpoint, Uploads, MLSProjection, MLSStressND, Recorder, Drivers):
     """Fields and kernels of one feature set at one capacity."""
 
     def __init__(self, features, capacity):
@@ -88,7 +89,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         self.track_crossings, self.tracking = f.track_crossings, f.tracking
         self.recording, self.record_energies = f.recording, f.energies
         self.needs, self.multi_material = f.needs, f.multi_material
-        self.update_volume, self.rk4 = f.update_volume, f.rk4
+        self.update_volume, self.rk4, self.midpoint = f.update_volume, f.rk4, f.midpoint
         # the strain energy: W(F) V0 of a hyperelastic law, else the work sigma : d_eps V
         # integrated along the path (a field only where some material needs it)
         self.path_work = f.energies and not all(cls.has_energy_function(flags)
@@ -96,7 +97,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         self.bandwidth, self.node_offset = f.bandwidth, f.node_offset
         # rows of the run sums: the grid fields each scattering phase adds to
         self.scatter_rows = {"p2g": ("gm", "gf") + (("gp",) if self.damping or self.pic
-                                                    or self.rk4 else ()),
+                                                    or self.rk4 or self.midpoint
+                                                    else ()),
                              "g2p-velocity": ("gp",)}
         self._allocate(capacity)
         self._bind_kernels()
@@ -199,6 +201,10 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
             stages = rk4_fields(d, real, self.body_force)
             fb.dense(ti.i, n).place(*stages.values())
             scratch.update(stages)
+        if self.midpoint:  # the midpoint iteration's scratch
+            iterate = midpoint_fields(d, real)
+            fb.dense(ti.i, n).place(*iterate.values())
+            scratch.update(iterate)
         # run state and the first error
         run = {"step_count": ti.field(ti.i64), "time": ti.field(ti.f64),
                "crossings": ti.field(ti.i64), "err": ti.field(ti.i32),

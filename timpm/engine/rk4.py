@@ -63,25 +63,9 @@ class RungeKutta:
             for p in range(self.p.n_particles()):
                 for k in ti.static(range(self.dim)):
                     self.b[p][k] = self.b_stages[p][slot, k]
-        self._rk4_grid()
+        self._grid_rates()  # the stage's a_i and v_i (transfer.py)
         for p in range(self.p.n_particles()):
             self._rk4_particle(p, s)
-
-    @ti.func
-    def _rk4_grid(self):
-        # P2G of the stage's state: m_i, P_i = sum m_p phi_i v_p, F_i = sum phi_i m_p (g +
-        # b_p) - sigma_p V_p grad phi_i (at the Gauss points with the MLS projection);
-        # then a_i = M^-1 F_i and v_i = M^-1 P_i, zero at Dirichlet and empty nodes, the wall
-        # conditions on both
-        self._p2g_assembled()
-        if ti.static(self.has_walls):
-            # roller and sticky walls are linear constraints: the same on v_i and a_i
-            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
-                self.gf[I] = self._wall(I, self._lumped_solve(I, self.gf[I]))
-                self.gp[I] = self._wall(I, self._lumped_solve(I, self.gp[I]))
-        else:
-            self._grid_acceleration()
-            self._solve_mass(self.gp, True)
 
     @ti.func
     def _rk4_particle(self, p, s):
@@ -137,27 +121,3 @@ class RungeKutta:
                 if ti.static(self.has_u):
                     self.accumulate(self.u[p], x_new - self.x_start[p])
                 self._check_particle(p, x_new, v_new, sig, vol, jac)
-
-    @ti.func
-    def _stress_of_F(self, p, F):
-        """sigma(F) of the particle's law."""
-        sig = ti.Matrix.zero(float, self.dim, self.dim)
-        if ti.static(not self.multi_material):
-            sig = self.material_units[0].stress(self, p, F)
-        else:
-            for k in ti.static(range(len(self.material_units))):
-                if self.mat[p] == k:
-                    sig = self.material_units[k].stress(self, p, F)
-        return sig
-
-    @ti.func
-    def _initial_volume_of(self, p):
-        """V0_p = m_p / density of the particle's law."""
-        vol0 = 0.0
-        if ti.static(not self.multi_material):
-            vol0 = self.material_units[0]._initial_volume(self, p)
-        else:
-            for k in ti.static(range(len(self.material_units))):
-                if self.mat[p] == k:
-                    vol0 = self.material_units[k]._initial_volume(self, p)
-        return vol0

@@ -131,7 +131,7 @@ class Transfer:
                         self.accumulate(self.gm[node], mp * phi)
                     self.accumulate(self.gf[node], phi * fp)
                 if ti.static(not self.apic and (self.damping or self.has_walls or self.pic
-                                                or self.rk4)):
+                                                or self.rk4 or self.midpoint)):
                     node_values = self._deposit("gp", copy, node, offset, mp * phi * self.v[p],
                                                 node_values)
             if ti.static(self.consistent and self.dim == 1):
@@ -321,9 +321,51 @@ class Transfer:
             self._cg_keep_weights()
 
     @ti.func
+    def _grid_rates(self):
+        # P2G of the particles' state (a Runge-Kutta stage, a midpoint iterate): m_i, P_i =
+        # sum m_p phi_i v_p, F_i = sum phi_i m_p (g + b_p) - sigma_p V_p grad phi_i (at the
+        # Gauss points with the MLS projection); then a_i = M^-1 F_i and v_i = M^-1 P_i,
+        # zero at Dirichlet and empty nodes, the wall conditions on both
+        self._p2g_assembled()
+        if ti.static(self.has_walls):
+            # roller and sticky walls are linear constraints: the same on v_i and a_i
+            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                self.gf[I] = self._wall(I, self._lumped_solve(I, self.gf[I]))
+                self.gp[I] = self._wall(I, self._lumped_solve(I, self.gp[I]))
+        else:
+            self._grid_acceleration()
+            self._solve_mass(self.gp, True)
+
+    @ti.func
+    def _stress_of_F(self, p, F):
+        """sigma(F) of the particle's law."""
+        sig = ti.Matrix.zero(float, self.dim, self.dim)
+        if ti.static(not self.multi_material):
+            sig = self.material_units[0].stress(self, p, F)
+        else:
+            for k in ti.static(range(len(self.material_units))):
+                if self.mat[p] == k:
+                    sig = self.material_units[k].stress(self, p, F)
+        return sig
+
+    @ti.func
+    def _initial_volume_of(self, p):
+        """V0_p = m_p / density of the particle's law."""
+        vol0 = 0.0
+        if ti.static(not self.multi_material):
+            vol0 = self.material_units[0]._initial_volume(self, p)
+        else:
+            for k in ti.static(range(len(self.material_units))):
+                if self.mat[p] == k:
+                    vol0 = self.material_units[k]._initial_volume(self, p)
+        return vol0
+
+    @ti.func
     def _one_step(self):
         if ti.static(self.rk4):
             self._rk4_step()  # four grid solves of the Runge-Kutta stages (rk4.py)
+        elif ti.static(self.midpoint):
+            self._midpoint_step()  # the energy-conserving midpoint iteration (midpoint.py)
         elif ti.static(self.apic):
             # affine transfer: P2G of mass and momentum + dt force, v = P / m (the grid
             # pass leaves m and P cleared: no separate clearing pass), G2P

@@ -160,8 +160,8 @@ PROBLEM = {
                         "update (0: FLIP; the oedometer's 0.01)"),
     "projection": Key("string", "the problem's", doc="standard or mls (4.4; standard but for "
                       "mms-1d and mms-2d)", choices=PROJECTIONS),
-    "integrator": Key("string", "the problem's", doc="euler-cromer or rk4 (euler-cromer but "
-                      "for mms-1d)", choices=INTEGRATORS),
+    "integrator": Key("string", "the problem's", doc="euler-cromer, rk4 or midpoint "
+                      "(euler-cromer but for mms-1d)", choices=INTEGRATORS),
     "transfer": Key("string", "musl", doc="particle-grid transfer", choices=TRANSFERS),
     "allow_unstable_dt": Key("boolean", False, doc="run a dt above the critical time step"),
     "mode": Key("string", "auto", doc="how the steps run", choices=MODES),

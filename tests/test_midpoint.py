@@ -1,0 +1,105 @@
+"""The midpoint integrator (engine/midpoint.py): kinetic + stored (+ gravity's potential)
+energy conserved to its iteration's tolerance whatever the particles' motion through the
+grid, second order in time, and what it refuses."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from timpm import SimulationError, Solver
+from timpm.errors import ErrorCode
+from timpm.problems import get_problem
+
+
+def _string(integrator, factor, basis="linear", mass="lumped", allow_unstable_dt=False):
+    problem = get_problem("vibrating-string")
+    kw = dict(elements=16, ppc=4, basis=basis, mass=mass, stress_update="study-exact",
+              integrator=integrator)
+    critical = problem.scene(dt=1e-9, **kw).critical_dt
+    return problem.scene(dt=factor * critical, allow_unstable_dt=allow_unstable_dt, **kw)
+
+
+def _energy_change(scene, steps):
+    """Largest |E(t) - E(0)| over the records, relative to E(0), E the total energy."""
+    solver = Solver(scene, mode="serial", energy_guard=None, record_every=10,
+                    volume_range=None)
+    solver.run(n_steps=steps)
+    total = solver.energies()["total"]
+    solver.release()
+    return float(np.max(np.abs(total - total[0])) / total[0])
+
+
+@pytest.mark.parametrize("basis, mass", [("linear", "lumped"), ("bspline2", "consistent")])
+def test_the_string_keeps_its_energy_where_euler_cromer_does_not(basis, mass):
+    # 3,000 steps at 0.9 of the critical step: the particles cross elements; Euler-Cromer
+    # on the same scene changes the energy by 1e-4 to 1e-2 (its stability audit row)
+    midpoint = _energy_change(_string("midpoint", 0.9, basis, mass), 3000)
+    euler_cromer = _energy_change(_string("euler-cromer", 0.9, basis, mass), 3000)
+    assert midpoint < 1e-9, midpoint
+    assert euler_cromer > 1e3 * midpoint, (euler_cromer, midpoint)
+
+
+def test_the_time_order_on_one_mesh():
+    # one mesh, the step halved three times: the change of the final displacements falls
+    # by 2^q per halving, q = 2 for the midpoint rule in v and F (a smooth basis: the
+    # linear one's grid crossings make the displacements a rough function of dt).  The
+    # weights stay at the step's start, as Euler-Cromer's do: an O(dt) term of both
+    # shows as dt shrinks further (2026-11-25, 0.05 of the critical step: midpoint 1.84
+    # and 1.73, Euler-Cromer 1.83 and 1.71; here both 1.91-1.95)
+    runs = []
+    scene = _string("midpoint", 0.2, basis="bspline3")
+    for k in (1, 2, 4, 8):
+        model = dataclasses.replace(scene.model, dt=scene.model.dt / k)
+        solver = Solver(model, mode="serial", energies=False)
+        solver.run(n_steps=100 * k)
+        runs.append(solver.displacements())
+        solver.release()
+    changes = [np.abs(a - b).max() for a, b in zip(runs, runs[1:])]
+    orders = np.log2(np.divide(changes[:-1], changes[1:]))
+    assert np.all((1.85 < orders) & (orders < 2.1)), (changes, orders)
+
+
+def test_a_2d_square_under_gravity_between_roller_walls_keeps_its_energy():
+    # the mms-2d square without its body force, released under gravity onto the bottom
+    # roller wall: kinetic + stored + gravity's potential energy stays put
+    problem = get_problem("mms-2d", G=1e-3)
+    scene = problem.scene(elements=8, basis="bspline2", mass="lumped",
+                          projection="standard", integrator="euler-cromer")
+    model = dataclasses.replace(scene.model, body_force=None, integrator="midpoint",
+                                gravity=(0.0, -200.0),
+                                dt=0.9 * scene.model.h / problem.material_law.wave_speed)
+    solver = Solver(model, energy_guard=None, record_every=5)
+    solver.run(n_steps=300)
+    en = solver.energies()
+    assert np.ptp(en["gravity"]) > 1e-2 * en["kinetic"].max()  # gravity does work
+    total = en["total"]
+    assert np.max(np.abs(total - total[0])) < 1e-9 * np.max(en["kinetic"] + en["strain"])
+
+
+def test_a_step_above_the_critical_one_stops_the_run_naming_the_step():
+    # beyond |w dt| = 2 the iteration diverges once the fastest modes are present (at 1.5x
+    # the string's smooth motion still converges; 2x stopped at step 2 on 2026-11-25)
+    solver = Solver(_string("midpoint", 2.5, allow_unstable_dt=True), energy_guard=None)
+    with pytest.raises(SimulationError, match="midpoint integrator's iteration did not "
+                                              "converge") as err:
+        solver.run(n_steps=20)
+    assert err.value.code == ErrorCode.MIDPOINT and 1 <= err.value.step <= 3
+
+
+@pytest.mark.parametrize("changes, message", [
+    (dict(transfer="apic", basis="uniform-bspline2"), "does not take the apic transfer"),
+    (dict(damping=0.1), "does not take local damping"),
+])
+def test_what_the_midpoint_integrator_refuses_names_the_conflict(changes, message):
+    model = _string("midpoint", 0.5).model
+    with pytest.raises(ValueError, match=r"integrator 'midpoint' .* " + message):
+        dataclasses.replace(model, **changes)
+
+
+def test_the_midpoint_integrator_refuses_a_body_force_and_the_parallel_mode():
+    scene = get_problem("mms-1d", G=0.05).scene(elements=8, basis="bspline3")
+    with pytest.raises(ValueError, match="integrator 'midpoint' .* a body force"):
+        dataclasses.replace(scene.model, integrator="midpoint")
+    with pytest.raises(ValueError, match="midpoint integrator iterates each step on one "
+                                         "thread"):
+        Solver(_string("midpoint", 0.5), mode="parallel")

@@ -1,0 +1,145 @@
+"""The energy-conserving midpoint integrator: the MUSL step at the mid-step velocity with
+the averaged (discrete-gradient) stress, iterated to convergence within each step.
+
+Mixed into :class:`~timpm.engine.program.Program` for ``Model(integrator="midpoint")``.
+With the particles' weights at the step's start, phi_i = phi_i(x_p^n), a step solves
+
+    vbar_p = (v_p^n + v_p^(n+1)) / 2,      vbar_i = M^-1 sum_p m_p phi_i vbar_p,
+    F_p^(n+1) = (I + dt sum_i vbar_i grad phi_i^T) F_p^n,
+    sbar_p = [int_0^1 P(F_p^n + s (F_p^(n+1) - F_p^n)) ds] F_p^nT / J_p^n,
+    a_i = M^-1 (sum_p m_p phi_i g - sbar_p V_p^n grad phi_i),
+    v_p^(n+1) = v_p^n + dt sum_i phi_i a_i,   x_p^(n+1) = x_p^n + dt sum_i phi_i vbar_i,
+
+P(F) = J sigma(F) F^-T the first Piola-Kirchhoff stress, the integral by three-point
+Gauss-Legendre quadrature (its error O(|dF|^6)).  Then the kinetic energy changes by
+dt a . M vbar = dt f . vbar and the stored energy sum V0_p W(F_p) by sum V0_p Pbar : dF_p =
+-dt f_int . vbar: kinetic + stored + gravity's potential energy is conserved to the
+iteration's tolerance whatever the particles' motion through the grid (lumped or
+consistent mass; roller and sticky walls, linear constraints, hold vbar_i and a_i alike).
+Euler-Cromer conserves it only on a fixed mapping (docs/results.md, stability audit).
+
+The iteration starts from the state at t_n (vbar = v_n, sbar = sigma_n) and contracts by
+about (w dt / 2)^2 for the mode of frequency w: it converges below Euler-Cromer's
+critical step, slowly near it.  It stops when no particle velocity and no F changes by
+more than ``MIDPOINT_TOLERANCE`` of the largest velocity and F increment; after
+``MIDPOINT_MAX_ITERATIONS`` the run stops with ``ErrorCode.MIDPOINT``.  The whole step
+runs on one thread (the fused serial mode).
+"""
+import math
+
+import taichi as ti
+
+from ..errors import ErrorCode
+
+__all__ = ["Midpoint", "midpoint_fields", "MIDPOINT_MAX_ITERATIONS", "MIDPOINT_TOLERANCE"]
+
+#: iterations after which a step that has not converged stops the run
+MIDPOINT_MAX_ITERATIONS = 400
+#: the largest change of a particle velocity in the last iteration, relative to the
+#: largest particle velocity, that ends a step's iteration (per precision)
+MIDPOINT_TOLERANCE = {"f64": 1e-11, "f32": 1e-5}
+#: an absolute floor under those tolerances, a few rounding errors of F ~ 1 (an increment
+#: of F near round-off would otherwise never settle)
+FLOOR = {"f64": 1e-15, "f32": 1e-6}
+#: three-point Gauss-Legendre rule on [0, 1]: (abscissa, weight)
+_GAUSS_3 = ((0.5 - math.sqrt(15.0) / 10.0, 5.0 / 18.0), (0.5, 8.0 / 18.0),
+            (0.5 + math.sqrt(15.0) / 10.0, 5.0 / 18.0))
+
+
+def midpoint_fields(d, real):
+    """Per-particle scratch of a step: the velocity and F at its start, the iterate of the
+    velocity at its end and the position the iterate reaches."""
+    return {"v_start": ti.Vector.field(d, real), "F_start": ti.Matrix.field(d, d, real),
+            "v_end": ti.Vector.field(d, real), "x_end": ti.Vector.field(d, real)}
+
+
+class Midpoint:
+    """See the module."""
+
+    @ti.func
+    def _midpoint_step(self):
+        # the state at t_n: v_n and F_n kept; V_p stays V_p^n through the iteration
+        for p in range(self.p.n_particles()):
+            self.v_start[p] = self.v[p]
+            self.F_start[p] = self.F[p]
+        tol = ti.static(MIDPOINT_TOLERANCE[self.f.precision])
+        converged = False
+        for it in range(MIDPOINT_MAX_ITERATIONS):
+            # grid: P2G of m_i, P_i = sum m_p phi_i vbar_p and the forces from sbar_p V_p^n;
+            # a_i = M^-1 F_i, vbar_i = M^-1 P_i
+            self._grid_rates()
+            # converged: neither v_end nor F_end moved by more than tol of the largest
+            # velocity and F increment (both: a first pass from sigma = 0 leaves v_end = v_n)
+            change = ti.Vector.zero(float, 2)
+            largest = ti.Vector.zero(float, 2)
+            for p in range(self.p.n_particles()):
+                c, s = self._midpoint_particle(p)
+                change = ti.max(change, c)
+                largest = ti.max(largest, s)
+            if it > 0 and (change <= tol * largest + ti.static(FLOOR[self.f.precision])).all():
+                converged = True
+                break
+        if not converged:
+            self._fail(ti.static(int(ErrorCode.MIDPOINT)), 0)
+        for p in range(self.p.n_particles()):
+            self._midpoint_finish(p)
+
+    @ti.func
+    def _midpoint_particle(self, p):
+        # G2P of the iterate: v_end = v_n + dt sum phi_i a_i, F_end = (I + dt grad vbar) F_n,
+        # x_end = x_n + dt sum phi_i vbar_i; the next iterate's vbar_p and sbar_p.  Returns
+        # the changes of v_end and F_end and the sizes of v_end and F_end - F_n (max norms)
+        base, w, dw, xi, inside = self._stencil(p)
+        change = ti.Vector.zero(float, 2)
+        size = ti.Vector.zero(float, 2)
+        if inside:
+            v_mid = ti.Vector.zero(float, self.dim)
+            accel = ti.Vector.zero(float, self.dim)
+            grad_v = ti.Matrix.zero(float, self.dim, self.dim)
+            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                phi, grad = self._weight(w, dw, offset)
+                vi = self.gp[base + offset]
+                v_mid += phi * vi
+                accel += phi * self.gf[base + offset]
+                grad_v += vi.outer_product(grad)
+            v_end = self.v_start[p] + self.p.dt() * accel
+            F0 = self.F_start[p]
+            F1 = (ti.Matrix.identity(float, self.dim) + self.p.dt() * grad_v) @ F0
+            change = ti.Vector([ti.abs(v_end - self.v_end[p]).max(), ti.abs(F1 - self.F[p]).max()])
+            size = ti.Vector([ti.abs(v_end).max(), ti.abs(F1 - F0).max()])
+            self.v_end[p] = v_end
+            self.x_end[p] = self.x[p] + self.p.dt() * v_mid
+            self.F[p] = F1
+            self.v[p] = 0.5 * (self.v_start[p] + v_end)
+            self.sigma[p] = self._averaged_stress(p, F0, F1)
+        return change, size
+
+    @ti.func
+    def _averaged_stress(self, p, F0, F1):
+        """sbar = [int_0^1 P(F0 + s (F1 - F0)) ds] F0^T / det F0, so that sbar V^n : dt
+        grad vbar = V0 (W(F1) - W(F0)) to the quadrature's O(|F1 - F0|^6)."""
+        P_mean = ti.Matrix.zero(float, self.dim, self.dim)
+        for q in ti.static(range(3)):
+            F = F0 + ti.static(_GAUSS_3[q][0]) * (F1 - F0)
+            P_mean += ti.static(_GAUSS_3[q][1]) * (
+                F.determinant() * self._stress_of_F(p, F) @ F.inverse().transpose())
+        return P_mean @ F0.transpose() / F0.determinant()
+
+    @ti.func
+    def _midpoint_finish(self, p):
+        # the step's end: x, v, F of the converged iterate, sigma(F) and V = det F V0
+        base, w, dw, xi, inside = self._stencil(p)
+        if inside:
+            x_new = self.x_end[p]
+            v_new = self.v_end[p]
+            F_new = self.F[p]
+            if ti.static(self.has_u):
+                self.accumulate(self.u[p], x_new - self.x[p])
+            self.x[p] = x_new
+            self.v[p] = v_new
+            jac = F_new.determinant()
+            sig = self._stress_of_F(p, F_new)
+            vol = jac * self._initial_volume_of(p)
+            self.sigma[p] = sig
+            self.vol[p] = vol
+            self._check_particle(p, x_new, v_new, sig, vol, jac)
