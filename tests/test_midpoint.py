@@ -103,3 +103,30 @@ def test_the_midpoint_integrator_refuses_a_body_force_and_the_parallel_mode():
     with pytest.raises(ValueError, match="midpoint integrator iterates each step on one "
                                          "thread"):
         Solver(_string("midpoint", 0.5), mode="parallel")
+
+
+@pytest.mark.slow
+def test_the_2d_consistent_mass_holds_its_roller_walls_under_midpoint_and_rk4():
+    # the consistent mass's solve takes the roller walls as constraints under both
+    # integrators (their shared grid solve once used the lumped one at walls, and then
+    # cleared the momentum: a square that never deformed); ~2 minutes of compilation
+    problem = get_problem("mms-2d", G=1e-3)
+    scene = problem.scene(elements=8, basis="bspline2", mass="lumped",
+                          projection="standard", integrator="euler-cromer")
+    dt = 0.04 * scene.model.h / problem.material_law.wave_speed  # below the consistent limit
+    positions = {}
+    for integrator in ("midpoint", "rk4"):
+        for mass in ("lumped", "consistent"):
+            model = dataclasses.replace(scene.model, body_force=None, dt=dt,
+                                        integrator=integrator, mass_matrix=mass)
+            solver = Solver(model, energy_guard=None, record_every=10)
+            solver.run(n_steps=100)
+            en = solver.energies()
+            assert en["strain"].max() > 0.5 * en["kinetic"][0]  # it deforms
+            if integrator == "midpoint":
+                total = en["total"]
+                assert np.max(np.abs(total - total[0])) < 1e-9 * total[0]
+            positions[integrator, mass] = solver.positions()
+            solver.release()
+        shift = np.abs(positions[integrator, "lumped"] - positions[integrator, "consistent"])
+        assert shift.max() > 1e-7, integrator  # the consistent mass is not the lumped

@@ -327,13 +327,14 @@ class Transfer:
         # Gauss points with the MLS projection); then a_i = M^-1 F_i and v_i = M^-1 P_i,
         # zero at Dirichlet and empty nodes, the wall conditions on both
         self._p2g_assembled()
-        if ti.static(self.has_walls):
-            # roller and sticky walls are linear constraints: the same on v_i and a_i
+        if ti.static(self.has_walls and not self.consistent):
+            # roller and sticky walls are linear constraints: the same on v_i and a_i (the
+            # consistent mass's solve takes them as constraints)
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                 self.gf[I] = self._wall(I, self._lumped_solve(I, self.gf[I]))
                 self.gp[I] = self._wall(I, self._lumped_solve(I, self.gp[I]))
-        else:
-            self._grid_acceleration()
+        else:  # (Euler-Cromer's _grid_acceleration would clear P_i at walls)
+            self._solve_mass(self.gf, False)
             self._solve_mass(self.gp, True)
 
     @ti.func
