@@ -332,6 +332,12 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         values.update(volume_min=volume_range[0], volume_max=volume_range[1])
     if features.pic:
         values.update(pic_fraction=model.pic_fraction)
+    if features.midpoint:
+        # the iteration's eigenvalues are +-i mu, mu = |w dt| / 2 <= dt / dt_crit: relaxed
+        # by 1 / (1 + mu^2) they have modulus mu / sqrt(1 + mu^2) (mu = 1 without an estimate)
+        critical = getattr(scene, "critical_dt", None)
+        mu = model.dt / critical if critical else 1.0
+        values.update(midpoint_relaxation=1.0 / (1.0 + mu * mu))
     if features.mls_mpm:
         D_inv = 1.0 / (basis.inertia * h ** 2)
         values.update(D_inv=D_inv, dt_D_inv=model.dt * D_inv)

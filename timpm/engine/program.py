@@ -47,6 +47,8 @@ def _param_spec(features):
         spec.update(volume_min="real", volume_max="real")
     if features.pic:
         spec.update(pic_fraction="real")
+    if features.midpoint:
+        spec.update(midpoint_relaxation="real")
     if features.traction is not None:
         spec.update(traction_particle="int", traction_amplitude="real", traction_param="real")
     if features.prescribed is not None:
