@@ -11,6 +11,7 @@ options and splits them in two:
 - a :class:`Layout`: the sizes (particles, nodes, elements, tracked particles) and the
   run-time values (grid spacing, time step, gravity, loads, material constants).
 """
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -333,11 +334,11 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     if features.pic:
         values.update(pic_fraction=model.pic_fraction)
     if features.midpoint:
-        # the iteration's eigenvalues are +-i mu, mu = |w dt| / 2 <= dt / dt_crit: relaxed
-        # by 1 / (1 + mu^2) they have modulus mu / sqrt(1 + mu^2) (mu = 1 without an estimate)
+        # the relaxation of vbar that balances the pass's slow and fast modes for
+        # mu = |w dt| / 2 up to dt / dt_crit (1 without an estimate; engine/midpoint.py)
         critical = getattr(scene, "critical_dt", None)
         mu = model.dt / critical if critical else 1.0
-        values.update(midpoint_relaxation=1.0 / (1.0 + mu * mu))
+        values.update(midpoint_relaxation=((math.sqrt(mu * mu + 4.0) - mu) / 2.0) ** 2)
     if features.mls_mpm:
         D_inv = 1.0 / (basis.inertia * h ** 2)
         values.update(D_inv=D_inv, dt_D_inv=model.dt * D_inv)
