@@ -47,7 +47,7 @@ PROJECTIONS = ("standard", "mls")
 INTEGRATORS = ("euler-cromer", "rk4", "midpoint")
 #: each integrator's critical time step relative to Euler-Cromer's 2 / w_max: the
 #: stability limit of |w dt| on the imaginary axis, 2 for Euler-Cromer, 2 sqrt(2) for RK4;
-#: the midpoint iteration converges for |w dt| < 2
+#: midpoint keeps Euler-Cromer's (its relaxed passes converge beyond it, ever slower)
 CRITICAL_STEP_FACTOR = {"euler-cromer": 1.0, "rk4": math.sqrt(2.0), "midpoint": 1.0}
 
 

@@ -37,8 +37,8 @@ def recorded_failure(prog, state):
                                code, step)
     if code == ErrorCode.MIDPOINT:
         return SimulationError(f"{when}: {code.message} in {MIDPOINT_MAX_ITERATIONS} "
-                               "iterations; it contracts by about (w dt / 2)^2: take a smaller "
-                               "dt (below the critical step, further from it)", code, step)
+                               "passes; its passes slow down as dt nears the critical step "
+                               "and fail beyond it: take a smaller dt", code, step)
     x = prog.x[where].to_numpy()
     if state.features.dim == 1:
         lo, hi = lay.origin[0], lay.origin[0] + lay.elements[0] * lay.h

@@ -325,17 +325,12 @@ class Transfer:
         # P2G of the particles' state (a Runge-Kutta stage, a midpoint iterate): m_i, P_i =
         # sum m_p phi_i v_p, F_i = sum phi_i m_p (g + b_p) - sigma_p V_p grad phi_i (at the
         # Gauss points with the MLS projection); then a_i = M^-1 F_i and v_i = M^-1 P_i,
-        # zero at Dirichlet and empty nodes, the wall conditions on both
+        # zero at Dirichlet and empty nodes.  Roller and sticky walls are linear
+        # constraints, the same on both (the consistent mass's solve takes them as such;
+        # Euler-Cromer's _grid_acceleration is no fit: it clears P_i at walls)
         self._p2g_assembled()
-        if ti.static(self.has_walls and not self.consistent):
-            # roller and sticky walls are linear constraints: the same on v_i and a_i (the
-            # consistent mass's solve takes them as constraints)
-            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
-                self.gf[I] = self._wall(I, self._lumped_solve(I, self.gf[I]))
-                self.gp[I] = self._wall(I, self._lumped_solve(I, self.gp[I]))
-        else:  # (Euler-Cromer's _grid_acceleration would clear P_i at walls)
-            self._solve_mass(self.gf, False)
-            self._solve_mass(self.gp, True)
+        self._solve_mass(self.gf, True)
+        self._solve_mass(self.gp, True)
 
     @ti.func
     def _stress_of_F(self, p, F):

@@ -46,8 +46,8 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     problems place particles as the study does, the manufactured solutions at Gauss
     points; ``mass``, ``projection`` and ``integrator``: lumped, standard and
     euler-cromer, but consistent, mls and rk4 for mms-1d and mls for mms-2d beyond the
-    linear basis, see ``Problem.scheme``); ``params`` overrides physical parameters (e.g. ``{"p0": 5e4}``).
-    The record holds at least problem, elements, ppc,
+    linear basis, see ``Problem.scheme``); ``params`` overrides physical parameters (e.g.
+    ``{"p0": 5e4}``).  The record holds at least problem, elements, ppc,
     basis, mass, dt, t_end, steps, rms_error, wall_seconds (stepping only; compilation is
     ``compile_seconds``) and grid_crossings.  ``series=False`` records no time series of
     the monitored particle (the study's figures need it, its tables do not);
