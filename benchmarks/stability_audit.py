@@ -11,13 +11,16 @@ energy in motion.  ``--stress-update`` picks the 1D law (default the study's for
 update; ``study-exact`` integrates it exactly and records the stored energy W(F) V0 instead
 of the path work).  ``--integrator rk4`` runs the 1D musl rows with the Runge-Kutta
 integrator (with an exactly integrated law; the affine rows are skipped: rk4 takes musl
-only).  Writes a Markdown table (stdout) and, with ``--json``, the records::
+only), ``--integrator midpoint`` every row; ``--transfer`` picks rows by transfer.  Writes
+a Markdown table (stdout) and, with ``--json``, the records::
 
     python benchmarks/stability_audit.py --json docs/stability_audit.json
     python benchmarks/stability_audit.py --only 1d --stress-update study-exact \
         --json docs/stability_audit_exact.json
     python benchmarks/stability_audit.py --only 1d --stress-update study-exact \
         --integrator rk4 --json docs/stability_audit_rk4.json
+    python benchmarks/stability_audit.py --stress-update study-exact --integrator midpoint \
+        --transfer apic mls-mpm --json docs/stability_audit_midpoint_affine.json
 """
 import argparse
 import dataclasses
@@ -48,14 +51,15 @@ def _drift(energies):
 
 
 def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projection="standard",
-             integrator="euler-cromer"):
+             integrator="euler-cromer", transfers=None):
     from timpm.model import pic_applies
     from timpm.problems import get_problem
 
     problem = get_problem("vibrating-string")
     rows = []
     for basis, mass, transfer in ROWS_1D:
-        if integrator != "euler-cromer" and transfer != "musl":
+        if (integrator == "rk4" and transfer != "musl") or transfer not in (transfers or
+                                                                           (transfer,)):
             continue
         pic = pic_fraction if pic_applies(transfer, mass) else 0.0
         proj = projection if transfer == "musl" else "standard"  # mls: a musl projection
@@ -78,14 +82,15 @@ def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projectio
     return rows
 
 
-def audit_2d(steps, progress, integrator="euler-cromer"):
+def audit_2d(steps, progress, integrator="euler-cromer", transfers=None):
     from timpm.model import CRITICAL_STEP_FACTOR
     from timpm.problems import get_problem
 
     problem = get_problem("mms-2d", G=1e-3)
     rows = []
     for basis, transfer in ROWS_2D:
-        if integrator != "euler-cromer" and transfer != "musl":
+        if (integrator == "rk4" and transfer != "musl") or transfer not in (transfers or
+                                                                           (transfer,)):
             continue
         for placement in PLACEMENTS:
             scene = problem.scene(elements=16, basis=basis, transfer=transfer,
@@ -175,8 +180,10 @@ def main(argv=None):
                     help="1D: the musl rows' projection (mls: forces at Gauss points)")
     ap.add_argument("--integrator", default="euler-cromer",
                     choices=("euler-cromer", "rk4", "midpoint"),
-                    help="the time integration (rk4 and midpoint: the musl rows; in 1D "
-                         "with an exact law; the critical step times the method's factor)")
+                    help="the time integration (rk4: the musl rows; rk4 and midpoint in "
+                         "1D with an exact law; the critical step times the method's factor)")
+    ap.add_argument("--transfer", nargs="+", choices=("musl", "apic", "mls-mpm"),
+                    help="only the rows of these transfers")
     ap.add_argument("--json")
     args = ap.parse_args(argv)
 
@@ -189,9 +196,9 @@ def main(argv=None):
     rows = []
     if args.only in (None, "1d"):
         rows += audit_1d(args.steps_1d, progress, args.stress_update, args.pic_fraction,
-                         args.projection, args.integrator)
+                         args.projection, args.integrator, args.transfer)
     if args.only in (None, "2d"):
-        rows += audit_2d(args.steps_2d, progress, args.integrator)
+        rows += audit_2d(args.steps_2d, progress, args.integrator, args.transfer)
     print(table(rows))
     print()
     print(grouped_table(rows))

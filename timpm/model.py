@@ -356,9 +356,10 @@ class Model:
             return
         # rk4 and midpoint integrate the particles' equations of motion: every force a
         # function of the state and time, the grid velocity the mass-weighted projection
-        midpoint = self.integrator == "midpoint"  # its body force: not at mid-step yet
+        midpoint = self.integrator == "midpoint"
         conflicts = [what for what, present in (
-            (f"the {self.transfer} transfer (use musl)", self.transfer != "musl"),
+            (f"the {self.transfer} transfer (use musl or the midpoint integrator)",
+             not midpoint and self.transfer != "musl"),
             ("the study's MLS projection (linear basis, lumped mass: its nodal velocities)",
              self.projection == "mls" and basis.support == 2 and self.mass_matrix == "lumped"),
             ("local damping", self.damping > 0.0), ("a PIC fraction", self.pic_fraction > 0.0),
@@ -369,10 +370,8 @@ class Model:
             ("prescribed non-zero node velocities", self.prescribes_motion),
             ("the particle traction", self.traction is not None),
             ("surface tractions", self.particle_force is not None),
-            ("a body force", midpoint and self.body_force is not None),
             ("a body force in the current frame (give it in the reference frame)",
-             not midpoint and self.body_force is not None
-             and self.body_force.frame != "reference"))
+             self.body_force is not None and self.body_force.frame != "reference"))
             if present]
         laws = sorted({m.name for m in self.materials if not m.stress_from_F})
         if laws:

@@ -72,7 +72,7 @@ class GridOps:
         for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
             self.gm[I] = 0.0
             self.gp[I] = ti.Vector.zero(float, self.dim)
-            if ti.static(not self.apic):
+            if ti.static(not self.apic or self.midpoint):
                 self.gf[I] = ti.Vector.zero(float, self.dim)
         if ti.static(self.consistent and self.dim == 1):
             for i, k in ti.ndrange(self.p.nodes()[0], 2 * self.bandwidth + 1):

@@ -30,7 +30,13 @@ and turn relaxed once the residual falls by less than half in a pass.  It stops 
 residual new - vbar is within ``MIDPOINT_TOLERANCE`` of the largest vbar and F_end moved
 by less than that of the largest F increment; after ``MIDPOINT_MAX_ITERATIONS`` passes
 the run stops with ``ErrorCode.MIDPOINT``.  The whole step runs on one thread (the fused
-serial mode).
+serial mode).  A body force enters as b(X_p, t_n + dt / 2), its work m_p b_p . dx_p.
+
+The affine transfers (APIC, MLS-MPM) rebuild the grid velocity from v_p and C_p each
+step, so their iteration runs on the grid (``_affine_midpoint_step``): v_i^n from P2G
+once, vbar_i = v_i^n + dt / 2 a_i(sbar(vbar)) iterated as above, then v_p and C_p from
+v_i^n + dt a_i and x_p += dt sum phi_i vbar_i.  The grid step conserves the energy; P2G and
+G2P can only lose it (docs/method.md).
 """
 import math
 
@@ -54,11 +60,15 @@ _GAUSS_3 = ((0.5 - math.sqrt(15.0) / 10.0, 5.0 / 18.0), (0.5, 8.0 / 18.0),
             (0.5 + math.sqrt(15.0) / 10.0, 5.0 / 18.0))
 
 
-def midpoint_fields(d, real):
-    """Per-particle scratch of a step: the velocity and F at its start, the iterate of the
-    velocity at its end and the position the iterate reaches."""
-    return {"v_start": ti.Vector.field(d, real), "F_start": ti.Matrix.field(d, d, real),
-            "v_end": ti.Vector.field(d, real), "x_end": ti.Vector.field(d, real)}
+def midpoint_fields(d, real, affine):
+    """Per-particle scratch of a step: F at its start; for MUSL also the velocity at its
+    start, the iterate of the velocity at its end and the position the iterate reaches (an
+    affine transfer iterates on the grid: its gp, gv and gf)."""
+    fields = {"F_start": ti.Matrix.field(d, d, real)}
+    if not affine:
+        fields.update(v_start=ti.Vector.field(d, real), v_end=ti.Vector.field(d, real),
+                      x_end=ti.Vector.field(d, real))
+    return fields
 
 
 class Midpoint:
@@ -146,16 +156,143 @@ class Midpoint:
         # the step's end: x, v, F of the converged iterate, sigma(F) and V = det F V0
         base, w, dw, xi, inside = self._stencil(p)
         if inside:
-            x_new = self.x_end[p]
-            v_new = self.v_end[p]
-            F_new = self.F[p]
-            if ti.static(self.has_u):
-                self.accumulate(self.u[p], x_new - self.x[p])
-            self.x[p] = x_new
-            self.v[p] = v_new
-            jac = F_new.determinant()
-            sig = self._stress_of_F(p, F_new)
-            vol = jac * self._initial_volume_of(p)
-            self.sigma[p] = sig
-            self.vol[p] = vol
-            self._check_particle(p, x_new, v_new, sig, vol, jac)
+            self._midpoint_end_state(p, self.x_end[p], self.v_end[p])
+
+    @ti.func
+    def _midpoint_end_state(self, p, x_new, v_new):
+        # x, v and F of the converged iterate (F in place), sigma(F) and V = det F V0; the
+        # body force's work m_p b_p . (x_new - x_n)
+        F_new = self.F[p]
+        if ti.static(self.body_force and self.record_energies):
+            self.accumulate(self.ext_work[None], self.m[p] * self.b[p].dot(x_new - self.x[p]))
+        if ti.static(self.has_u):
+            self.accumulate(self.u[p], x_new - self.x[p])
+        self.x[p] = x_new
+        self.v[p] = v_new
+        jac = F_new.determinant()
+        sig = self._stress_of_F(p, F_new)
+        vol = jac * self._initial_volume_of(p)
+        self.sigma[p] = sig
+        self.vol[p] = vol
+        self._check_particle(p, x_new, v_new, sig, vol, jac)
+
+    # ---- the affine transfers (APIC, MLS-MPM): the iteration on the grid ------------------
+    @ti.func
+    def _affine_midpoint_step(self):
+        # P2G at t_n: m_i and P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) (the linear basis:
+        # m_p (phi_i v_p + B_p grad phi_i)); v_i^n = P_i / m_i with the wall conditions
+        # (gp), the iterate vbar_i (gv) starts there
+        self._clear_grid()
+        for p in range(self.p.n_particles()):
+            self.F_start[p] = self.F[p]
+            self._affine_momentum(p)
+        self._solve_mass(self.gp, True)
+        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            self.gv[I] = self.gp[I]
+        tol = ti.static(MIDPOINT_TOLERANCE[self.f.precision])
+        floor = ti.static(F_FLOOR[self.f.precision])
+        converged = False
+        relax = 1.0  # plain passes while the residual falls fast, then relaxed
+        previous = 0.0
+        for it in range(MIDPOINT_MAX_ITERATIONS):
+            # particles: F_end = (I + dt grad vbar) F_n, sbar; F_i = sum phi_i f_p - sbar_p
+            # V_p^n grad phi_i (MLS-MPM: D^-1 (x_i - x_p) phi_i for grad phi_i)
+            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                self.gf[I] = ti.Vector.zero(float, self.dim)
+            change = ti.Vector.zero(float, 2)
+            largest = ti.Vector.zero(float, 2)
+            for p in range(self.p.n_particles()):
+                c, s = self._affine_midpoint_particle(p)
+                change[1] = ti.max(change[1], c)
+                largest[1] = ti.max(largest[1], s)
+            # grid: a_i = M^-1 F_i (walls), v_i^(n+1) = v_i^n + dt a_i kept in gf; the
+            # residual of vbar_i = (v_i^n + v_i^(n+1)) / 2
+            self._solve_mass(self.gf, True)
+            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                v_end = self.gp[I] + self.p.dt() * self.gf[I]
+                self.gf[I] = v_end
+                v_bar = 0.5 * (self.gp[I] + v_end)
+                change[0] = ti.max(change[0], ti.abs(v_bar - self.gv[I]).max())
+                largest[0] = ti.max(largest[0], ti.abs(v_bar).max())
+            # (the floor of vbar_i: the velocity whose difference over a cell moves F by its
+            # floor in a step; APIC's transfers dissipate, and a velocity fallen to the
+            # rounding of the forces would otherwise never settle)
+            v_floor = floor * self.p.h() / self.p.dt()
+            if it > 0 and (change <= tol * largest + ti.Vector([v_floor, floor])).all():
+                converged = True  # F_end and x_end from this iterate, v from its forces
+                break
+            if it > 1 and change[0] > 0.5 * previous:  # slow: a fast mode near +-i mu
+                relax = self.p.midpoint_relaxation()
+            previous = change[0]
+            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                self.gv[I] += relax * (0.5 * (self.gp[I] + self.gf[I]) - self.gv[I])
+        if not converged:
+            self._fail(ti.static(int(ErrorCode.MIDPOINT)), 0)
+        # G2P: v_p = sum phi_i v_i^(n+1), C_p from v_i^(n+1), x_p += dt sum phi_i vbar_i
+        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            self.gp[I] = self.gv[I]  # vbar_i
+            self.gv[I] = self.gf[I]  # v_i^(n+1), which _affine_gather reads
+        for p in range(self.p.n_particles()):
+            self._affine_midpoint_finish(p)
+
+    @ti.func
+    def _affine_momentum(self, p):
+        base, w, dw, xi, inside = self._stencil(p)
+        if not inside:
+            self._fail(1, p)
+        else:
+            mp = self.m[p]
+            affine = mp * self.C[p]
+            mom = mp * self.v[p] - affine @ self._from_first_node(xi, base)
+            h_affine = self.p.h() * affine
+            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                phi, grad = self._weight(w, dw, offset)
+                node = base + offset
+                self.gm[node] += mp * phi
+                if ti.static(self.basis.support > 2 or self.mls_mpm):
+                    self.gp[node] += phi * (mom + self._times_offset(h_affine, offset))
+                else:
+                    self.gp[node] += phi * mp * self.v[p] + mp * (self.C[p] @ grad)
+
+    @ti.func
+    def _affine_midpoint_particle(self, p):
+        # returns the change of F_end and the largest F increment
+        base, w, dw, xi, inside = self._stencil(p)
+        change = 0.0
+        size = 0.0
+        if inside:
+            _, B, grad_du = self._affine_gather(base, w, dw, xi, not self.mls_mpm)
+            if ti.static(self.mls_mpm):
+                grad_du = B * self.p.D_inv() * self.p.dt()
+            F0 = self.F_start[p]
+            F1 = (ti.Matrix.identity(float, self.dim) + grad_du) @ F0
+            change = ti.abs(F1 - self.F[p]).max()
+            size = ti.abs(F1 - F0).max()
+            self.F[p] = F1
+            stress_volume = self._averaged_stress(p, F0, F1) * self.vol[p]
+            fp = self._external_force(p)
+            A = stress_volume  # MLS-MPM: D^-1 sbar V
+            if ti.static(self.mls_mpm):
+                A = self.p.D_inv() * stress_volume
+            d = self._from_first_node(xi, base)
+            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                phi, grad = self._weight(w, dw, offset)
+                force = phi * fp
+                if ti.static(self.mls_mpm):
+                    force -= phi * (self.p.h() * self._times_offset(A, offset) - A @ d)
+                else:
+                    force -= stress_volume @ grad
+                self.gf[base + offset] += force
+        return change, size
+
+    @ti.func
+    def _affine_midpoint_finish(self, p):
+        base, w, dw, xi, inside = self._stencil(p)
+        if inside:
+            v_new, B, _ = self._affine_gather(base, w, dw, xi, False)
+            self.C[p] = self._affine_of(B, base, w, xi)
+            dx = ti.Vector.zero(float, self.dim)
+            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                phi, grad = self._weight(w, dw, offset)
+                dx += phi * self.gp[base + offset]
+            self._midpoint_end_state(p, self.x[p] + self.p.dt() * dx, v_new)

@@ -150,7 +150,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         # grid: mass, momentum then velocity, force then acceleration (the affine transfer
         # folds the force into the momentum), Dirichlet mask (1D)
         grid = {"gm": ti.field(real), "gp": ti.Vector.field(d, real)}
-        if not self.apic:
+        if not self.apic or self.midpoint:  # (the affine midpoint: its forces)
             grid["gf"] = ti.Vector.field(d, real)
         if self.apic or self.pic:
             grid["gv"] = ti.Vector.field(d, real)  # velocity of the last grid update
@@ -204,7 +204,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
             fb.dense(ti.i, n).place(*stages.values())
             scratch.update(stages)
         if self.midpoint:  # the midpoint iteration's scratch
-            iterate = midpoint_fields(d, real)
+            iterate = midpoint_fields(d, real, self.apic)
             fb.dense(ti.i, n).place(*iterate.values())
             scratch.update(iterate)
         # run state and the first error

@@ -200,7 +200,8 @@ class State:
     def upload_body_force(self, prog, step):
         """The body force b(X, t) of every particle at the start of step ``step`` (t =
         step dt, the time the kernels keep; with the rk4 integrator also at t + dt/2 and
-        t + dt), evaluated in Python in one vectorised call per time, into ``prog``."""
+        t + dt, with the midpoint one at t + dt/2 only), evaluated in Python in one
+        vectorised call per time, into ``prog``."""
         force = self.model.body_force
         if force.frame == "reference":
             X = self.model.positions
@@ -209,6 +210,8 @@ class State:
         dt = self.model.dt
         if self.features.rk4:  # at the Runge-Kutta stage times, (n, stage, dim)
             values = np.stack([force(X, (step + c) * dt) for c in STAGE_TIMES], axis=1)
+        elif self.features.midpoint:  # at mid-step
+            values = force(X, (step + 0.5) * dt)
         else:
             values = force(X, step * dt)
         prog.set_body_force(np.ascontiguousarray(values))

@@ -69,6 +69,23 @@ class Transfer:
             self._merge_copies(ti.static(tuple(self.copies)))  # the affine grid pass sums them
 
     @ti.func
+    def _external_force(self, p):
+        """The particle's external force: m_p (g + b_p) + its tractions at the step's time."""
+        mp = self.m[p]
+        fp = ti.Vector.zero(float, self.dim)
+        for k in ti.static(range(self.dim)):
+            if ti.static(self.f.gravity[k]):
+                fp[k] += mp * self.p.gravity()[k]
+        if ti.static(self.has_traction):
+            if p == self.p.traction_particle():
+                fp[0] += self.p.traction_amplitude() * self.traction_fn.at(self.time[None], self.p.traction_param())
+        if ti.static(self.body_force):
+            fp += mp * self.b[p]
+        if ti.static(self.surface_force):
+            fp += self.f_ext[p] * self.surface_fn.at(self.time[None], self.p.surface_param())
+        return fp
+
+    @ti.func
     def _p2g_particle(self, p, copy):
         base, w, dw, xi, inside = self._stencil(p)
         node_values = ti.Matrix.zero(float, 3, self.basis.support)
@@ -76,17 +93,7 @@ class Transfer:
             self._fail(1, p)
         else:
             mp = self.m[p]
-            fp = ti.Vector.zero(float, self.dim)
-            for k in ti.static(range(self.dim)):
-                if ti.static(self.f.gravity[k]):
-                    fp[k] += mp * self.p.gravity()[k]
-            if ti.static(self.has_traction):
-                if p == self.p.traction_particle():
-                    fp[0] += self.p.traction_amplitude() * self.traction_fn.at(self.time[None], self.p.traction_param())
-            if ti.static(self.body_force):
-                fp += mp * self.b[p]
-            if ti.static(self.surface_force):
-                fp += self.f_ext[p] * self.surface_fn.at(self.time[None], self.p.surface_param())
+            fp = self._external_force(p)
             stress_volume = self.sigma[p] * self.vol[p]
             affine = ti.Matrix.zero(float, self.dim, self.dim)
             if ti.static(self.mls_mpm):
@@ -201,6 +208,25 @@ class Transfer:
         return vp, self.p.h() * B - vp.outer_product(d), grad_du
 
     @ti.func
+    def _affine_of(self, B, base, w, xi):
+        """C_p = B_p D_p^-1 from B_p = sum_i phi_i v_i (x_i - x_p)^T: D^-1 the constant of
+        MLS-MPM, else D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T, diagonal for tensor
+        products of a basis reproducing linear fields (the linear basis keeps B_p, see
+        _p2g)."""
+        C = B
+        if ti.static(self.mls_mpm):
+            C = B * self.p.D_inv()
+        elif ti.static(self.basis.support > 2):
+            for k in ti.static(range(self.dim)):
+                dk = 0.0
+                for a in ti.static(range(self.basis.support)):
+                    r = (base[k] + a - self.node_offset - xi[k]) * self.p.h()
+                    dk += w[a, k] * r * r
+                for j in ti.static(range(self.dim)):
+                    C[j, k] /= dk
+        return C
+
+    @ti.func
     def _g2p_update(self):
         # G2P: du_p = sum_i phi_i v_i dt (u_p, x_p); grad du = sum_i v_i dt dphi_i^T;
         # stress from the material (2.2.4 in 1D); V *= det(I + grad du); with the affine
@@ -223,20 +249,9 @@ class Transfer:
                 B = ti.Matrix.zero(float, self.dim, self.dim)
                 vp, B, grad_du = self._affine_gather(base, w, dw, xi, not self.mls_mpm)
                 self.v[p] = vp
+                self.C[p] = self._affine_of(B, base, w, xi)
                 if ti.static(self.mls_mpm):
-                    self.C[p] = B * self.p.D_inv()
                     grad_du = self.C[p] * self.p.dt()
-                else:
-                    # D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T: diagonal for tensor
-                    # products of a basis reproducing linear fields
-                    for k in ti.static(range(self.dim)):
-                        dk = 0.0
-                        for a in ti.static(range(self.basis.support)):
-                            r = (base[k] + a - self.node_offset - xi[k]) * self.p.h()
-                            dk += w[a, k] * r * r
-                        for j in ti.static(range(self.dim)):
-                            B[j, k] /= dk
-                    self.C[p] = B
             else:
                 for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
                     phi, grad = self._weight(w, dw, offset)
@@ -361,7 +376,10 @@ class Transfer:
         if ti.static(self.rk4):
             self._rk4_step()  # four grid solves of the Runge-Kutta stages (rk4.py)
         elif ti.static(self.midpoint):
-            self._midpoint_step()  # the energy-conserving midpoint iteration (midpoint.py)
+            if ti.static(self.apic):  # the energy-conserving midpoint iteration (midpoint.py)
+                self._affine_midpoint_step()
+            else:
+                self._midpoint_step()
         elif ti.static(self.apic):
             # affine transfer: P2G of mass and momentum + dt force, v = P / m (the grid
             # pass leaves m and P cleared: no separate clearing pass), G2P
