@@ -53,9 +53,10 @@ the state), so they cost no further compilation.  The accepted run itself is not
 (its time is kept as ``first_run_seconds``): the first run of a solver carries one-time
 costs (Taichi compiles its field accessors on first use, the first launches warm up)
 that are far larger than the stepping of a small 1D run - e.g. 3.5 ms against 0.4 ms for
-1000 steps of the 4-element string.  The runs of the dt trials are released only after
-the timing: freeing a solver's fields makes the next launch of every other solver slow
-(~0.4 s, measured).
+1000 steps of the 4-element string.  Each run of the dt trials is released as soon as
+its error is known, and the timed runs advance a new solver of the accepted run's scene:
+it takes the compiled program over with nothing to save (a finer trial had displaced the
+accepted run's state, and keeping that state cost a kernel build per feature set).
 """
 from __future__ import annotations
 
@@ -89,10 +90,11 @@ RECORD_KEYS = ("problem", "basis", "mass", "elements", "ppc", "placement", "dt",
 class _Run:
     """One simulation to ``t_end``: error against the exact solution and stepping time.
 
-    The solver stays alive (``release()`` frees it) so that further timing samples can
-    advance it without compiling again.  Nothing is tracked and no energy is recorded, so
-    ``run_seconds`` is pure stepping; the error is the study's RMS error (3.2), as in
-    :func:`timpm.studies.study.run_problem`.
+    Its solver is released once the record is taken; further timing samples advance a
+    new solver of the same scene (``time_again``; ``release()`` frees it), which the
+    compiled program serves without compiling again.  Nothing is tracked and no energy
+    is recorded, so ``run_seconds`` is pure stepping; the error is the study's RMS error
+    (3.2), as in :func:`timpm.studies.study.run_problem`.
     """
 
     def __init__(self, prob, *, elements, ppc, basis, mass, dt, t_end, placement, mode,
@@ -102,6 +104,7 @@ class _Run:
         scene = prob.scene(elements=elements, ppc=ppc, basis=basis, mass=mass, dt=dt,
                            placement=placement, stress_update=stress_update)
         x0 = scene.positions.copy()
+        self.scene, self.mode, self.timer = scene, mode, None
         self.solver = Solver(scene, track=(), energies=False, mode=mode)
         try:
             self.solver.run(t_end, progress=False)
@@ -116,20 +119,25 @@ class _Run:
                 # the problem's scheme for this basis and mass (mms-1d: mls, rk4; mms-2d: mls)
                 "projection": scene.model.projection, "integrator": scene.model.integrator,
             }
-        except BaseException:
-            self.release()
-            raise
+        finally:
+            self.solver.release()  # its state is not needed again: nothing to save
+            self.solver = None
 
     def time_again(self) -> float:
-        """Advance the same solver by the same number of steps; its stepping seconds."""
-        before = self.solver.run_seconds
-        self.solver.run(n_steps=self.record["steps"], progress=False)
-        return self.solver.run_seconds - before
+        """Advance a solver of the same scene by the run's number of steps (a new one at
+        the first call, from the initial state); its stepping seconds."""
+        from ..solver import Solver
+
+        if self.timer is None:
+            self.timer = Solver(self.scene, track=(), energies=False, mode=self.mode)
+        before = self.timer.run_seconds
+        self.timer.run(n_steps=self.record["steps"], progress=False)
+        return self.timer.run_seconds - before
 
     def release(self):
-        if self.solver is not None:
-            self.solver.release()
-            self.solver = None
+        if self.timer is not None:
+            self.timer.release()
+            self.timer = None
 
 
 def _divides(t_end, dt):
@@ -153,8 +161,7 @@ def choose_dt(run, dt0, dt_tolerance=0.1, max_halvings=4, defer_release=None):
     ``time_error_estimate``, ``time_error_separated`` and ``dt_trials`` (list of
     ``[dt, error]``).  The accepted run is not released: the caller times it further.
     The other runs are released, or, if ``defer_release`` is a list, appended to it for
-    the caller to release after timing: freeing a Taichi field tree makes the next launch
-    of every surviving kernel slow (~0.4 s, measured), which would spoil a timing.
+    the caller to release later.
     """
     dropped = []
 
@@ -348,13 +355,9 @@ def _configuration_runs(prob, conf, settings) -> dict:
         r = _Run(prob, dt=dt, t_end=t_end, mode=mode, stress_update=stress_update, **conf)
         return r
 
-    others = []
     try:
-        accepted, info = choose_dt(run, dt0, settings["dt_tolerance"], settings["max_halvings"],
-                                   defer_release=others)
+        accepted, info = choose_dt(run, dt0, settings["dt_tolerance"], settings["max_halvings"])
     except (ValueError, SimulationError) as exc:
-        for r in others:
-            r.release()
         return skip(f"run failed at dt = {tried[-1]:.4g} s: {exc}", dt=tried[-1])
     try:
         first = accepted.record["wall_seconds"]
@@ -370,8 +373,6 @@ def _configuration_runs(prob, conf, settings) -> dict:
                "dt0": dt0, "critical_dt": crit, "stress_update": stress_update}
     finally:
         accepted.release()
-        for r in others:
-            r.release()
     rec["dt"], rec["rms_error"] = info["dt"], info["rms_error"]
     note = (f"{tag}: dt = {rec['dt']:.4g} s ({rec['steps']} steps"
             f"{'' if rec['time_error_separated'] else ', time error not separated'}),"
