@@ -90,6 +90,19 @@ def test_a_step_above_the_critical_one_stops_the_run_naming_the_step():
     assert err.value.code == ErrorCode.MIDPOINT and 1 <= err.value.step <= 3
 
 
+def test_an_iterate_that_inverts_stops_the_step_naming_the_particle():
+    # the string thrown at 3,000 times its speed: the first pass's F_end = (I + dt grad
+    # vbar) F_n inverts; the iteration stops there (not after 400 passes) and names a
+    # particle, where sigma(F) would have been NaN and reported as mere non-convergence
+    model = _string("midpoint", 0.5).model
+    model = dataclasses.replace(model, velocity=model.velocity * 3e3)
+    solver = Solver(model, energy_guard=None)
+    with pytest.raises(SimulationError, match=r"the iterate of particle \d+'s F inverted") as err:
+        solver.run(n_steps=10)
+    assert err.value.code == ErrorCode.MIDPOINT and err.value.step == 1
+    assert 0 <= err.value.particle < model.n_particles
+
+
 @pytest.mark.parametrize("changes, message", [
     (dict(pic_fraction=0.5), "does not take a PIC fraction"),
     (dict(damping=0.1), "does not take local damping"),

@@ -35,7 +35,7 @@ def recorded_failure(prog, state):
                                "the mass matrix is near singular (nodes that particles "
                                "barely touch): raise small_mass or use the lumped mass",
                                code, step)
-    if code == ErrorCode.MIDPOINT:
+    if code == ErrorCode.MIDPOINT and where < 0:
         return SimulationError(f"{when}: {code.message} in {MIDPOINT_MAX_ITERATIONS} "
                                "passes; its passes slow down as dt nears the critical step "
                                "and fail beyond it: take a smaller dt", code, step)
@@ -48,6 +48,11 @@ def recorded_failure(prog, state):
         hi = ", ".join(f"{o + n * lay.h:g}" for o, n in zip(lay.origin, lay.elements))
         at = f"x = ({xs}), grid from ({', '.join(f'{o:g}' for o in lay.origin)}) to ({hi})"
     msg = f"{when}: particle {where} {code.message} ({at})"
+    if code == ErrorCode.MIDPOINT:
+        return SimulationError(f"{when}: {code.message}: the iterate of particle {where}'s F "
+                               f"inverted (det F <= 0) or left the finite numbers ({at}); "
+                               "the step is too large for the motion: take a smaller dt",
+                               code, step, particle=where)
     if code == ErrorCode.VOLUME_RANGE:
         lo, hi = (lay.values[k] for k in ("volume_min", "volume_max"))
         density = model.materials[int(model.material_index[where])].density

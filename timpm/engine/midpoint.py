@@ -97,16 +97,19 @@ class Midpoint:
                 c, s = self._midpoint_particle(p, relax)
                 change = ti.max(change, c)
                 largest = ti.max(largest, s)
+            if self.err_count[None] != 0:  # an iterate inverted or left the finite numbers
+                break
             if it > 0 and (change <= tol * largest + ti.Vector([0.0, floor])).all():
                 converged = True
                 break
             if it > 1 and change[0] > 0.5 * previous:  # slow: a fast mode near +-i mu
                 relax = self.p.midpoint_relaxation()
             previous = change[0]
-        if not converged:
-            self._fail(ti.static(int(ErrorCode.MIDPOINT)), 0)
-        for p in range(self.p.n_particles()):
-            self._midpoint_finish(p)
+        if not converged and self.err_count[None] == 0:
+            self._fail(ti.static(int(ErrorCode.MIDPOINT)), -1)  # -1: no particle to name
+        if self.err_count[None] == 0:
+            for p in range(self.p.n_particles()):
+                self._midpoint_finish(p)
 
     @ti.func
     def _midpoint_particle(self, p, relax):
@@ -130,6 +133,7 @@ class Midpoint:
             F0 = self.F_start[p]
             F1 = (ti.Matrix.identity(float, self.dim) + self.p.dt() * grad_v) @ F0
             v_bar = 0.5 * (self.v_start[p] + v_end)
+            self._check_iterate(p, F1, v_bar)
             change = ti.Vector([ti.abs(v_bar - self.v[p]).max(), ti.abs(F1 - self.F[p]).max()])
             size = ti.Vector([ti.abs(v_bar).max(), ti.abs(F1 - F0).max()])
             self.v_end[p] = v_end
@@ -139,6 +143,14 @@ class Midpoint:
             self.v[p] += relax * (v_bar - self.v[p])
             self.sigma[p] = self._averaged_stress(p, F0, F1)
         return change, size
+
+    @ti.func
+    def _check_iterate(self, p, F1, v_bar):
+        # an iterate with det F <= 0 or a non-finite value ends the iteration, naming p (a
+        # step too large for the motion, or passes that diverge): sigma(F) has no value
+        state = F1.sum() + v_bar.sum()
+        if not (F1.determinant() > 0.0 and ti.abs(state) < 1e300):  # NaN fails both
+            self._fail(ti.static(int(ErrorCode.MIDPOINT)), p)
 
     @ti.func
     def _averaged_stress(self, p, F0, F1):
@@ -205,6 +217,8 @@ class Midpoint:
                 c, s = self._affine_midpoint_particle(p)
                 change[1] = ti.max(change[1], c)
                 largest[1] = ti.max(largest[1], s)
+            if self.err_count[None] != 0:  # off the grid, or an iterate inverted
+                break
             # grid: a_i = M^-1 F_i (walls), v_i^(n+1) = v_i^n + dt a_i kept in gf; the
             # residual of vbar_i = (v_i^n + v_i^(n+1)) / 2
             self._solve_mass(self.gf, True)
@@ -226,14 +240,15 @@ class Midpoint:
             previous = change[0]
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                 self.gv[I] += relax * (0.5 * (self.gp[I] + self.gf[I]) - self.gv[I])
-        if not converged:
-            self._fail(ti.static(int(ErrorCode.MIDPOINT)), 0)
-        # G2P: v_p = sum phi_i v_i^(n+1), C_p from v_i^(n+1), x_p += dt sum phi_i vbar_i
-        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
-            self.gp[I] = self.gv[I]  # vbar_i
-            self.gv[I] = self.gf[I]  # v_i^(n+1), which _affine_gather reads
-        for p in range(self.p.n_particles()):
-            self._affine_midpoint_finish(p)
+        if not converged and self.err_count[None] == 0:
+            self._fail(ti.static(int(ErrorCode.MIDPOINT)), -1)  # -1: no particle to name
+        if self.err_count[None] == 0:
+            # G2P: v_p = sum phi_i v_i^(n+1), C_p from v_i^(n+1), x_p += dt sum phi_i vbar_i
+            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                self.gp[I] = self.gv[I]  # vbar_i
+                self.gv[I] = self.gf[I]  # v_i^(n+1), which _affine_gather reads
+            for p in range(self.p.n_particles()):
+                self._affine_midpoint_finish(p)
 
     @ti.func
     def _affine_momentum(self, p):
@@ -266,6 +281,7 @@ class Midpoint:
                 grad_du = B * self.p.D_inv() * self.p.dt()
             F0 = self.F_start[p]
             F1 = (ti.Matrix.identity(float, self.dim) + grad_du) @ F0
+            self._check_iterate(p, F1, ti.Vector.zero(float, self.dim))
             change = ti.abs(F1 - self.F[p]).max()
             size = ti.abs(F1 - F0).max()
             self.F[p] = F1
