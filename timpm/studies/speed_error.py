@@ -47,9 +47,9 @@ Wall time
 ``wall_seconds`` is the stepping time of a run to ``t_end`` at the accepted ``dt``:
 kernel compilation (``compile_seconds``, reported apart) and energy recording are
 excluded, no particle is tracked.  It is the minimum over ``repeats`` timed runs, the
-usual estimate on a shared, noisy machine.  The timed runs advance the accepted run's
-compiled solver by the same number of steps again (the work per step does not depend on
-the state), so they cost no further compilation.  The accepted run itself is not a sample
+usual estimate on a shared, noisy machine.  The timed runs advance a solver of the
+accepted run's scene by the same number of steps (the work per step does not depend on
+the state) on the program already compiled, so they cost no further compilation.  The accepted run itself is not a sample
 (its time is kept as ``first_run_seconds``): the first run of a solver carries one-time
 costs (Taichi compiles its field accessors on first use, the first launches warm up)
 that are far larger than the stepping of a small 1D run - e.g. 3.5 ms against 0.4 ms for
