@@ -49,11 +49,11 @@ kernel compilation (``compile_seconds``, reported apart) and energy recording ar
 excluded, no particle is tracked.  It is the minimum over ``repeats`` timed runs, the
 usual estimate on a shared, noisy machine.  The timed runs advance a solver of the
 accepted run's scene by the same number of steps (the work per step does not depend on
-the state) on the program already compiled, so they cost no further compilation.  The accepted run itself is not a sample
-(its time is kept as ``first_run_seconds``): the first run of a solver carries one-time
-costs (Taichi compiles its field accessors on first use, the first launches warm up)
-that are far larger than the stepping of a small 1D run - e.g. 3.5 ms against 0.4 ms for
-1000 steps of the 4-element string.  Each run of the dt trials is released as soon as
+the state) on the program already compiled, so they cost no further compilation.  The
+accepted run itself is not a sample (its time is kept as ``first_run_seconds``): the
+first run of a solver carries one-time costs (Taichi compiles its field accessors on
+first use, the first launches warm up) that are far larger than the stepping of a small
+1D run - e.g. 3.5 ms against 0.4 ms for 1000 steps of the 4-element string.  Each run of the dt trials is released as soon as
 its error is known, and the timed runs advance a new solver of the accepted run's scene:
 it takes the compiled program over with nothing to save (a finer trial had displaced the
 accepted run's state, and keeping that state cost a kernel build per feature set).
