@@ -80,8 +80,6 @@ class Midpoint:
         for p in range(self.p.n_particles()):
             self.v_start[p] = self.v[p]
             self.F_start[p] = self.F[p]
-        tol = ti.static(MIDPOINT_TOLERANCE[self.f.precision])
-        floor = ti.static(F_FLOOR[self.f.precision])
         converged = False
         relax = 1.0  # plain passes while the residual falls fast, then relaxed
         previous = 0.0
@@ -99,17 +97,33 @@ class Midpoint:
                 largest = ti.max(largest, s)
             if self.err_count[None] != 0:  # an iterate inverted or left the finite numbers
                 break
-            if it > 0 and (change <= tol * largest + ti.Vector([0.0, floor])).all():
+            if it > 0 and self._midpoint_converged(change, largest, 0.0):
                 converged = True
                 break
-            if it > 1 and change[0] > 0.5 * previous:  # slow: a fast mode near +-i mu
-                relax = self.p.midpoint_relaxation()
+            relax = self._midpoint_relaxation(it, change[0], previous, relax)
             previous = change[0]
         if not converged and self.err_count[None] == 0:
             self._fail(ti.static(int(ErrorCode.MIDPOINT)), -1)  # -1: no particle to name
         if self.err_count[None] == 0:
             for p in range(self.p.n_particles()):
                 self._midpoint_finish(p)
+
+    @ti.func
+    def _midpoint_converged(self, change, largest, v_floor):
+        """The residual of vbar (change[0]) within tolerance of the largest vbar, and F_end's
+        change (change[1]) within it of the largest F increment, each above its floor."""
+        tol = ti.static(MIDPOINT_TOLERANCE[self.f.precision])
+        floor = ti.static(F_FLOOR[self.f.precision])
+        return (change <= tol * largest + ti.Vector([v_floor, floor])).all()
+
+    @ti.func
+    def _midpoint_relaxation(self, it, change, previous, relax):
+        """The relaxation of the next pass: r once the residual falls by less than half in
+        a pass (a fast mode near +-i mu), else as it was."""
+        out = relax
+        if it > 1 and change > 0.5 * previous:
+            out = self.p.midpoint_relaxation()
+        return out
 
     @ti.func
     def _midpoint_particle(self, p, relax):
@@ -201,10 +215,8 @@ class Midpoint:
         self._solve_mass(self.gp, True)
         for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
             self.gv[I] = self.gp[I]
-        tol = ti.static(MIDPOINT_TOLERANCE[self.f.precision])
-        floor = ti.static(F_FLOOR[self.f.precision])
         converged = False
-        relax = 1.0  # plain passes while the residual falls fast, then relaxed
+        relax = 1.0
         previous = 0.0
         for it in range(MIDPOINT_MAX_ITERATIONS):
             # particles: F_end = (I + dt grad vbar) F_n, sbar; F_i = sum phi_i f_p - sbar_p
@@ -231,12 +243,11 @@ class Midpoint:
             # (the floor of vbar_i: the velocity whose difference over a cell moves F by its
             # floor in a step; APIC's transfers dissipate, and a velocity fallen to the
             # rounding of the forces would otherwise never settle)
-            v_floor = floor * self.p.h() / self.p.dt()
-            if it > 0 and (change <= tol * largest + ti.Vector([v_floor, floor])).all():
+            v_floor = ti.static(F_FLOOR[self.f.precision]) * self.p.h() / self.p.dt()
+            if it > 0 and self._midpoint_converged(change, largest, v_floor):
                 converged = True  # F_end and x_end from this iterate, v from its forces
                 break
-            if it > 1 and change[0] > 0.5 * previous:  # slow: a fast mode near +-i mu
-                relax = self.p.midpoint_relaxation()
+            relax = self._midpoint_relaxation(it, change[0], previous, relax)
             previous = change[0]
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                 self.gv[I] += relax * (0.5 * (self.gp[I] + self.gf[I]) - self.gv[I])
