@@ -299,5 +299,42 @@ def test_ctrl_c_stops_a_scene_file_run_and_keeps_its_frames(tmp_path):
     assert doc["interrupted"] is True and doc["steps"] == saved["step"] > 0
     last = np.load(sorted(frames.glob("particles_*.npz"))[-1])
     assert int(last["step"]) <= saved["step"]
-    # timpm resume cannot rebuild a scene file's run: it says so
-    assert _cli("resume", tmp_path / "timpm-interrupted.npz", "--t-end", 2000) == 2
+    # timpm resume rebuilds the scene from the file and its --set, and goes on
+    assert _cli("resume", tmp_path / "timpm-interrupted.npz", "--t-end", saved["t"] + 0.05,
+                "--quiet") == 0
+
+
+def test_a_scene_file_run_resumes_bit_for_bit(tmp_path, capsys):
+    """A world's scene file run with --checkpoint, continued by timpm resume, ends where
+    the straight run ends: every state array and the records, bit for bit (serial)."""
+    scene = ROOT / "examples" / "disks.toml"
+    common = ("--set", "domain.cells=16", "--mode", "serial", "--quiet")
+    straight, part, resumed = (tmp_path / f"{k}.npz" for k in ("straight", "part", "resumed"))
+    assert _cli("run", scene, *common, "--t-end", 0.4, "--checkpoint", straight) == 0
+    assert _cli("run", scene, *common, "--t-end", 0.2, "--checkpoint", part) == 0
+    assert _cli("resume", part, "--t-end", 0.4, "--checkpoint", resumed, "--npz",
+                tmp_path / "frames", "--frames", 2, "--json", tmp_path / "r.json") == 0
+    a, b = load_checkpoint(straight), load_checkpoint(resumed)
+    assert a["step"] == b["step"] > load_checkpoint(part)["step"] > 0
+    for block in a["arrays"]:
+        assert np.array_equal(a["arrays"][block], b["arrays"][block]), block
+    for key in a["history"]:
+        assert np.array_equal(a["history"][key], b["history"][key]), key
+    assert len(list((tmp_path / "frames").glob("particles_*.npz"))) == 3
+    assert json.loads((tmp_path / "r.json").read_text())["steps"] == b["step"]
+
+
+def test_resume_refuses_a_scene_file_changed_since_and_the_problem_outputs(tmp_path, capsys):
+    scene = tmp_path / "disks.toml"
+    scene.write_text((ROOT / "examples" / "disks.toml").read_text())
+    part = tmp_path / "part.npz"
+    assert _cli("run", scene, "--set", "domain.cells=16", "--t-end", 0.1, "--checkpoint",
+                part, "--quiet") == 0
+    assert _cli("resume", part, "--t-end", 0.2, "--plot", tmp_path / "p.png") == 2
+    assert "--plot: a scene file's world run" in capsys.readouterr().err
+    scene.write_text(scene.read_text().replace("E = 1000.0", "E = 2000.0"))  # a stiffer
+    assert _cli("resume", part, "--t-end", 0.2) == 2  # rubber: a shorter Courant step
+    err = capsys.readouterr().err
+    assert f"{scene} no longer builds the checkpoint's scene" in err and "its dt is" in err
+    assert _cli("resume", part, "--t-end", 0.05) == 2  # before the saved time
+    assert "is not after the checkpoint's time" in capsys.readouterr().err

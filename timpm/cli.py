@@ -497,9 +497,15 @@ def _main(argv=None):
                           args.t_end, args.allow_many_steps)
             return _compare(args)
         if args.command == "resume":
+            from .checkpoint import load_checkpoint
             from .studies.study import resume_problem
 
             _check_output_files(args)
+            saved = load_checkpoint(args.saved)
+            if (saved["run"] or {}).get("scene_file") is not None:  # a world's scene file
+                from .scenefile.command import resume
+
+                return resume(args, saved, _field_writer(args))
             _start_taichi(args)
             mode = {} if args.mode is None else {"mode": args.mode}
             doc = _run(args, lambda **out: resume_problem(

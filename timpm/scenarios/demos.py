@@ -407,18 +407,19 @@ class DemoResult:
 
 def run_frames(solver, t_end, frames, movie=None, color=None, fields=None, progress=None,
                observe=None, allow_many_steps=False) -> dict:
-    """Run ``solver`` to ``t_end`` in ``frames`` equal parts; at the start and after each
-    part ``movie`` gets the particles coloured by ``color``, ``fields`` the particle fields
-    and ``observe(solver, t)`` a dict of values.  Returns those values' series (with ``t``)
-    as arrays.  A Ctrl-C (:class:`~timpm.interrupt.RunInterrupted`) leaves at a frame's
-    step boundary; the frames so far are written."""
+    """Run ``solver`` from its time t0 to ``t_end`` in ``frames`` equal parts; at the start
+    and after each part ``movie`` gets the particles coloured by ``color``, ``fields`` the
+    particle fields and ``observe(solver, t)`` a dict of values.  Returns those values'
+    series (with ``t``) as arrays.  A Ctrl-C (:class:`~timpm.interrupt.RunInterrupted`)
+    leaves at a frame's step boundary; the frames so far are written."""
     series = {}
     bar = Progress(frames, progress)
     solver.compile()
+    t0 = solver.t  # 0 for a new run (t0 + (t_end - t0) k / frames: t_end k / frames)
     try:
         for k in range(frames + 1):
             if k:
-                solver.run(t_end=t_end * k / frames, progress=False,
+                solver.run(t_end=t0 + (t_end - t0) * k / frames, progress=False,
                            allow_many_steps=allow_many_steps)
             if observe is not None:
                 for key, value in observe(solver, solver.t).items():

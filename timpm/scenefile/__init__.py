@@ -29,7 +29,8 @@ Its modules, each importing only those listed before it:
 * ``schema``: the value types and the keys of every table;
 * ``reader``: the document read, overridden and checked table by table;
 * ``build``: the checked tables made a :class:`SceneFile` (:func:`load_scene`);
-* ``runner``: a scene run, its outputs written (:func:`run_scene`);
+* ``runner``: a scene run, its outputs written (:func:`run_scene`), a world run's
+  checkpoint continued (:func:`resume_scene`);
 * ``command``: ``timpm run FILE.toml`` (:func:`main`);
 * ``reference``: the schema as the tables of docs/scene_files.md.
 """
@@ -37,8 +38,8 @@ from .build import SceneFile, load_scene
 from .command import is_scene_argument, main
 from .keypaths import key_lines
 from .reference import schema_reference
-from .runner import SceneResult, run_scene
+from .runner import SceneResult, resume_scene, run_scene
 from .schema import MODES, OUTPUT
 
-__all__ = ["SceneFile", "SceneResult", "load_scene", "run_scene", "key_lines", "main",
-           "is_scene_argument", "schema_reference", "MODES", "OUTPUT"]
+__all__ = ["SceneFile", "SceneResult", "load_scene", "run_scene", "resume_scene", "key_lines",
+           "main", "is_scene_argument", "schema_reference", "MODES", "OUTPUT"]

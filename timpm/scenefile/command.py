@@ -1,10 +1,12 @@
 """The command ``timpm run FILE.toml [options]``: its options made key overrides, the scene
-loaded, Taichi started and the scene run; errors print ``timpm: error: ...``."""
+loaded, Taichi started and the scene run; errors print ``timpm: error: ...``.  And
+``timpm resume`` of a world run's checkpoint (:func:`resume`)."""
 import argparse
 import os
 import sys
 
 from ..interrupt import RunInterrupted, deferred_sigint
+from ..output.fields import check_output_file
 from ..problems import PROBLEMS
 from .build import load_scene
 from .reader import read_toml
@@ -52,6 +54,9 @@ def _parser():
                    "vtk / npz)")
     p.add_argument("--gif", metavar="FILE.gif", help="animated GIF (output.gif)")
     p.add_argument("--json", metavar="FILE", help="the run as JSON (output.json)")
+    p.add_argument("--checkpoint", metavar="FILE", help="save the whole state and how to "
+                   "rebuild the scene (the file's path, these options) to FILE (.npz) at "
+                   "the end and on Ctrl-C; continue with: timpm resume FILE --t-end T")
     p.add_argument("--set", type=_setting, action="append", default=[], metavar="KEY=VALUE",
                    dest="settings", help="set any key, e.g. domain.cells=64, body[0].ppc=3, "
                    "simulation.transfer=musl; KEY= removes it")
@@ -89,11 +94,15 @@ def main(argv) -> int:
     try:
         document = read_toml(args.file)  # read once: its form names the overrides' table
         form = "problem" if "problem" in document[1] else "simulation"
-        scene = load_scene(args.file, _command_line_overrides(args, form), document)
+        overrides = _command_line_overrides(args, form)
+        scene = load_scene(args.file, overrides, document)
+        if args.checkpoint:
+            check_output_file(args.checkpoint, "--checkpoint")
         runtime.init(threads=args.threads, arch=args.arch,
                      precision=scene.precision or "f64")
         with deferred_sigint():
-            result = run_scene(scene, progress=args.progress)
+            result = run_scene(scene, progress=args.progress, checkpoint=args.checkpoint,
+                               overrides=overrides)
     except RunInterrupted as stop:
         saved = f"; state saved to {stop.checkpoint}" if stop.checkpoint else ""
         record = scene.output.get("json")
@@ -103,6 +112,39 @@ def main(argv) -> int:
     except (ValueError, SimulationError, runtime.BackendUnavailable) as exc:
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
+    if not args.quiet:
+        print(result.report())
+    return 0
+
+
+def resume(args, saved, fields) -> int:
+    """``timpm resume FILE --t-end T`` of a scene file's world run (``saved``: the loaded
+    checkpoint, ``fields``: the --vtk / --npz writer): the summary, --json the run's
+    document; Ctrl-C saves again and returns 130."""
+    from .. import runtime
+    from ..files import write_json
+    from .runner import resume_scene
+
+    for option in ("plot", "csv", "checkpoint_every"):
+        if getattr(args, option, None):
+            raise ValueError(f"--{option.replace('_', '-')}: a scene file's world run keeps "
+                             "its energies in --json and saves its checkpoint at the end and "
+                             "on Ctrl-C only")
+    runtime.init(threads=args.threads, arch=args.arch,
+                 precision=saved["fingerprint"]["precision"])
+    try:
+        with deferred_sigint():
+            result = resume_scene(saved, args.t_end, mode=args.mode, fields=fields,
+                                  frames=args.frames, checkpoint=args.checkpoint,
+                                  allow_many_steps=args.allow_many_steps)
+    except RunInterrupted as stop:
+        if args.json and stop.result is not None:
+            write_json(args.json, stop.result.document())
+        print(f"timpm: interrupted at step {stop.step} (t = {stop.t:g} s); state saved to "
+              f"{stop.checkpoint}", file=sys.stderr)
+        return 130
+    if args.json:
+        write_json(args.json, result.document())
     if not args.quiet:
         print(result.report())
     return 0

@@ -1,5 +1,7 @@
 """Running a checked scene: its output writers checked before any work, the world run frame
-by frame (a GIF, field files) or the problem run, the summary and the JSON record."""
+by frame (a GIF, field files) or the problem run, the summary and the JSON record; a world
+run's checkpoint continued (:func:`resume_scene`)."""
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -91,39 +93,46 @@ def _files(fields_writer, movie):
     return files
 
 
-def run_scene(scene, progress=None) -> SceneResult:
+def run_scene(scene, progress=None, checkpoint=None, overrides=None) -> SceneResult:
     """Run ``scene`` (a :class:`SceneFile` or a path), writing its outputs; returns the
-    :class:`SceneResult` (its JSON document is written when ``output.json`` is set)."""
+    :class:`SceneResult` (its JSON document is written when ``output.json`` is set).
+    ``checkpoint``: a file that gets the whole state at the end and at Ctrl-C, with the
+    scene file's path and ``overrides`` (the key paths the file was run with) for
+    ``timpm resume``."""
     from .. import runtime
 
     if not isinstance(scene, SceneFile):
-        scene = load_scene(scene)
+        scene = load_scene(scene, overrides)
     if scene.precision is not None and scene.precision != runtime.precision():
         raise scene.error(("simulation", "precision"), f"the scene runs in {scene.precision} "
                           f"but Taichi was started in {runtime.precision()}: call "
                           f"timpm.init(precision={scene.precision!r}) first")
     fields_writer, movie = _writers(scene)
     try:
-        result = (_run_problem(scene, fields_writer, progress) if scene.problem is not None
-                  else _run_world(scene, fields_writer, movie, progress))
+        result = (_run_problem(scene, fields_writer, progress, checkpoint)
+                  if scene.problem is not None else
+                  _run_world(scene, fields_writer, movie, progress, checkpoint,
+                             {"scene_file": os.path.abspath(scene.path),
+                              "overrides": dict(overrides or {})}))
     except RunInterrupted as stop:  # Ctrl-C: the partial record, then on to the caller
         if stop.result is not None and scene.output.get("json") is not None:
             write_json(scene.output["json"], stop.result.document())
         raise
-    result.files = _files(fields_writer, movie)
+    result.files = _files(fields_writer, movie) + ([str(checkpoint)] if checkpoint else [])
     if scene.output.get("json") is not None:
         result.files.append(scene.output["json"])
         write_json(scene.output["json"], result.document())
     return result
 
 
-def _run_problem(scene, fields_writer, progress) -> SceneResult:
+def _run_problem(scene, fields_writer, progress, checkpoint) -> SceneResult:
     from ..studies.study import run_problem
 
     try:
         run = run_problem(**scene.problem, fields=fields_writer,
                           frames=scene.output["frames"], progress=progress,
-                          interrupted_to=INTERRUPTED_CHECKPOINT)
+                          checkpoint=checkpoint,
+                          interrupted_to=checkpoint or INTERRUPTED_CHECKPOINT)
     except RunInterrupted as stop:
         stop.result = _problem_result(scene, stop.result)
         stop.result.interrupted = True
@@ -181,14 +190,15 @@ def _color_range(world, color, output):
     return value_range, label, unit
 
 
-def _run_world(scene, fields_writer, movie, progress) -> SceneResult:
+def _run_world(scene, fields_writer, movie, progress, checkpoint, run) -> SceneResult:
     from ..scenarios.demos import quantity, run_frames
     from ..solver import Solver
 
     world, frames, t_end = scene.world, scene.output["frames"], scene.t_end
     color = scene.output["color"]
-    solver = Solver(world, mode=scene.mode, energies=True,
-                    record_every=max(1, int(round(t_end / world.dt / 200))))
+    run = {**run, "mode": scene.mode,
+           "record_every": max(1, int(round(t_end / world.dt / 200)))}
+    solver = Solver(world, mode=scene.mode, energies=True, record_every=run["record_every"])
     try:
         if movie is not None:
             try:
@@ -204,14 +214,64 @@ def _run_world(scene, fields_writer, movie, progress) -> SceneResult:
         except RunInterrupted as stop:  # Ctrl-C: keep the state, the frames so far
             if movie is not None:
                 movie.close()
-            stop.checkpoint = save_checkpoint(INTERRUPTED_CHECKPOINT, solver,
-                                              {"scene_file": str(scene.path)})
+            stop.checkpoint = save_checkpoint(checkpoint or INTERRUPTED_CHECKPOINT, solver,
+                                              run)
             stop.result = _world_result(scene, solver, movie)
             stop.result.interrupted = True
             raise
         if movie is not None:
             movie.close()
+        if checkpoint:
+            save_checkpoint(checkpoint, solver, run)
         return _world_result(scene, solver, movie)
+    finally:
+        solver.release()
+
+
+def resume_scene(saved, t_end, mode=None, fields=None, frames=20, checkpoint=None,
+                 progress=None, allow_many_steps=False) -> SceneResult:
+    """Continue the scene file's world run of the checkpoint ``saved``
+    (:func:`timpm.checkpoint.load_checkpoint`) to ``t_end``: the scene rebuilt from its
+    file with the overrides it ran with, the state restored (a file whose physics changed
+    since is refused by the fingerprint), ``frames`` field frames over the resumed part
+    into ``fields``, the state saved to ``checkpoint`` at the end and at Ctrl-C.  The
+    file's own outputs (GIF, fields, JSON) are not written: the caller's are."""
+    from .. import runtime
+    from ..scenarios.demos import run_frames
+    from ..solver import Solver
+
+    run = saved["run"]
+    scene = load_scene(run["scene_file"], run.get("overrides") or None)
+    if scene.world is None:  # a problem's checkpoint holds the problem's own description
+        raise ValueError(f"{scene.path}: a problem scene now; the checkpoint holds a world "
+                         "run of it: rerun from the start")
+    if scene.precision != runtime.precision():
+        raise ValueError(f"the checkpoint's scene runs in {scene.precision} but Taichi was "
+                         f"started in {runtime.precision()}")
+    if not t_end > saved["t"]:
+        raise ValueError(f"--t-end {t_end:g} s is not after the checkpoint's time "
+                         f"{saved['t']:g} s")
+    solver = Solver(scene.world, mode=mode or run["mode"], energies=True,
+                    record_every=run["record_every"])
+    try:
+        try:
+            solver.restore(saved)
+        except ValueError as err:
+            raise ValueError(f"{scene.path} no longer builds the checkpoint's scene: {err}")
+        try:
+            run_frames(solver, t_end, frames, fields=fields, progress=progress,
+                       allow_many_steps=allow_many_steps)
+        except RunInterrupted as stop:
+            stop.checkpoint = save_checkpoint(checkpoint or INTERRUPTED_CHECKPOINT, solver,
+                                              run)
+            stop.result = _world_result(scene, solver, None)
+            stop.result.interrupted = True
+            raise
+        if checkpoint:
+            save_checkpoint(checkpoint, solver, run)
+        result = _world_result(scene, solver, None)
+        result.files = _files(fields, None) + ([str(checkpoint)] if checkpoint else [])
+        return result
     finally:
         solver.release()
 

@@ -152,9 +152,8 @@ def resume_problem(path, t_end, **options) -> RunResult:
                          "same scene and call solver.restore(load_checkpoint(...))")
     if "problem" not in saved["run"]:
         raise ValueError(f"checkpoint {path}: it holds a run of the scene file "
-                         f"{saved['run'].get('scene_file')!r}, which timpm resume cannot "
-                         "rebuild yet: build its World and call solver.restore("
-                         "load_checkpoint(...)) from Python")
+                         f"{saved['run'].get('scene_file')!r}: continue it with timpm "
+                         "resume or timpm.scenefile.resume_scene")
     allowed = {"fields", "frames", "checkpoint", "checkpoint_every", "interrupted_to",
                "progress", "mode", "allow_many_steps"}
     unknown = set(options) - allowed
