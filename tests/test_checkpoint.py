@@ -338,3 +338,11 @@ def test_resume_refuses_a_scene_file_changed_since_and_the_problem_outputs(tmp_p
     assert f"{scene} no longer builds the checkpoint's scene" in err and "its dt is" in err
     assert _cli("resume", part, "--t-end", 0.05) == 2  # before the saved time
     assert "is not after the checkpoint's time" in capsys.readouterr().err
+    with np.load(part, allow_pickle=False) as data:  # a Ctrl-C save before 2026-11-25
+        arrays = {k: data[k] for k in data.files}
+    header = json.loads(str(arrays["header"]))
+    header["run"] = {"scene_file": header["run"]["scene_file"]}
+    arrays["header"] = np.array(json.dumps(header))
+    np.savez(tmp_path / "old.npz", **arrays)
+    assert _cli("resume", tmp_path / "old.npz", "--t-end", 0.2) == 2
+    assert "written by an older timpm" in capsys.readouterr().err

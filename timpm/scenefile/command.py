@@ -130,8 +130,11 @@ def resume(args, saved, fields) -> int:
             raise ValueError(f"--{option.replace('_', '-')}: a scene file's world run keeps "
                              "its energies in --json and saves its checkpoint at the end and "
                              "on Ctrl-C only")
-    runtime.init(threads=args.threads, arch=args.arch,
-                 precision=saved["fingerprint"]["precision"])
+    try:
+        runtime.init(threads=args.threads, arch=args.arch,
+                     precision=saved["fingerprint"]["precision"])
+    except runtime.BackendUnavailable as exc:  # printed as the other argument errors
+        raise ValueError(str(exc)) from None
     try:
         with deferred_sigint():
             result = resume_scene(saved, args.t_end, mode=args.mode, fields=fields,

@@ -241,6 +241,10 @@ def resume_scene(saved, t_end, mode=None, fields=None, frames=20, checkpoint=Non
     from ..solver import Solver
 
     run = saved["run"]
+    if "record_every" not in run or "mode" not in run:
+        raise ValueError(f"the checkpoint of {run['scene_file']} was written by an older timpm "
+                         "that kept neither the command's overrides nor the record interval: "
+                         "rerun from the start")
     scene = load_scene(run["scene_file"], run.get("overrides") or None)
     if scene.world is None:  # a problem's checkpoint holds the problem's own description
         raise ValueError(f"{scene.path}: a problem scene now; the checkpoint holds a world "
