@@ -401,3 +401,20 @@ def test_the_pic_share_reaches_the_world_and_the_problem(tmp_path):
                                          r"in \[0, 1\], got 1.5"):
         load_scene(write(tmp_path, '[problem]\nname = "oedometer"\npic_fraction = 1.5\n',
                          name="p2.toml"))
+
+
+def test_the_integrator_reaches_the_world_and_its_conflicts_name_the_key(tmp_path):
+    """simulation.integrator of a world: handed to the World, and a conflict of the
+    midpoint integrator (slip walls) named with the key; the colliding disks between
+    roller walls under it never rise above their initial energy (kinetic + stored is at
+    most the APIC energy, which never grows and starts there: C_p = 0)."""
+    path = ROOT / "examples" / "disks.toml"
+    tiny = {"domain.cells": 16, "simulation.t_end": 0.3, **NO_FILES}
+    with pytest.raises(ValueError, match=r"disks.toml: simulation.integrator \(overridden\): "
+                                         r"integrator 'midpoint' .* does not take slip"):
+        load_scene(path, {**tiny, "simulation.integrator": "midpoint"})
+    scene = load_scene(path, {**tiny, "simulation.integrator": "midpoint",
+                              "domain.walls": "roller"})
+    assert scene.world.model.integrator == "midpoint"
+    total = np.asarray(run_scene(scene).series["total"])
+    assert total.max() <= total[0] * (1.0 + 1e-9) and total[-1] < total[0]

@@ -213,7 +213,8 @@ _WORLD_ERRORS = ((r"bodies \d+ and (\d+) overlap", "body"), (r"body (\d+)\b", "b
                  (r"time step dt", "simulation.dt"), (r"courant", "simulation.courant"),
                  (r"domain", "domain"), (r"the \S+ transfer|the mls-mpm", "simulation.transfer"),
                  (r"damping|local damping", "simulation.damping"),
-                 (r"pic_fraction", "simulation.pic_fraction"))
+                 (r"pic_fraction", "simulation.pic_fraction"),
+                 (r"integrator|mode='parallel'|mode='team'", "simulation.integrator"))
 
 
 def _world_error_key(message):
@@ -253,7 +254,8 @@ def _world_scene(reader, data, path) -> SceneFile:
                       allow_overlap=sim.get("allow_overlap", False),
                       allow_unstable_dt=sim.get("allow_unstable_dt", False),
                       damping=sim.get("damping", 0.0),
-                      pic_fraction=sim.get("pic_fraction", 0.0), tractions=tractions, name=name)
+                      pic_fraction=sim.get("pic_fraction", 0.0), tractions=tractions, name=name,
+                      integrator=sim.get("integrator", "euler-cromer"))
     except ValueError as err:
         key = _world_error_key(str(err))
         raise (reader.error(key, str(err)) if key else ValueError(f"{path}: {err}")) from None

@@ -76,6 +76,9 @@ SIMULATION = {
     "damping": Key("non-negative", 0.0, doc="local damping factor alpha"),
     "pic_fraction": Key("share", 0.0, doc="PIC share b of the musl velocity update "
                         "(0: FLIP)"),
+    "integrator": Key("string", "euler-cromer", doc="time integration (rk4, midpoint: laws "
+                      "with sigma(F), roller or sticky walls; midpoint conserves the energy, "
+                      "on one thread)", choices=INTEGRATORS),
     "mode": Key("string", "auto", doc="how the steps run (serial: one thread, "
                 "bit-reproducible)", choices=MODES),
     "precision": Key("string", "f64", doc="float type of the run", choices=("f64", "f32")),
