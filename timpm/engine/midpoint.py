@@ -188,18 +188,13 @@ class Midpoint:
     def _midpoint_end_state(self, p, x_new, v_new):
         # x, v and F of the converged iterate (F in place), sigma(F) and V = det F V0; the
         # body force's work m_p b_p . (x_new - x_n)
-        F_new = self.F[p]
         if ti.static(self.body_force and self.record_energies):
             self.accumulate(self.ext_work[None], self.m[p] * self.b[p].dot(x_new - self.x[p]))
         if ti.static(self.has_u):
             self.accumulate(self.u[p], x_new - self.x[p])
         self.x[p] = x_new
         self.v[p] = v_new
-        jac = F_new.determinant()
-        sig = self._stress_of_F(p, F_new)
-        vol = jac * self._initial_volume_of(p)
-        self.sigma[p] = sig
-        self.vol[p] = vol
+        sig, vol, jac = self._set_state_of_F(p, self.F[p])
         self._check_particle(p, x_new, v_new, sig, vol, jac)
 
     # ---- the affine transfers (APIC, MLS-MPM): the iteration on the grid ------------------

@@ -112,11 +112,7 @@ class RungeKutta:
             self.x[p] = x_new
             self.v[p] = v_new
             self.F[p] = F_new
-            jac = F_new.determinant()
-            sig = self._stress_of_F(p, F_new)
-            vol = jac * self._initial_volume_of(p)
-            self.sigma[p] = sig
-            self.vol[p] = vol
+            sig, vol, jac = self._set_state_of_F(p, F_new)
             if s == 3:
                 if ti.static(self.has_u):
                     self.accumulate(self.u[p], x_new - self.x_start[p])

@@ -360,6 +360,17 @@ class Transfer:
         return sig
 
     @ti.func
+    def _set_state_of_F(self, p, F):
+        """sigma_p = sigma(F) and V_p = det F V0_p stored; returns (sigma, V, det F) for the
+        particle's checks."""
+        jac = F.determinant()
+        sig = self._stress_of_F(p, F)
+        vol = jac * self._initial_volume_of(p)
+        self.sigma[p] = sig
+        self.vol[p] = vol
+        return sig, vol, jac
+
+    @ti.func
     def _initial_volume_of(self, p):
         """V0_p = m_p / density of the particle's law."""
         vol0 = 0.0
