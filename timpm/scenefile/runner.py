@@ -191,7 +191,7 @@ def _color_range(world, color, output):
 
 
 def _run_world(scene, fields_writer, movie, progress, checkpoint, run) -> SceneResult:
-    from ..scenarios.demos import quantity, run_frames
+    from ..scenarios.demos import quantity
     from ..solver import Solver
 
     world, frames, t_end = scene.world, scene.output["frames"], scene.t_end
@@ -208,24 +208,34 @@ def _run_world(scene, fields_writer, movie, progress, checkpoint, run) -> SceneR
             value_range, label, unit = _color_range(world, color, scene.output)
             movie.start(world, color, value_range=value_range, label=label, unit=unit,
                         title=scene.name)
-        try:
-            run_frames(solver, t_end, frames, movie=movie, color=color, fields=fields_writer,
-                       progress=progress)
-        except RunInterrupted as stop:  # Ctrl-C: keep the state, the frames so far
-            if movie is not None:
-                movie.close()
-            stop.checkpoint = save_checkpoint(checkpoint or INTERRUPTED_CHECKPOINT, solver,
-                                              run)
-            stop.result = _world_result(scene, solver, movie)
-            stop.result.interrupted = True
-            raise
-        if movie is not None:
-            movie.close()
-        if checkpoint:
-            save_checkpoint(checkpoint, solver, run)
-        return _world_result(scene, solver, movie)
+        return _frames_saved(scene, solver, run, checkpoint, movie, t_end, frames, color=color,
+                             fields=fields_writer, progress=progress)
     finally:
         solver.release()
+
+
+def _frames_saved(scene, solver, run, checkpoint, movie, t_end, frames, **options):
+    """``run_frames`` of a world's solver (``options``: its colour, fields, progress ...),
+    the movie closed and the state saved to ``checkpoint`` with the description ``run``
+    at the end; at Ctrl-C the frames so far kept, the state saved (to
+    ``timpm-interrupted.npz`` without a checkpoint) and the partial result on the
+    exception.  Returns the :class:`SceneResult`."""
+    from ..scenarios.demos import run_frames
+
+    try:
+        run_frames(solver, t_end, frames, movie=movie, **options)
+    except RunInterrupted as stop:  # Ctrl-C: keep the state, the frames so far
+        if movie is not None:
+            movie.close()
+        stop.checkpoint = save_checkpoint(checkpoint or INTERRUPTED_CHECKPOINT, solver, run)
+        stop.result = _world_result(scene, solver, movie)
+        stop.result.interrupted = True
+        raise
+    if movie is not None:
+        movie.close()
+    if checkpoint:
+        save_checkpoint(checkpoint, solver, run)
+    return _world_result(scene, solver, movie)
 
 
 def resume_scene(saved, t_end, mode=None, fields=None, frames=20, checkpoint=None,
@@ -237,7 +247,6 @@ def resume_scene(saved, t_end, mode=None, fields=None, frames=20, checkpoint=Non
     into ``fields``, the state saved to ``checkpoint`` at the end and at Ctrl-C.  The
     file's own outputs (GIF, fields, JSON) are not written: the caller's are."""
     from .. import runtime
-    from ..scenarios.demos import run_frames
     from ..solver import Solver
 
     run = saved["run"]
@@ -262,18 +271,9 @@ def resume_scene(saved, t_end, mode=None, fields=None, frames=20, checkpoint=Non
             solver.restore(saved)
         except ValueError as err:
             raise ValueError(f"{scene.path} no longer builds the checkpoint's scene: {err}")
-        try:
-            run_frames(solver, t_end, frames, fields=fields, progress=progress,
-                       allow_many_steps=allow_many_steps)
-        except RunInterrupted as stop:
-            stop.checkpoint = save_checkpoint(checkpoint or INTERRUPTED_CHECKPOINT, solver,
-                                              run)
-            stop.result = _world_result(scene, solver, None)
-            stop.result.interrupted = True
-            raise
-        if checkpoint:
-            save_checkpoint(checkpoint, solver, run)
-        result = _world_result(scene, solver, None)
+        result = _frames_saved(scene, solver, run, checkpoint, None, t_end, frames,
+                               fields=fields, progress=progress,
+                               allow_many_steps=allow_many_steps)
         result.files = _files(fields, None) + ([str(checkpoint)] if checkpoint else [])
         return result
     finally:
