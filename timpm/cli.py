@@ -509,7 +509,8 @@ def _main(argv=None):
             _start_taichi(args)
             mode = {} if args.mode is None else {"mode": args.mode}
             doc = _run(args, lambda **out: resume_problem(
-                args.saved, args.t_end, allow_many_steps=args.allow_many_steps, **mode, **out))
+                args.saved, args.t_end, saved=saved, allow_many_steps=args.allow_many_steps,
+                **mode, **out))
             return 130 if doc is None else 0
         problem = get_problem(args.problem, **dict(args.param))
         meshes = args.elements if args.command == "convergence" else [args.elements]

@@ -138,14 +138,16 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
         solver.release()
 
 
-def resume_problem(path, t_end, **options) -> RunResult:
+def resume_problem(path, t_end, saved=None, **options) -> RunResult:
     """Continue the run saved in ``path`` (a file written by ``run_problem(...,
     checkpoint=...)`` or ``timpm run --checkpoint``) to ``t_end``, in this process, with the
-    saved run's arguments; ``options`` are run_problem's output and progress options
-    (``fields``, ``frames``, ``checkpoint``, ``checkpoint_every``, ``progress``)."""
+    saved run's arguments; ``saved``: the file's ``load_checkpoint`` where the caller read
+    it already; ``options`` are run_problem's output and progress options (``fields``,
+    ``frames``, ``checkpoint``, ``checkpoint_every``, ``progress``)."""
     from ..checkpoint import load_checkpoint
 
-    saved = load_checkpoint(path)
+    if saved is None:
+        saved = load_checkpoint(path)
     if saved["run"] is None:
         raise ValueError(f"checkpoint {path}: it holds no description of its run (it "
                          "was written from Python without one): build the solver of the "
