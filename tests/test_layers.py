@@ -6,6 +6,10 @@ of the import graph.  ``from X import name`` points at the module ``X.name`` whe
 one, else at ``X``.  Importing a submodule also runs its packages' ``__init__``; those
 implicit edges are left out (``timpm/__init__.py`` re-exports the model and is exempt from
 the layer order, though not from the cycle check).
+
+Units keep their private names: no module reaches into a private name (``_x``) that
+timpm defines elsewhere, through ``obj._x`` on anything but ``self``/``cls`` or through
+``from module import _x``.
 """
 import ast
 from pathlib import Path
@@ -137,6 +141,62 @@ def find_cycles(graph):
     return cycles
 
 
+def _private(name):
+    return name.startswith("_") and not name.startswith("__")
+
+
+def private_names(sources):
+    """The private names timpm defines: functions, methods and classes, module and class
+    variables, and attributes assigned on ``self``."""
+    names = set()
+    for source in sources:
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                names.add(node.name)
+            elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+                for target in (node.targets if isinstance(node, ast.Assign) else [node.target]):
+                    if isinstance(target, ast.Name):
+                        names.add(target.id)
+                    elif (isinstance(target, ast.Attribute) and isinstance(target.value, ast.Name)
+                          and target.value.id == "self"):
+                        names.add(target.attr)
+    return {n for n in names if _private(n)}
+
+
+def _foreign_names(tree):
+    """Names bound by imports from other packages (``kernel_impl`` of ``from taichi.lang
+    import kernel_impl``): timpm may patch their private names, which are not its units'."""
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names |= {(a.asname or a.name).partition(".")[0] for a in node.names
+                      if not _is_ours(a.name)}
+        elif isinstance(node, ast.ImportFrom) and not _is_ours_relative(node):
+            names |= {a.asname or a.name for a in node.names}
+    return names
+
+
+def private_reaches(module, source, defined):
+    """'module:line name' for every use of a private name in ``defined`` from outside its
+    unit: ``obj._x`` where obj is not ``self``/``cls`` (nor another package's module),
+    and ``from X import _x``."""
+    found, tree = [], ast.parse(source)
+    allowed = {"self", "cls"} | _foreign_names(tree)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and node.attr in defined:
+            owner = node.value
+            if not (isinstance(owner, ast.Name) and owner.id in allowed):
+                found.append(f"{module}:{node.lineno} {ast.unparse(node)}")
+        elif isinstance(node, ast.ImportFrom) and _is_ours_relative(node):
+            found += [f"{module}:{node.lineno} from {node.module or '.'} import {a.name}"
+                      for a in node.names if a.name in defined]
+    return found
+
+
+def _is_ours_relative(node):
+    return node.level > 0 or (node.module is not None and _is_ours(node.module))
+
+
 # ---- the package --------------------------------------------------------------------------
 
 MODULES = package_modules()
@@ -166,6 +226,14 @@ def test_no_import_cycles():
 def test_imports_point_down_the_layers():
     bad = upward_imports(GRAPH)
     assert not bad, "imports pointing up the layer order:\n" + "\n".join(bad)
+
+
+def test_no_module_reaches_into_another_units_private_names():
+    sources = {m: p.read_text() for m, p in MODULES.items()}
+    defined = private_names(sources.values())
+    assert {"_fail", "_one_step", "_state"} <= defined  # the collection sees methods, globals
+    bad = [hit for m, src in sorted(sources.items()) for hit in private_reaches(m, src, defined)]
+    assert not bad, "private names used from outside their unit:\n" + "\n".join(bad)
 
 
 # ---- the checks can fail ------------------------------------------------------------------
@@ -212,3 +280,14 @@ def test_upward_imports_are_named():
                                      "at line 3"]
     assert layer_of("timpm.models.base") == layer_of("timpm.world") == 1
     assert layer_of("timpm.elsewhere") is None
+
+
+def test_private_reaches_are_found():
+    defined = private_names(["class A:\n    def _step(self):\n        self._n = 1\n",
+                             "_table = {}\ndef _helper():\n    pass\n"])
+    assert defined == {"_step", "_n", "_table", "_helper"}
+    source = ("from .a import _helper, run\nimport os\nfrom taichi.lang import impl\n"
+              "def f(solver):\n    solver._step()\n    os._exit(0)\n    impl._helper = 1\n"
+              "    return self._n\n")
+    assert private_reaches("timpm.b", source, defined) == [
+        "timpm.b:1 from a import _helper", "timpm.b:5 solver._step"]

@@ -340,7 +340,7 @@ def test_the_history_read_in_one_launch_is_every_fields_own(dim, track, every, s
         scene = _drop()
     solver = Solver(scene, track=track, mode="serial")
     solver.compile()
-    prog = solver._program()
+    prog = solver.program()
     prog.advance(steps, every, 0)
     n = int(prog.rec_count[None])
     assert n == steps // every  # a record every `every` steps

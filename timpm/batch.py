@@ -66,7 +66,7 @@ def _build(programs, every, n_threads, order, status):
                 for k in ti.static(range(len(programs))):
                     if order[k][1] == q:
                         prog = programs[k]  # k is static: a Python-level lookup
-                        done = prog._advance_steps(order[k][0], every[k])
+                        done = prog.advance_steps(order[k][0], every[k])
                         errors = prog.err_count[None]
                         status[k] = ti.Vector([done, errors])
                         if done != order[k][0] or errors != 0:
@@ -119,7 +119,7 @@ class Batch:
                 raise ValueError(f"batch member {k} has a body force b(X, t), evaluated in "
                                  "Python before every step: run it alone (Solver.run)")
             try:
-                s._require()
+                s.check_usable()
             except RuntimeError as err:
                 raise ValueError(f"batch member {k}: {err}") from None
         if len({id(s) for s in solvers}) != len(solvers):
@@ -157,7 +157,7 @@ class Batch:
                            "this batch was built, which freed its fields")
         for k, s in enumerate(self.solvers):
             try:
-                s._require()
+                s.check_usable()
             except RuntimeError as err:
                 raise Released(f"batch member {k}: {err}") from None
 
@@ -165,7 +165,7 @@ class Batch:
         """The batch kernels of the members' programs, each program holding its member's
         state; other kernels where a program changed (grown)."""
         self._require_fields()
-        programs = [s._program() for s in self.solvers]
+        programs = [s.program() for s in self.solvers]
         if self._kernels is None or any(a is not b for a, b in
                                         zip(programs, self._kernels.programs)):
             every = [s.record_every for s in self.solvers]

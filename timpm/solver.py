@@ -108,7 +108,7 @@ class Solver:
         self._compiled = False
         self._timed_steps = 0  # parallel mode: the first launch of a new program is timed
         self._first_step = 0.0
-        self._program()  # allocate (or reuse) the program's fields, upload this state
+        self.program()  # allocate (or reuse) the program's fields, upload this state
 
     # ---- compile-time choices, as attributes -----------------------------------------------
     def __getattr__(self, name):
@@ -123,9 +123,11 @@ class Solver:
         return self.features.energies
 
     # ---- the program and this state ----------------------------------------------------------
-    def _program(self):
-        """The program of this solver's feature set, holding this solver's state."""
-        self._require()
+    def program(self):
+        """The compiled program of this solver's feature set, with this solver's state in
+        its fields (the state there before is saved to its owner first; drivers such as
+        :class:`~timpm.batch.Batch` launch its kernels)."""
+        self.check_usable()
         with self._compiling():  # the first upload (or save) of a program compiles it
             prog = program_for(self.features, self.layout, self._slot)
             prog.activate(self)
@@ -142,14 +144,14 @@ class Solver:
 
     def _scalar(self, name: str):
         """The run scalar ``name`` (``step_count``, ``time``, ...) of this state."""
-        prog = self._program()
+        prog = self.program()
         with self._compiling():  # Taichi builds a field's reader at its first read
             return getattr(prog, name)[None]
 
     def move_to_slot(self, slot: int):
         """Keep this solver's state in copy ``slot`` of its feature set's program (a
         :class:`Batch` gives each member its own copy, so that they run side by side)."""
-        self._require()
+        self.check_usable()
         if slot != self._slot:
             prog = program_for(self.features, self.layout, self._slot)
             if prog.active is self:
@@ -157,8 +159,10 @@ class Solver:
                 prog.deactivate(self)
             self._slot = slot
 
-    def _require(self):
-        """A clear error, not a launch on freed memory, for a solver without its fields."""
+    def check_usable(self):
+        """A clear error, not a launch on freed memory, for a solver without its fields
+        (released, or Taichi restarted since it was built) or called from a thread that
+        does not own the runtime."""
         runtime.check_caller()
         if self._released:
             raise Released("this solver was released")
@@ -177,7 +181,7 @@ class Solver:
     def read(self, name: str) -> np.ndarray:
         """The live values of state field ``name`` (``"x"``, ``"v"``, ``"sigma"``, ``"F"``,
         ``"gv"``, ...; ``memory()`` lists the particle fields) as NumPy."""
-        prog = self._program()
+        prog = self.program()
         if not hasattr(prog, name) or name.startswith("_"):
             raise KeyError(f"this solver has no state field {name!r}")
         with self._compiling():  # Taichi's to_numpy compiles a reader per field
@@ -185,7 +189,7 @@ class Solver:
 
     def write(self, name: str, values):
         """Set the live values of state field ``name`` (for tests and inspection)."""
-        prog = self._program()
+        prog = self.program()
         if not hasattr(prog, name) or name.startswith("_"):
             raise KeyError(f"this solver has no state field {name!r}")
         try:
@@ -206,7 +210,7 @@ class Solver:
         """The whole state of this run as NumPy arrays (particles, grid, time, step, the
         first error), the records so far, and :meth:`fingerprint`: what :meth:`restore`
         takes to go on bit for bit."""
-        prog = self._program()
+        prog = self.program()
         self.drain()
         arrays = self.state.snapshot(prog)
         history = {k: np.concatenate(v) for k, v in self.history.items() if len(v)}
@@ -217,7 +221,7 @@ class Solver:
     def restore(self, snapshot: dict):
         """Continue from a :meth:`snapshot` of a solver of the same scene (this process's
         or another's, e.g. read from a checkpoint file); returns self."""
-        prog = self._program()
+        prog = self.program()
         self.state.check_fits(prog, snapshot, self.record_every)
         self.state.restore(prog, snapshot["arrays"])
         self.history = {k: [np.asarray(v)] for k, v in snapshot["history"].items()}
@@ -232,7 +236,7 @@ class Solver:
         """Back to the scene's initial state, keeping the compiled kernels: a second run
         of the same scene (a study repeated, a parameter sweep over loads read at run time)
         costs no compilation."""
-        prog = self._program()
+        prog = self.program()
         self.state.host = None
         self.state.load_into(prog)
         self.history = {"t": [], "step": []}
@@ -253,7 +257,7 @@ class Solver:
         """Bytes per particle and per grid node of the state fields this scene uses, the
         names of those fields, and the bytes per node of the private scatter's grid copies
         (``scatter_node_bytes``, 0 for the other strategies)."""
-        return self.state.memory(self._program())
+        return self.state.memory(self.program())
 
     # ---- running -------------------------------------------------------------------------
     @property
@@ -274,7 +278,7 @@ class Solver:
         program already compiled for this feature set compiles nothing."""
         if self._compiled:
             return
-        prog = self._program()
+        prog = self.program()
         with self._compiling():
             if self.mode == "serial" and "advance" not in prog.compiled:
                 prog.advance(0, self.record_every, 0)  # zero steps: compiles, changes nothing
@@ -306,7 +310,7 @@ class Solver:
         and can be saved (:meth:`snapshot`).
         """
         total = self.steps_to(t_end, n_steps, allow_many_steps)
-        prog = self._program()
+        prog = self.program()
         if self.mode != "serial":
             runtime.ensure_pinned()  # the workers, one per core, before they first wake
         self.compile()
@@ -402,7 +406,7 @@ class Solver:
                 self.drain()
 
     def _record_now(self):
-        prog = self._program()
+        prog = self.program()
         if self.mode == "serial" and "advance" in prog.compiled:
             prog.advance(0, self.record_every, 1)  # records, no step: one kernel less to build
         else:
@@ -413,7 +417,7 @@ class Solver:
         """Move the records of the kernel's history buffer to ``self.history``."""
         if not self.recording:
             return
-        prog = self._program()
+        prog = self.program()
         n = int(prog.rec_count[None])
         if n == 0:
             return
@@ -436,7 +440,7 @@ class Solver:
 
     def check(self):
         """Raise the run's first failure, if any, as a :class:`SimulationError`."""
-        error = recorded_failure(self._program(), self.state)
+        error = recorded_failure(self.program(), self.state)
         if error is not None:
             raise error
 
@@ -446,7 +450,7 @@ class Solver:
 
         For inspection and tests; it overwrites the grid, so call it between steps only.
         """
-        prog = self._program()
+        prog = self.program()
         prog.project()
         out = self.read("gm"), self._component(self.read("gp"))
         if self.apic:
@@ -529,12 +533,12 @@ class Solver:
         and total = kinetic + strain + gravity - external work."""
         if not self.record_energies:
             raise RuntimeError("this solver was built with energies=False")
-        self._require()
+        self.check_usable()
         return energy_series(self.history, self.has_u)
 
     def tracked(self) -> dict:
         """Recorded time series of the tracked particles: arrays of shape (records, tracked)."""
-        self._require()
+        self.check_usable()
         return tracked_series(self.history, self.dim)
 
     def _tensor(self, a):

@@ -4,7 +4,7 @@ Mixed into :class:`~timpm.engine.program.Program`.  Every driver runs the same s
 (``_one_step``, or its passes in a team):
 
 - *parallel*: one launch per step, every loop of the step parallel over the CPU threads;
-- *serial* (fused): many steps in one launch, one task on one thread (``_advance_steps``);
+- *serial* (fused): many steps in one launch, one task on one thread (``advance_steps``);
 - *team*: many steps (MUSL or affine) in one parallel task, each thread of Taichi's static
   split a fixed block of particles (its own grid copy) and of nodes, spin barriers between
   the passes (``_team_steps``).
@@ -55,7 +55,7 @@ class Drivers:
         return halted
 
     @ti.func
-    def _advance_steps(self, n_steps, every):
+    def advance_steps(self, n_steps, every):
         """Up to n_steps steps, recording every ``every``-th; stops before the step after
         a failure.  Returns the steps done (the body of ``_advance`` and of a Batch)."""
         done = 0

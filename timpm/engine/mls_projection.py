@@ -11,7 +11,7 @@ error under stretch (docs/results.md, manufactured solutions).
 """
 import taichi as ti
 
-__all__ = ["MLSProjection", "GAUSS_POINTS", "GAUSS_WEIGHTS"]
+__all__ = ["MLSProjection", "GAUSS_POINTS", "GAUSS_WEIGHTS", "quadratic_spline_weight"]
 
 #: two-point Gauss-Legendre rule on [0, 1] (MLS projection: integration points)
 GAUSS_POINTS = (0.5 - 0.5 / 3 ** 0.5, 0.5 + 0.5 / 3 ** 0.5)
@@ -19,7 +19,7 @@ GAUSS_WEIGHTS = (0.5, 0.5)
 
 
 @ti.func
-def _quadratic_spline(r):
+def quadratic_spline_weight(r):
     """Quadratic-spline MLS weight of 4.4, r = |x - x_p| / h (the continuous standard form)."""
     w = 0.0
     if r <= 0.5:
@@ -85,7 +85,7 @@ class MLSProjection:
                 for g in ti.static(range(len(GAUSS_POINTS))):
                     y, jw = self._gauss_point(e, g)
                     d = xi - y
-                    w = _quadratic_spline(ti.abs(d)) if jw > 0.0 else 0.0
+                    w = quadratic_spline_weight(ti.abs(d)) if jw > 0.0 else 0.0
                     if w > 0.0:
                         if ti.static(self.mls_order == 1):
                             self.accumulate(self.g_mom[e, g], w * ti.Vector([1.0, d, d * d]))

@@ -14,7 +14,7 @@ it): the cells are the integration domain.  Mass and momentum come from the part
 """
 import taichi as ti
 
-from .mls_projection import GAUSS_POINTS, GAUSS_WEIGHTS, _quadratic_spline
+from .mls_projection import GAUSS_POINTS, GAUSS_WEIGHTS, quadratic_spline_weight
 
 __all__ = ["MLSStressND", "mls_nd_fields", "monomial_count"]
 
@@ -76,7 +76,7 @@ class MLSStressND:
                 if not (0 <= cell[k] < self.p.elements()[k]):
                     w = 0.0
                 else:
-                    w *= _quadratic_spline(ti.abs(d[k]))
+                    w *= quadratic_spline_weight(ti.abs(d[k]))
             if w > 0.0:
                 P = self._monomials(d)
                 self.accumulate(self.q_mom[cell, g], w * P.outer_product(P))

@@ -295,7 +295,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
                 if ti.static(self.recording):
                     if record_first:  # the state before the steps (no record kernel to build)
                         self._record()
-                done = self._advance_steps(n_steps, every)
+                done = self.advance_steps(n_steps, every)
             return done
 
         @ti.kernel

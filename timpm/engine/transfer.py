@@ -365,21 +365,21 @@ class Transfer:
         particle's checks."""
         jac = F.determinant()
         sig = self._stress_of_F(p, F)
-        vol = jac * self._initial_volume_of(p)
+        vol = jac * self._reference_volume_of(p)
         self.sigma[p] = sig
         self.vol[p] = vol
         return sig, vol, jac
 
     @ti.func
-    def _initial_volume_of(self, p):
+    def _reference_volume_of(self, p):
         """V0_p = m_p / density of the particle's law."""
         vol0 = 0.0
         if ti.static(not self.multi_material):
-            vol0 = self.material_units[0]._initial_volume(self, p)
+            vol0 = self.material_units[0].reference_volume(self, p)
         else:
             for k in ti.static(range(len(self.material_units))):
                 if self.mat[p] == k:
-                    vol0 = self.material_units[k]._initial_volume(self, p)
+                    vol0 = self.material_units[k].reference_volume(self, p)
         return vol0
 
     @ti.func

@@ -102,7 +102,7 @@ class Material:
         return cls.energy_function
 
     @ti.func
-    def _initial_volume(self, s: ti.template(), p):
+    def reference_volume(self, s: ti.template(), p):
         """V0_p = m_p / density."""
         return s.m[p] / self.c.density()
 

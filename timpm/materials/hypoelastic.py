@@ -89,7 +89,7 @@ class Hypoelastic1D(Material):
     def energy(self, s: ti.template(), p):
         """W(F) V0 with F = V / V0 (``exact`` only): E (F - 1 - ln F) for
         sigma = E (1 - 1 / F), E (F ln F - F + 1) for sigma = E ln F; dW/dF = sigma."""
-        V0 = self._initial_volume(s, p)
+        V0 = self.reference_volume(s, p)
         F = s.vol[p] / V0
         W = self.c.E() * (F * ti.log(F) - F + 1.0)
         if ti.static(self.study):

@@ -33,4 +33,4 @@ class LinearElastic(SolidMaterial):
         eps = 0.5 * (F + F.transpose()) - ti.Matrix.identity(float, s.dim)
         trace = eps.trace()
         W = 0.5 * self.c.two_mu() * (eps * eps).sum() + 0.5 * self.c.lam() * trace * trace
-        return W * self._initial_volume(s, p)
+        return W * self.reference_volume(s, p)

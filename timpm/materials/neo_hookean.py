@@ -34,4 +34,4 @@ class NeoHookean(SolidMaterial):
         ln_J = ti.log(F.determinant())
         W = (0.5 * self.c.mu() * ((F.transpose() @ F).trace() - s.dim) - self.c.mu() * ln_J
              + 0.5 * self.c.lam() * ln_J * ln_J)
-        return W * self._initial_volume(s, p)
+        return W * self.reference_volume(s, p)

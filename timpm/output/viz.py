@@ -207,11 +207,11 @@ def plot_speed_error(doc, path, title=None):
     """Log-log plot of RMS error against wall time, one colour/marker per basis/mass,
     the Pareto front as a black line, hollow markers where the time error was not
     separated, labels ``elements x PPC`` on the front."""
-    from ..studies.speed_error_report import _groups, _valid
+    from ..studies.speed_error_report import groups_by_label, is_measured
 
     plt = _pyplot()
-    runs = [r for r in doc["runs"] if _valid(r) and r["rms_error"] > 0 and r["wall_seconds"] > 0]
-    groups, with_place = _groups(runs)
+    runs = [r for r in doc["runs"] if is_measured(r) and r["rms_error"] > 0 and r["wall_seconds"] > 0]
+    groups, with_place = groups_by_label(runs)
     fig, ax = plt.subplots(figsize=(7.5, 5.5))
     markers = "osD^vP*Xh<>"
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]

@@ -7,7 +7,7 @@ import math
 from ..scene import MASS_KINDS
 
 __all__ = ["merge_studies", "pareto_front", "cheapest_for", "plateaus", "default_targets",
-           "format_table", "format_report", "group_label"]
+           "format_table", "format_report", "group_label", "groups_by_label", "is_measured"]
 
 
 def merge_studies(docs) -> dict:
@@ -32,7 +32,9 @@ def merge_studies(docs) -> dict:
 
 # ---- analysis -------------------------------------------------------------------------------
 
-def _valid(rec) -> bool:
+def is_measured(rec) -> bool:
+    """Whether a run record has a finite error and wall time (a run that failed or was
+    skipped has neither)."""
     e, w = rec.get("rms_error"), rec.get("wall_seconds")
     return (e is not None and w is not None and math.isfinite(e) and math.isfinite(w))
 
@@ -42,7 +44,7 @@ def pareto_front(records) -> list[bool]:
     and strictly better in one of the two.  Records with equal (wall, error) do not
     dominate each other (both stay on the front); records without an error are never on
     it."""
-    pts = [(r["wall_seconds"], r["rms_error"]) if _valid(r) else None for r in records]
+    pts = [(r["wall_seconds"], r["rms_error"]) if is_measured(r) else None for r in records]
     flags = []
     for i, p in enumerate(pts):
         if p is None:
@@ -64,7 +66,9 @@ def group_label(rec, with_placement=False) -> str:
     return f"{label}/{rec.get('placement', 'study')}" if with_placement else label
 
 
-def _groups(records):
+def groups_by_label(records):
+    """``({label: [records]}, with_placement)``: the records by :func:`group_label`, with
+    the placement in the label when the records hold several."""
     with_place = len(_placements(records)) > 1
     out = {}
     for r in records:
@@ -82,7 +86,7 @@ def _brief(rec, label):
 def _extrapolate(runs, target):
     """Elements a basis would need for ``target`` at the rate observed between its two
     finest meshes (same PPC); None when there is no usable rate."""
-    runs = sorted((r for r in runs if _valid(r) and r["rms_error"] > 0), key=lambda r: r["elements"])
+    runs = sorted((r for r in runs if is_measured(r) and r["rms_error"] > 0), key=lambda r: r["elements"])
     if len(runs) < 2:
         return None
     a, b = runs[-2], runs[-1]
@@ -103,8 +107,8 @@ def cheapest_for(records, targets) -> list[dict]:
     ``linear_lumped`` and ``factor_vs_linear_lumped`` compare with linear elements and
     lumped mass alone (the study's standard MPM).  Each answer has an ``answer``
     sentence."""
-    valid = [r for r in records if _valid(r)]
-    groups, _ = _groups(valid)
+    valid = [r for r in records if is_measured(r)]
+    groups, _ = groups_by_label(valid)
     linear = [r for r in valid if r["basis"] == "linear"]
     out = []
     for target in targets:
@@ -137,7 +141,7 @@ def cheapest_for(records, targets) -> list[dict]:
                "groups": per_group, "linear_best_error": min((r["rms_error"] for r in linear),
                                                              default=None)}
         if lin is None and linear:
-            lin_groups, _ = _groups(linear)
+            lin_groups, _ = groups_by_label(linear)
             guesses = [g for g in (_extrapolate(rs, target) for rs in lin_groups.values()) if g]
             ans["linear_extrapolated"] = min(guesses, key=lambda g: g["elements"]) if guesses else None
         ans["answer"] = _answer_sentence(ans, bool(linear),
@@ -188,7 +192,7 @@ def plateaus(records, gain=1.25) -> list[dict]:
     Each entry: label, ppc, elements (where the stall starts), error (the least error
     from there), separated (True if the time error was separated in all those runs: the
     stall is then not time error), crossings (runs of the stall with grid crossings)."""
-    groups, _ = _groups([r for r in records if _valid(r)])
+    groups, _ = groups_by_label([r for r in records if is_measured(r)])
     out = []
     for label, runs in groups.items():
         for ppc in sorted({r["ppc"] for r in runs}):
@@ -212,7 +216,7 @@ def default_targets(records, most=6) -> list[float]:
     """Targets 1e-k and 3e-k between the smallest and the largest error of the sweep,
     largest first; decades only when there are more than ``most`` (then every other
     decade if still too many, the finest kept)."""
-    errs = [r["rms_error"] for r in records if _valid(r) and r["rms_error"] > 0]
+    errs = [r["rms_error"] for r in records if is_measured(r) and r["rms_error"] > 0]
     if not errs:
         return []
     lo, hi = min(errs), max(errs)
