@@ -11,6 +11,7 @@ The phases of a step come from the mixins, one unit each: the stencil, the scatt
 strategies, the grid phases, the consistent mass, the transfers, the MLS projection,
 recording and the drivers (fused serial, parallel, team).
 """
+import math
 import weakref
 
 import numpy as np
@@ -268,11 +269,18 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
 
     # ---- kernels -----------------------------------------------------------------------
     @ti.func
-    def _zero(self, groups: ti.template()):
-        """Zero fields grouped by shape: one loop per shape (fewer tasks to compile)."""
-        for group in ti.static(groups):
-            for I in ti.grouped(ti.ndrange(*group[0].shape)):
-                for fld in ti.static(group):
+    def _zero_entry(self, groups: ti.template(), i):
+        """Entry i (flat, C order) of every field in ``groups`` (lists of fields of one
+        shape) zeroed, where i is inside that shape."""
+        for g in ti.static(range(len(groups))):
+            shape = ti.static(groups[g][0].shape)
+            if i < ti.static(math.prod(shape)):
+                I = ti.Vector.zero(ti.i32, ti.static(len(shape)))
+                rest = i
+                for k in ti.static(range(len(shape) - 1, -1, -1)):
+                    I[k] = rest % shape[k]
+                    rest = rest // shape[k]
+                for fld in ti.static(groups[g]):
                     fld[I] = ti.zero(fld[I])
 
     def _bind_kernels(self):
@@ -407,49 +415,65 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         tracking = track is not None
         i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
 
-        @ti.kernel
-        def load(particles: f64, particle_ints: i32, nodes: f64, node_ints: i32, scalars: f64,
-                 reals: ti.types.ndarray(ndim=1), ints: i32_1d, track_ids: i32_1d):
-            # run-time values first: the loops below read them
-            for i in range(params.reals.shape[0]):
-                params.reals[i] = reals[i]
-            for i in range(params.ints.shape[0]):
-                params.ints[i] = ints[i]
-            self._zero(cleared)
-            if ti.static(tracking):
-                for j in range(self.p.n_tracked()):
-                    track[j] = track_ids[j]
-            if ti.static(self.recording):
-                self.rec_count[None] = 0
-            for p in range(self.p.n_particles()):
-                for k in ti.static(range(len(P))):
-                    put(P[k][0], p, particles, p, P[k][1], P[k][2])
-                for k in ti.static(range(len(PI))):
-                    put(PI[k][0], p, particle_ints, p, PI[k][1], PI[k][2])
-            for f in range(self.p.node_count()):
-                I = self._node_of(f)
-                for k in ti.static(range(len(N))):
-                    put(N[k][0], I, nodes, f, N[k][1], N[k][2])
-                for k in ti.static(range(len(NI))):
-                    put(NI[k][0], I, node_ints, f, NI[k][1], NI[k][2])
-            for k in ti.static(range(len(S))):
-                put(S[k][0], 0, scalars, 0, S[k][1], S[k][2])
+        n_reals, n_ints = params.reals.shape[0], params.ints.shape[0]
+        # the loop lengths of load's first task and of both kernels' state loop: each
+        # top-level loop is a task, and each task costs its JIT in every process (about
+        # 7 ms from Taichi's offline cache, benchmarks/compile_floor.py)
+        self._clear_rows = max([n_reals, n_ints] + [math.prod(g[0].shape) for g in cleared])
 
         @ti.kernel
-        def save(particles: f64, particle_ints: i32, nodes: f64, node_ints: i32, scalars: f64):
-            for p in range(self.p.n_particles()):
-                for k in ti.static(range(len(P))):
-                    get(P[k][0], p, particles, p, P[k][1], P[k][2], ti.f64)
-                for k in ti.static(range(len(PI))):
-                    get(PI[k][0], p, particle_ints, p, PI[k][1], PI[k][2], ti.i32)
-            for f in range(self.p.node_count()):
-                I = self._node_of(f)
-                for k in ti.static(range(len(N))):
-                    get(N[k][0], I, nodes, f, N[k][1], N[k][2], ti.f64)
-                for k in ti.static(range(len(NI))):
-                    get(NI[k][0], I, node_ints, f, NI[k][1], NI[k][2], ti.i32)
-            for k in ti.static(range(len(S))):
-                get(S[k][0], 0, scalars, 0, S[k][1], S[k][2], ti.f64)
+        def load(particles: f64, particle_ints: i32, nodes: f64, node_ints: i32, scalars: f64,
+                 reals: ti.types.ndarray(ndim=1), ints: i32_1d, track_ids: i32_1d,
+                 clear_rows: ti.i32, rows: ti.i32):
+            # task 1: the run-time values (the second task reads them), and the grid and
+            # scratch fields cleared
+            for i in range(clear_rows):
+                if i < n_reals:
+                    params.reals[i] = reals[i]
+                if i < n_ints:
+                    params.ints[i] = ints[i]
+                self._zero_entry(cleared, i)
+            # task 2: row i of the particle and node blocks, tracked particle i, the scalars
+            for i in range(rows):
+                if i < self.p.n_particles():
+                    for k in ti.static(range(len(P))):
+                        put(P[k][0], i, particles, i, P[k][1], P[k][2])
+                    for k in ti.static(range(len(PI))):
+                        put(PI[k][0], i, particle_ints, i, PI[k][1], PI[k][2])
+                if i < self.p.node_count():
+                    I = self._node_of(i)
+                    for k in ti.static(range(len(N))):
+                        put(N[k][0], I, nodes, i, N[k][1], N[k][2])
+                    for k in ti.static(range(len(NI))):
+                        put(NI[k][0], I, node_ints, i, NI[k][1], NI[k][2])
+                if ti.static(tracking):
+                    if i < self.p.n_tracked():
+                        track[i] = track_ids[i]
+                if i == 0:
+                    for k in ti.static(range(len(S))):
+                        put(S[k][0], 0, scalars, 0, S[k][1], S[k][2])
+                    if ti.static(self.recording):
+                        self.rec_count[None] = 0
+
+        @ti.kernel
+        def save(particles: f64, particle_ints: i32, nodes: f64, node_ints: i32, scalars: f64,
+                 rows: ti.i32):
+            # one task: row i of the particle and node blocks, the scalars
+            for i in range(rows):
+                if i < self.p.n_particles():
+                    for k in ti.static(range(len(P))):
+                        get(P[k][0], i, particles, i, P[k][1], P[k][2], ti.f64)
+                    for k in ti.static(range(len(PI))):
+                        get(PI[k][0], i, particle_ints, i, PI[k][1], PI[k][2], ti.i32)
+                if i < self.p.node_count():
+                    I = self._node_of(i)
+                    for k in ti.static(range(len(N))):
+                        get(N[k][0], I, nodes, i, N[k][1], N[k][2], ti.f64)
+                    for k in ti.static(range(len(NI))):
+                        get(NI[k][0], I, node_ints, i, NI[k][1], NI[k][2], ti.i32)
+                if i == 0:
+                    for k in ti.static(range(len(S))):
+                        get(S[k][0], 0, scalars, 0, S[k][1], S[k][2], ti.f64)
 
         self._load, self._save = load, save
 
@@ -466,16 +490,18 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         (:meth:`host_arrays`) and the tracked particles, the grid and scratch fields
         cleared: one launch."""
         reals, ints = self.params.staged()
+        rows = max(len(arrays["particles"]), len(arrays["nodes"]), len(track_ids))
         self._load(arrays["particles"], arrays["particle_ints"], arrays["nodes"],
                    arrays["node_ints"], arrays["scalars"], reals, ints,
                    np.asarray(track_ids, dtype=np.int32).reshape(-1) if len(track_ids)
-                   else np.zeros(1, np.int32))
+                   else np.zeros(1, np.int32), self._clear_rows, rows)
 
     def save(self, n_particles, n_nodes):
         """The state blocks of the live particles and nodes, from the fields: one launch."""
         arrays = self.host_arrays(n_particles, n_nodes)
         self._save(arrays["particles"], arrays["particle_ints"], arrays["nodes"],
-                   arrays["node_ints"], arrays["scalars"])
+                   arrays["node_ints"], arrays["scalars"],
+                   max(len(arrays["particles"]), len(arrays["nodes"])))
         return arrays
 
     def launch(self, n: int):
