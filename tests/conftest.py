@@ -89,6 +89,19 @@ def optimized_build():
     timpm.init(**before)
 
 
+@pytest.fixture
+def strict_arithmetic():
+    """Taichi restarted on one thread without fast math for one test (every operation
+    rounds as written, whatever the CPU's vector width), then back to the session's
+    settings: the fields of solvers built before are freed."""
+    from timpm import runtime
+
+    before = runtime.settings()
+    timpm.init(**dict(before, threads=1, fast_math=False))
+    yield
+    timpm.init(**before)
+
+
 @pytest.fixture(scope="session")
 def study_table_3_2():
     """Runs of the vibrating string with the study's Table 3.2 settings (defaults)."""

@@ -46,9 +46,12 @@ def test_the_energy_balance_holds_under_the_body_force():
     assert drifts[0] < 1e-4 and drifts[1] < drifts[0] / 4, drifts
 
 
-def test_parallel_stages_compute_what_the_serial_loop_does():
+def test_parallel_stages_compute_what_the_serial_loop_does(strict_arithmetic):
     # the fused serial mode loops over the four stages at run time, the parallel mode
-    # unrolls them into top-level passes: the same arithmetic
+    # unrolls them into top-level passes: the same arithmetic, so the same bits where
+    # every operation rounds as written (with fast math the two paths are contracted and
+    # vectorised apart: on an AVX-512 CPU the velocities then differ by 3e-11 of their
+    # largest value after 40 steps)
     scene = get_problem("mms-1d", G=0.05).scene(elements=16, basis="bspline3")
     runs = {}
     for mode in ("serial", "parallel"):
@@ -57,7 +60,7 @@ def test_parallel_stages_compute_what_the_serial_loop_does():
         runs[mode] = (solver.positions(), solver.velocities(), solver.read("F"))
         solver.release()
     for a, b in zip(runs["serial"], runs["parallel"]):
-        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+        np.testing.assert_array_equal(a, b)
 
 
 def _mms_model(**changes):

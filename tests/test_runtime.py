@@ -111,6 +111,13 @@ def test_optimize_reaches_taichi_and_keeps_the_run_bit_for_bit(tmp_path):
         runtime.init(optimize="no")
 
 
+def test_fast_math_reaches_taichi(strict_arithmetic):
+    assert impl.current_cfg().fast_math is False
+    assert runtime.settings()["fast_math"] is False and runtime.cpu_threads() == 1
+    with pytest.raises(ValueError, match="fast_math must be True or False, got 0"):
+        runtime.init(fast_math=0)
+
+
 # ---- backends -------------------------------------------------------------------------
 
 @pytest.mark.cpu_only("describes a CPU runtime")

@@ -100,13 +100,15 @@ def _optimize(optimize):
 
 
 def _settings(threads=None, debug=False, precision="f64", pin=True, arch=None,
-              optimize=None) -> dict:
+              optimize=None, fast_math=True) -> dict:
     """The settings of a start, checked before Taichi is touched."""
     arch = _arch(arch)
     if precision not in ("f64", "f32"):
         raise ValueError(f"precision must be 'f64' or 'f32', got {precision!r}")
+    if not isinstance(fast_math, bool):
+        raise ValueError(f"fast_math must be True or False, got {fast_math!r}")
     return dict(threads=_threads(threads), debug=bool(debug), precision=precision,
-                pin=bool(pin), arch=arch, optimize=_optimize(optimize))
+                pin=bool(pin), arch=arch, optimize=_optimize(optimize), fast_math=fast_math)
 
 
 def _supported(a) -> bool:
@@ -122,7 +124,8 @@ def _unavailable(name: str, why: str = "it is not available on this machine") ->
 
 
 def init(threads: int | None = None, debug: bool = False, precision: str = "f64",
-         pin: bool = True, arch: str | None = None, optimize: bool | None = None) -> None:
+         pin: bool = True, arch: str | None = None, optimize: bool | None = None,
+         fast_math: bool = True) -> None:
     """Start Taichi, on the CPU unless ``arch`` names a GPU backend.
 
     ``arch``: "cpu", "cuda", "vulkan" or "metal" (default: ``TIMPM_ARCH``, else "cpu"; a
@@ -139,13 +142,17 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     about 2x faster and may step up to ~10% slower (docs/performance.md); for sweeps and
     tests that compile more than they step.  Every golden case (one thread) is bit for
     bit the same; a two-thread run can differ at round-off (Taichi contracts other
-    multiply-adds).  The arguments
+    multiply-adds).  ``fast_math=False`` turns off Taichi's fast math: every operation
+    rounds as written (no reassociation, no contraction into fused multiply-adds), so
+    that two code paths of the same arithmetic (the fused serial and the parallel mode,
+    one thread) give the same bits on any CPU; with fast math they can differ at
+    round-off, by the CPU's vector width.  The arguments
     are checked (ValueError) before Taichi is touched.  Calling it again with other
     settings restarts Taichi, which frees the fields of every existing solver (using one
     then raises a RuntimeError; the study drivers build new ones).  The calling thread
     owns the runtime (see :func:`check_caller`).
     """
-    settings = _settings(threads, debug, precision, pin, arch, optimize)
+    settings = _settings(threads, debug, precision, pin, arch, optimize, fast_math)
     check_caller()
     previous = _state.get("settings")
     if previous == settings:
@@ -367,7 +374,8 @@ def _start(settings: dict) -> None:
     fp = ti.f64 if settings["precision"] == "f64" else ti.f32
     kwargs = dict(arch=ARCHS[settings.get("arch", "cpu")], debug=settings["debug"],
                   default_fp=fp, log_level=ti.WARN,
-                  cfg_optimization=settings.get("optimize", True))
+                  cfg_optimization=settings.get("optimize", True),
+                  fast_math=settings.get("fast_math", True))
     if settings["threads"]:
         kwargs["cpu_max_num_threads"] = settings["threads"]
     _print_banner()

@@ -219,21 +219,12 @@ def _has_exact(problem):
         return False
 
 
-def _strict_fp():
-    """Taichi without fast math: no reassociation, so a value that is a compile-time
-    constant in one engine and a run-time value in the other rounds the same way."""
-    import taichi as ti
-
-    init = ti.init
-    ti.init = lambda *a, **kw: init(*a, **{**kw, "fast_math": False})
-
-
 def compute(names, precision, strict):
     import timpm
 
-    if strict:
-        _strict_fp()
-    timpm.init(threads=1, precision=precision)
+    # strict: Taichi without fast math, no reassociation, so a value that is a
+    # compile-time constant in one engine and a run-time value in the other rounds the same
+    timpm.init(threads=1, precision=precision, fast_math=not strict)
     out = {}
     for name in names:
         if precision == "f32" and not name.startswith(("mpm88", "sand", "disks", "dam")):
