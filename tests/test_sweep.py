@@ -105,7 +105,8 @@ def test_workers_start_taichi_with_this_processes_settings():
     assert runtime.settings() == dict(threads=runtime.cpu_threads(),
                                       precision=runtime.precision(), arch=runtime.arch(),
                                       debug=False, pin=True,
-                                      optimize=bool(impl.current_cfg().cfg_optimization))
+                                      optimize=bool(impl.current_cfg().cfg_optimization),
+                                      fast_math=bool(impl.current_cfg().fast_math))
 
 
 # ---- checked before any work ----------------------------------------------------------------
