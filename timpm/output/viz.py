@@ -210,7 +210,8 @@ def plot_speed_error(doc, path, title=None):
     from ..studies.speed_error_report import groups_by_label, is_measured
 
     plt = _pyplot()
-    runs = [r for r in doc["runs"] if is_measured(r) and r["rms_error"] > 0 and r["wall_seconds"] > 0]
+    runs = [r for r in doc["runs"]
+            if is_measured(r) and r["rms_error"] > 0 and r["wall_seconds"] > 0]
     groups, with_place = groups_by_label(runs)
     fig, ax = plt.subplots(figsize=(7.5, 5.5))
     markers = "osD^vP*Xh<>"

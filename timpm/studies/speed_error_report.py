@@ -86,7 +86,8 @@ def _brief(rec, label):
 def _extrapolate(runs, target):
     """Elements a basis would need for ``target`` at the rate observed between its two
     finest meshes (same PPC); None when there is no usable rate."""
-    runs = sorted((r for r in runs if is_measured(r) and r["rms_error"] > 0), key=lambda r: r["elements"])
+    runs = sorted((r for r in runs if is_measured(r) and r["rms_error"] > 0),
+                  key=lambda r: r["elements"])
     if len(runs) < 2:
         return None
     a, b = runs[-2], runs[-1]
