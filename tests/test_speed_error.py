@@ -125,18 +125,6 @@ def test_choose_dt_halves_until_the_time_error_is_separated(spatial, c, expected
     assert accepted.alive and sum(f.alive for f in made) == 1   # the others were released
 
 
-def test_choose_dt_can_defer_releases():
-    made, later = [], []
-
-    def run(dt):
-        made.append(_Fake(dt, 1e-5, 0.1))
-        return made[-1]
-
-    accepted, info = choose_dt(run, 1e-4, defer_release=later)
-    assert all(f.alive for f in made) and len(later) == len(made) - 1
-    assert accepted not in later and info["dt"] == pytest.approx(1e-4 / 8)
-
-
 def test_choose_dt_flags_a_time_error_it_cannot_separate():
     made = []
 

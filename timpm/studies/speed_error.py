@@ -53,10 +53,11 @@ the state) on the program already compiled, so they cost no further compilation.
 accepted run itself is not a sample (its time is kept as ``first_run_seconds``): the
 first run of a solver carries one-time costs (Taichi compiles its field accessors on
 first use, the first launches warm up) that are far larger than the stepping of a small
-1D run - e.g. 3.5 ms against 0.4 ms for 1000 steps of the 4-element string.  Each run of the dt trials is released as soon as
-its error is known, and the timed runs advance a new solver of the accepted run's scene:
-it takes the compiled program over with nothing to save (a finer trial had displaced the
-accepted run's state, and keeping that state cost a kernel build per feature set).
+1D run - e.g. 3.5 ms against 0.4 ms for 1000 steps of the 4-element string.  Each run of
+the dt trials is released as soon as its error is known, and the timed runs advance a new
+solver of the accepted run's scene: it takes the compiled program over with nothing to
+save (a finer trial had displaced the accepted run's state, and keeping that state cost a
+kernel build per feature set).
 """
 from __future__ import annotations
 
@@ -153,25 +154,15 @@ def critical_dt(prob, *, elements, ppc, basis, mass, placement) -> float:
     return float(scene.critical_dt)
 
 
-def choose_dt(run, dt0, dt_tolerance=0.1, max_halvings=4, defer_release=None):
+def choose_dt(run, dt0, dt_tolerance=0.1, max_halvings=4):
     """The time step rule (module docstring) for one configuration.
 
     ``run(dt)`` simulates at ``dt`` and returns an object with ``record["rms_error"]`` and
     ``release()``.  Returns ``(accepted_run, info)``; info holds ``dt``, ``rms_error``,
     ``time_error_estimate``, ``time_error_separated`` and ``dt_trials`` (list of
     ``[dt, error]``).  The accepted run is not released: the caller times it further.
-    The other runs are released, or, if ``defer_release`` is a list, appended to it for
-    the caller to release later.
+    The other runs are released as soon as they cannot be accepted.
     """
-    dropped = []
-
-    def drop(r):
-        dropped.append(r)
-        if defer_release is None:
-            r.release()
-        else:
-            defer_release.append(r)
-
     runs = [run(dt0)]
     trials = [[dt0, runs[0].record["rms_error"]]]
     try:
@@ -184,8 +175,8 @@ def choose_dt(run, dt0, dt_tolerance=0.1, max_halvings=4, defer_release=None):
             if diff <= dt_tolerance * e_fine:
                 accepted, separated = k, True
                 break
-            # only the newest run can still be accepted later: free the older ones
-            drop(runs[k])
+            # only the newest run can still be accepted later: free the older one
+            runs[k].release()
         else:
             accepted, separated = max_halvings + 1, False
             diff = abs(trials[-2][1] - trials[-1][1])
@@ -193,9 +184,8 @@ def choose_dt(run, dt0, dt_tolerance=0.1, max_halvings=4, defer_release=None):
         for r in runs:
             r.release()
         raise
-    for i, r in enumerate(runs):
-        if i != accepted and not any(r is d for d in dropped):
-            drop(r)
+    for r in runs[accepted + 1:]:  # the finer run of the accepted pair
+        r.release()
     info = {"dt": trials[accepted][0], "rms_error": trials[accepted][1],
             "time_error_estimate": diff, "time_error_separated": separated,
             "dt_trials": trials}
