@@ -304,9 +304,10 @@ def test_ctrl_c_stops_a_scene_file_run_and_keeps_its_frames(tmp_path):
                 "--quiet") == 0
 
 
-def test_a_scene_file_run_resumes_bit_for_bit(tmp_path, capsys):
+def test_a_scene_file_run_resumes_bit_for_bit(tmp_path, capsys, monkeypatch):
     """A world's scene file run with --checkpoint, continued by timpm resume, ends where
     the straight run ends: every state array and the records, bit for bit (serial)."""
+    monkeypatch.chdir(tmp_path)  # the file's own outputs (disks.gif, disks.json) land here
     scene = ROOT / "examples" / "disks.toml"
     common = ("--set", "domain.cells=16", "--mode", "serial", "--quiet")
     straight, part, resumed = (tmp_path / f"{k}.npz" for k in ("straight", "part", "resumed"))
@@ -324,7 +325,9 @@ def test_a_scene_file_run_resumes_bit_for_bit(tmp_path, capsys):
     assert json.loads((tmp_path / "r.json").read_text())["steps"] == b["step"]
 
 
-def test_resume_refuses_a_scene_file_changed_since_and_the_problem_outputs(tmp_path, capsys):
+def test_resume_refuses_a_scene_file_changed_since_and_the_problem_outputs(tmp_path, capsys,
+                                                                          monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the file's own outputs (disks.gif, disks.json) land here
     scene = tmp_path / "disks.toml"
     scene.write_text((ROOT / "examples" / "disks.toml").read_text())
     part = tmp_path / "part.npz"
