@@ -137,7 +137,7 @@ class Midpoint:
             v_mid = ti.Vector.zero(float, self.dim)
             accel = ti.Vector.zero(float, self.dim)
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
-            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                 phi, grad = self._weight(w, dw, offset)
                 vi = self.gp[base + offset]
                 v_mid += phi * vi
@@ -266,7 +266,7 @@ class Midpoint:
             affine = mp * self.C[p]
             mom = mp * self.v[p] - affine @ self._from_first_node(xi, base)
             h_affine = self.p.h() * affine
-            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                 phi, grad = self._weight(w, dw, offset)
                 node = base + offset
                 self.gm[node] += mp * phi
@@ -297,7 +297,7 @@ class Midpoint:
             if ti.static(self.mls_mpm):
                 A = self.p.D_inv() * stress_volume
             d = self._from_first_node(xi, base)
-            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                 phi, grad = self._weight(w, dw, offset)
                 force = phi * fp
                 if ti.static(self.mls_mpm):
@@ -314,7 +314,7 @@ class Midpoint:
             v_new, B, _ = self._affine_gather(base, w, dw, xi, False)
             self.C[p] = self._affine_of(B, base, w, xi)
             dx = ti.Vector.zero(float, self.dim)
-            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                 phi, grad = self._weight(w, dw, offset)
                 dx += phi * self.gp[base + offset]
             self._midpoint_end_state(p, self.x[p] + self.p.dt() * dx, v_new)

@@ -147,8 +147,7 @@ class MLSStressND:
                                                                          - GAUSS_POINTS[0])
                     base, w, dw, _ = self._stencil_at(y)
                     scale = jw * self.p.h() ** self.dim
-                    for offset in ti.static(ti.grouped(ti.ndrange(
-                            *((self.basis.support,) * self.dim)))):
+                    for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                         phi, grad = self._weight(w, dw, offset)
                         self.accumulate(self.gf[base + offset], -scale * (sig @ grad))
 

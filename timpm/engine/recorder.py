@@ -159,7 +159,7 @@ class Recorder:
         for p in range(self.p.n_particles()):
             base, w, dw, xi, inside = self._stencil(p)
             if inside:
-                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                     phi, grad = self._weight(w, dw, offset)
                     self.accumulate(self.gm[base + offset], self.m[p] * phi)
                     self.accumulate(self.gp[base + offset], self.m[p] * phi * self.v[p])

@@ -77,7 +77,7 @@ class RungeKutta:
             x_rate = ti.Vector.zero(float, self.dim)
             v_rate = ti.Vector.zero(float, self.dim)
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
-            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                 phi, grad = self._weight(w, dw, offset)
                 vi = self.gp[base + offset]
                 x_rate += phi * vi

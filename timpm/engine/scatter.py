@@ -152,7 +152,7 @@ class ScatterOps:
                         self.accumulate(ti.static(getattr(self, name))[first + a][0], sums[row, a])
 
     @ti.func
-    def _deposit(self, name: ti.template(), copy, node, offset: ti.template(), value,
+    def _deposit(self, name: ti.template(), copy, node, offset, value,
                  node_values):
         """Scatter ``value`` to grid field ``name`` at ``node``: into the run sums' column
         ``offset`` (returned), or by the scatter strategy (``_add``)."""

@@ -112,7 +112,7 @@ class Transfer:
                 affine = mp * self.C[p]  # APIC: the stress enters through grad phi
             mom = mp * self.v[p] + self.p.dt() * fp - affine @ d
             h_affine = self.p.h() * affine
-            for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                 phi, grad = self._weight(w, dw, offset)
                 node = base + offset
                 if ti.static(self.mls_mpm):
@@ -170,7 +170,7 @@ class Transfer:
             else:
                 acc = ti.Vector.zero(float, self.dim)
                 pic = ti.Vector.zero(float, self.dim)
-                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                     phi, grad = self._weight(w, dw, offset)
                     acc += phi * self.gf[base + offset]
                     if ti.static(self.pic):
@@ -183,7 +183,7 @@ class Transfer:
             if ti.static(self.mls_study):
                 self._scatter_node_moments(p, vp[0])
             else:
-                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                     phi, grad = self._weight(w, dw, offset)
                     node_values = self._deposit("gp", copy, base + offset, offset,
                                                 self.m[p] * phi * vp, node_values)
@@ -196,7 +196,7 @@ class Transfer:
         vp = ti.Vector.zero(float, self.dim)
         grad_du = ti.Matrix.zero(float, self.dim, self.dim)
         B = ti.Matrix.zero(float, self.dim, self.dim)  # sum_i phi_i v_i o_i^T
-        for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+        for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
             phi, grad = self._weight(w, dw, offset)
             vi = self.gv[base + offset]
             vp += phi * vi
@@ -242,7 +242,7 @@ class Transfer:
             grad_du = ti.Matrix.zero(float, self.dim, self.dim)
             if ti.static(self.strain_remap):
                 vp = self.v[p]  # v_p and C_p came with the remap (_g2p_velocity)
-                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                     phi, grad = self._weight(w, dw, offset)
                     grad_du += (self.gp[base + offset] * self.p.dt()).outer_product(grad)
             elif ti.static(self.apic):
@@ -253,7 +253,7 @@ class Transfer:
                 if ti.static(self.mls_mpm):
                     grad_du = self.C[p] * self.p.dt()
             else:
-                for offset in ti.static(ti.grouped(ti.ndrange(*((self.basis.support,) * self.dim)))):
+                for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
                     phi, grad = self._weight(w, dw, offset)
                     vi = self.gp[base + offset]
                     vp += phi * vi
