@@ -90,6 +90,21 @@ def optimized_build():
 
 
 @pytest.fixture
+def exact_rounding():
+    """Taichi restarted without fast math (threads kept) for one test, then back to the
+    session's settings.  Two programs of the same arithmetic (the team against the
+    parallel mode, a batch against its members alone, gravity against a body force) give
+    the same bits only so: with fast math LLVM may reassociate and vectorise the stencil
+    loops of each kernel its own way."""
+    from timpm import runtime
+
+    before = runtime.settings()
+    timpm.init(**dict(before, fast_math=False))
+    yield
+    timpm.init(**before)
+
+
+@pytest.fixture
 def strict_arithmetic():
     """Taichi restarted on one thread without fast math for one test (every operation
     rounds as written, whatever the CPU's vector width), then back to the session's

@@ -70,7 +70,7 @@ def test_reset_repeats_a_2d_affine_run_bit_for_bit():
 
 
 @pytest.mark.cpu_only("compared bit for bit")
-def test_batch_members_match_their_runs_alone():
+def test_batch_members_match_their_runs_alone(exact_rounding):
     """Side by side on the threads, each member's run is its run alone, bit for bit: the
     same positions, energies, tracked series and grid crossings."""
     scenes = [_string(e) for e in (4, 8, 16)]
@@ -220,7 +220,8 @@ def test_a_solver_books_all_the_compilation_it_causes():
 
 
 @pytest.mark.cpu_only("compared bit for bit")
-def test_meshes_after_the_first_compile_nothing_and_a_batch_gives_the_same_table():
+def test_meshes_after_the_first_compile_nothing_and_a_batch_gives_the_same_table(
+        exact_rounding):
     """Solvers of one feature set share one compiled program: a second run of the same
     scene, and a run on another mesh, compile nothing."""
     clear_solvers()

@@ -223,7 +223,7 @@ def _block(**kw):
                  **kw)
 
 
-def test_a_constant_body_force_is_gravity_bit_for_bit():
+def test_a_constant_body_force_is_gravity_bit_for_bit(exact_rounding):
     world = _block()
     down = BodyForce(lambda X, t: np.tile([0.0, -9.81], (len(X), 1)))
     loaded = dataclasses.replace(world.model, gravity=(0.0, 0.0), body_force=down)

@@ -73,8 +73,10 @@ def _drop(**world_kw):
     return World(domain=(1.0, 0.5), cells=16, bodies=body, dt=2e-4, **world_kw)
 
 
-def test_a_sticky_floor_is_its_nodes_held_fixed():
-    # APIC: a sticky wall sets v_i = 0 on the nodes at and below it, as Dirichlet nodes do
+def test_a_sticky_floor_is_its_nodes_held_fixed(strict_arithmetic):
+    # APIC: a sticky wall sets v_i = 0 on the nodes at and below it, as Dirichlet nodes do.
+    # Two programs compared bit for bit: without fast math, where every operation rounds as
+    # written (with it, LLVM may vectorise and contract the two programs' loops apart)
     sticky = _drop(walls={"default": "slip", "bottom": "sticky"})
     (edge, _), = sticky.model.wall_nodes()[1:]  # the last node at or below the floor
     nx, ny = sticky.model.nodes

@@ -114,12 +114,12 @@ def _two_threads():
 
 @pytest.mark.cpu_only("the private scatter and the team are CPU strategies")
 @pytest.mark.parametrize("transfer", ["mls-mpm", "apic", "musl", "musl-damped", "1d"])
-def test_team_mode_gives_the_parallel_run_bit_for_bit(transfer, optimized_build):
+def test_team_mode_gives_the_parallel_run_bit_for_bit(transfer, exact_rounding):
     """The team's threads run the same per-particle and per-node code on the same blocks
     and grid copies as the parallel mode's private scatter: the same run, bit for bit,
     for the affine transfers and the study's MUSL step (2D with friction walls, with
-    local damping, and the 1D string).  In the default build: with ``optimize=False``
-    Taichi may contract other multiply-adds in the two kernels (round-off apart)."""
+    local damping, and the 1D string).  Without fast math: with it LLVM may reassociate
+    the two kernels' sums differently (round-off apart)."""
     _two_threads()
     if transfer == "1d":
         scene = get_problem("vibrating-string").scene(elements=512, ppc=4)

@@ -95,7 +95,9 @@ class Batch:
     """Fused serial solvers advanced together, shared out over the CPU threads.
 
     ``Batch(solvers).run(t_end)`` advances every member to ``t_end`` (each with its own
-    time step); a member's results are bit for bit those of ``member.run(t_end)``.  The
+    time step); a member's results are those of ``member.run(t_end)``: bit for bit without
+    fast math (``timpm.init(fast_math=False)``), to round-off with it (LLVM may vectorise
+    the sums of the batch kernel and of the member's own kernel apart).  The
     members are assigned to threads longest first, by particle-steps, before each launch.
     Each member's ``run_seconds`` grows by the batch's wall time (they ran side by side);
     the batch keeps its own ``run_seconds`` and ``compile_seconds``.  The batch kernel holds
