@@ -6,7 +6,9 @@ import os
 # hands to NumPy are small: one BLAS thread is the right choice (set before NumPy loads).
 for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
-# runtime first: it imports Taichi without its banner (printed when Taichi starts)
+# the Taichi that runs timpm (taichi, or taichi-forge where only that is installed), then
+# runtime: it imports Taichi without its banner (printed when Taichi starts)
+from . import taichi_backend  # noqa: F401  (before anything imports taichi)
 from .runtime import init
 from .basis import BASES, Basis, Linear, get_basis
 from .scene import (Constant, Grid1D, Material, Ramp, Scene, Sine, Traction,

@@ -26,6 +26,8 @@ finally:
 from taichi.lang import impl
 from taichi.lang.misc import is_arch_supported
 
+from . import taichi_backend
+
 __all__ = ["ARCHS", "BackendUnavailable", "ForkedProcess", "WrongThread", "arch",
            "check_caller", "compile_clock", "cpu_threads", "ensure_init", "generation",
            "init", "on_cpu", "exit_process", "pin_workers", "precision", "settings",
@@ -87,13 +89,15 @@ def _arch(arch):
 
 
 def _optimize(optimize):
-    """``optimize`` checked, or ``TIMPM_OPTIMIZE`` ("1" or "0") when None (True if unset)."""
+    """``optimize`` checked, or ``TIMPM_OPTIMIZE`` ("1" or "0") when None (False if unset:
+    with the stencil loops rolled, Taichi's control-flow optimisation halves no step time
+    measurably and doubles the compilation, benchmarks/optimize_ab.py)."""
     if optimize is None:
         text = os.environ.get("TIMPM_OPTIMIZE", "").strip()
         if text not in ("", "0", "1"):
             raise ValueError(f"the environment variable TIMPM_OPTIMIZE must be 1 (optimise "
                              f"the kernels fully) or 0 (compile faster), got {text!r}")
-        return text != "0"
+        return text == "1"
     if not isinstance(optimize, bool):
         raise ValueError(f"optimize must be True or False, got {optimize!r}")
     return optimize
@@ -137,12 +141,12 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     or "f32"); ``debug=True`` turns on Taichi's own bounds checks (slow); ``pin`` binds
     Taichi's CPU worker threads one per core, round robin over the cores this process may
     use (Linux; like ``OMP_PROC_BIND=spread``; see :func:`pin_workers`).
-    ``optimize=False`` (default: ``TIMPM_OPTIMIZE``, else True) turns off Taichi's
+    ``optimize=True`` (default: ``TIMPM_OPTIMIZE``, else False) turns on Taichi's
     control-flow optimisation (store forwarding, dead-store elimination): kernels compile
-    about 2x faster and may step up to ~10% slower (docs/performance.md); for sweeps and
-    tests that compile more than they step.  Every golden case (one thread) is bit for
-    bit the same; a two-thread run can differ at round-off (Taichi contracts other
-    multiply-adds).  ``fast_math=False`` turns off Taichi's fast math: every operation
+    about 2x slower, and the steps measured no faster beyond the machine's noise since
+    the stencil loops are rolled (``benchmarks/optimize_ab.py``, docs/performance.md).
+    Every golden case (one thread) is bit for bit the same either way; a two-thread run
+    can differ at round-off (Taichi contracts other multiply-adds).  ``fast_math=False`` turns off Taichi's fast math: every operation
     rounds as written (no reassociation, no contraction into fused multiply-adds), so
     that two code paths of the same arithmetic (the fused serial and the parallel mode,
     one thread) give the same bits on any CPU; with fast math they can differ at
@@ -378,6 +382,10 @@ def _start(settings: dict) -> None:
                   fast_math=settings.get("fast_math", True))
     if settings["threads"]:
         kwargs["cpu_max_num_threads"] = settings["threads"]
+    if taichi_backend.FORGE and "TI_COMPILE_TIER" not in os.environ:
+        # taichi-forge's default tier ("fast") skips Taichi's IR optimisations: the steps
+        # ran 4-6x slower; "full" is taichi 1.7's pipeline (docs/performance.md)
+        kwargs["compile_tier"] = "full"
     _print_banner()
     ti.init(**kwargs)
     _memoize_source_positions()
