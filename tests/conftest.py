@@ -6,11 +6,9 @@ import pytest
 # would print them after pytest's summary line
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "false")
 os.environ.setdefault("TI_LOG_LEVEL", "warn")
-# the tests compile far more than they step: Taichi's control-flow optimisation off
-# (kernels compile ~2x faster; one-thread runs, every golden case among them, are bit for
-# bit the default build's; two-thread kernels can differ at round-off, so the tests that
-# compare two of them bit for bit take the ``optimized_build`` fixture); TIMPM_OPTIMIZE=1
-# runs the whole suite on the default build
+# Taichi's control-flow optimisation off, as timpm's default (kernels compile ~2x faster;
+# one-thread runs, every golden case among them, are bit for bit the optimised build's);
+# TIMPM_OPTIMIZE=1 runs the whole suite on the optimised build
 os.environ.setdefault("TIMPM_OPTIMIZE", "0")
 
 import timpm  # noqa: E402
@@ -75,18 +73,6 @@ def pytest_configure(config):
         "PYTEST_XDIST_WORKER" not in os.environ
     if not controller:
         timpm.init(threads=int(os.environ.get("TIMPM_THREADS", "2")))
-
-
-@pytest.fixture
-def optimized_build():
-    """Taichi restarted with the default build (``optimize=True``) for one test, then
-    back to the session's settings: the fields of solvers built before are freed."""
-    from timpm import runtime
-
-    before = runtime.settings()
-    timpm.init(**dict(before, optimize=True))
-    yield
-    timpm.init(**before)
 
 
 @pytest.fixture
