@@ -288,9 +288,27 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         """The kernels as plain kernels closed over this program: a method kernel of a
         data-oriented class maps ``self`` to its compiled instance on every call, which
         doubled the launch (~27 against ~15 us, most of a small scene's step)."""
-        @ti.kernel
-        def step():
-            self._one_step()
+        if self.rk4 and self.mode != "serial":
+            # the parallel Runge-Kutta step as launches: y_n kept, then a stage a launch
+            # (its passes top-level loops; the stage compiled once, not unrolled four times)
+            @ti.kernel
+            def rk4_begin():
+                self._rk4_begin()
+
+            @ti.kernel
+            def rk4_stage(s: ti.i32):
+                self._rk4_stage(s)
+                if s == 3:
+                    self._count_step()
+
+            def step():
+                rk4_begin()
+                for s in range(4):
+                    rk4_stage(s)
+        else:
+            @ti.kernel
+            def step():
+                self._one_step()
 
         @ti.kernel
         def record():

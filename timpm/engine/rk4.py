@@ -44,17 +44,21 @@ class RungeKutta:
 
     @ti.func
     def _rk4_step(self):
+        # the fused serial step: y_n kept, then the four stages in a run-time loop (one
+        # serial task: the stage compiled once).  The parallel mode launches the same
+        # phases as kernels, a stage a launch (Program._bind_kernels): its passes must be
+        # top-level loops, and four unrolled stages compiled for 20 s
+        self._rk4_begin()
+        for s in range(4):
+            self._rk4_stage(s)
+
+    @ti.func
+    def _rk4_begin(self):
         # y_n kept for the stages
         for p in range(self.p.n_particles()):
             self.x_start[p] = self.x[p]
             self.v_start[p] = self.v[p]
             self.F_start[p] = self.F[p]
-        if ti.static(self.mode == "serial"):
-            for s in range(4):  # one serial task: the stage compiled once
-                self._rk4_stage(s)
-        else:
-            for s in ti.static(range(4)):  # parallel passes stay top-level loops: unrolled
-                self._rk4_stage(s)
 
     @ti.func
     def _rk4_stage(self, s):

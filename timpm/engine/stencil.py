@@ -9,7 +9,8 @@ The phases loop over a particle's stencil nodes with a run-time loop,
 (``ti.static``): Taichi's IR passes cost about the square of a kernel's statement count
 (each replaced statement rescans the kernel), and an unrolled 27-node 3D stencil made the
 cube scene's step compile for 62 s against 5 s rolled.  LLVM unrolls the constant-count
-loops again, so the steps run as fast (``benchmarks/stencil_ab.py``).
+loops again, so the steps run as fast (``benchmarks/engine_ab.py`` against the
+unrolled engine, docs/performance.md).
 """
 import taichi as ti
 

@@ -416,6 +416,11 @@ class Transfer:
                 for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                     self.accumulate(self.gu[I], self.gp[I] * self.p.dt())  # u_i += v_i dt (5.2)
             self._g2p_update()
+        self._count_step()
+
+    @ti.func
+    def _count_step(self):
+        # the step is done: n += 1, t = n dt (not after a failed step)
         if not self._halted(0):
             self.accumulate(self.step_count[None], 1)
             self.time[None] = self.step_count[None] * self.p.dt()
