@@ -6,6 +6,8 @@ place every step and ``_banded_substitute`` solves ``M x = rhs``.
 """
 import taichi as ti
 
+from ..errors import ErrorCode
+
 __all__ = ["ConsistentMass"]
 
 
@@ -34,7 +36,7 @@ class ConsistentMass:
             for k in range(nn):
                 pivot = self.band[k, b]
                 if ti.abs(pivot) <= self.p.pivot_tol():
-                    self._fail(4, k)
+                    self._fail(ErrorCode.SINGULAR_MASS, k)
                     pivot = 1.0
                     self.band[k, b] = 1.0
                 if pivot < 0.0:

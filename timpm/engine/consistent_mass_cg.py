@@ -146,6 +146,6 @@ class ConsistentMassCG:
                 for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                     self.cg_d[I] = self.cg_z[I] + beta * self.cg_d[I]
             if not converged:
-                self._fail(ti.static(int(ErrorCode.MASS_SOLVE)), 0)
+                self._fail(ErrorCode.MASS_SOLVE, 0)
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                 rhs[I] = self.cg_x[I]

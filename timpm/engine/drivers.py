@@ -15,7 +15,7 @@ run stops after that step and Python raises the error.
 """
 import taichi as ti
 
-from ..errors import TEAM_SPIN_LIMIT
+from ..errors import TEAM_SPIN_LIMIT, ErrorCode
 
 __all__ = ["Drivers"]
 
@@ -25,7 +25,8 @@ class Drivers:
 
     @ti.func
     def _fail(self, code, where):
-        """Record the first error of the run: its code, step and particle or node."""
+        """Record the first error of the run: its code (an :class:`~timpm.errors.ErrorCode`),
+        step and particle or node."""
         first = False
         if ti.static(self.mode == "serial"):
             first = self.err_count[None] == 0
@@ -184,7 +185,7 @@ class Drivers:
                     break
                 if spins > TEAM_SPIN_LIMIT:
                     ti.atomic_add(self.team_abort[None], 1)
-                    self._fail(6, c * self.p.scatter_block())
+                    self._fail(ErrorCode.TEAM_BARRIER, c * self.p.scatter_block())
                     break
 
     @ti.func

@@ -103,7 +103,7 @@ class Midpoint:
             relax = self._midpoint_relaxation(it, change[0], previous, relax)
             previous = change[0]
         if not converged and self.err_count[None] == 0:
-            self._fail(ti.static(int(ErrorCode.MIDPOINT)), -1)  # -1: no particle to name
+            self._fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
         if self.err_count[None] == 0:
             for p in range(self.p.n_particles()):
                 self._midpoint_finish(p)
@@ -137,12 +137,14 @@ class Midpoint:
             v_mid = ti.Vector.zero(float, self.dim)
             accel = ti.Vector.zero(float, self.dim)
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
-            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                phi, grad = self._weight(w, dw, offset)
-                vi = self.gp[base + offset]
-                v_mid += phi * vi
-                accel += phi * self.gf[base + offset]
-                grad_v += vi.outer_product(grad)
+            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for a in ti.static(range(self.basis.support)):
+                    offset = self._offset_of(r, a)
+                    phi, grad = self._weight(w, dw, offset)
+                    vi = self.gp[base + offset]
+                    v_mid += phi * vi
+                    accel += phi * self.gf[base + offset]
+                    grad_v += vi.outer_product(grad)
             v_end = self.v_start[p] + self.p.dt() * accel
             F0 = self.F_start[p]
             F1 = (ti.Matrix.identity(float, self.dim) + self.p.dt() * grad_v) @ F0
@@ -164,7 +166,7 @@ class Midpoint:
         # step too large for the motion, or passes that diverge): sigma(F) has no value
         state = F1.sum() + v_bar.sum()
         if not (F1.determinant() > 0.0 and ti.abs(state) < 1e300):  # NaN fails both
-            self._fail(ti.static(int(ErrorCode.MIDPOINT)), p)
+            self._fail(ErrorCode.MIDPOINT, p)
 
     @ti.func
     def _averaged_stress(self, p, F0, F1):
@@ -247,7 +249,7 @@ class Midpoint:
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                 self.gv[I] += relax * (0.5 * (self.gp[I] + self.gf[I]) - self.gv[I])
         if not converged and self.err_count[None] == 0:
-            self._fail(ti.static(int(ErrorCode.MIDPOINT)), -1)  # -1: no particle to name
+            self._fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
         if self.err_count[None] == 0:
             # G2P: v_p = sum phi_i v_i^(n+1), C_p from v_i^(n+1), x_p += dt sum phi_i vbar_i
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
@@ -260,20 +262,22 @@ class Midpoint:
     def _affine_momentum(self, p):
         base, w, dw, xi, inside = self._stencil(p)
         if not inside:
-            self._fail(1, p)
+            self._fail(ErrorCode.OFF_GRID, p)
         else:
             mp = self.m[p]
             affine = mp * self.C[p]
             mom = mp * self.v[p] - affine @ self._from_first_node(xi, base)
             h_affine = self.p.h() * affine
-            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                phi, grad = self._weight(w, dw, offset)
-                node = base + offset
-                self.gm[node] += mp * phi
-                if ti.static(self.basis.support > 2 or self.mls_mpm):
-                    self.gp[node] += phi * (mom + self._times_offset(h_affine, offset))
-                else:
-                    self.gp[node] += phi * mp * self.v[p] + mp * (self.C[p] @ grad)
+            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for a in ti.static(range(self.basis.support)):
+                    offset = self._offset_of(r, a)
+                    phi, grad = self._weight(w, dw, offset)
+                    node = base + offset
+                    self.gm[node] += mp * phi
+                    if ti.static(self.basis.support > 2 or self.mls_mpm):
+                        self.gp[node] += phi * (mom + self._times_offset(h_affine, r, a))
+                    else:
+                        self.gp[node] += phi * mp * self.v[p] + mp * (self.C[p] @ grad)
 
     @ti.func
     def _affine_midpoint_particle(self, p):
@@ -297,14 +301,16 @@ class Midpoint:
             if ti.static(self.mls_mpm):
                 A = self.p.D_inv() * stress_volume
             d = self._from_first_node(xi, base)
-            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                phi, grad = self._weight(w, dw, offset)
-                force = phi * fp
-                if ti.static(self.mls_mpm):
-                    force -= phi * (self.p.h() * self._times_offset(A, offset) - A @ d)
-                else:
-                    force -= stress_volume @ grad
-                self.gf[base + offset] += force
+            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for a in ti.static(range(self.basis.support)):
+                    offset = self._offset_of(r, a)
+                    phi, grad = self._weight(w, dw, offset)
+                    force = phi * fp
+                    if ti.static(self.mls_mpm):
+                        force -= phi * (self.p.h() * self._times_offset(A, r, a) - A @ d)
+                    else:
+                        force -= stress_volume @ grad
+                    self.gf[base + offset] += force
         return change, size
 
     @ti.func
@@ -314,7 +320,9 @@ class Midpoint:
             v_new, B, _ = self._affine_gather(base, w, dw, xi, False)
             self.C[p] = self._affine_of(B, base, w, xi)
             dx = ti.Vector.zero(float, self.dim)
-            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                phi, grad = self._weight(w, dw, offset)
-                dx += phi * self.gp[base + offset]
+            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for a in ti.static(range(self.basis.support)):
+                    offset = self._offset_of(r, a)
+                    phi, grad = self._weight(w, dw, offset)
+                    dx += phi * self.gp[base + offset]
             self._midpoint_end_state(p, self.x[p] + self.p.dt() * dx, v_new)

@@ -147,9 +147,11 @@ class MLSStressND:
                                                                          - GAUSS_POINTS[0])
                     base, w, dw, _ = self._stencil_at(y)
                     scale = jw * self.p.h() ** self.dim
-                    for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                        phi, grad = self._weight(w, dw, offset)
-                        self.accumulate(self.gf[base + offset], -scale * (sig @ grad))
+                    for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                        for a in ti.static(range(self.basis.support)):
+                            offset = self._offset_of(r, a)
+                            phi, grad = self._weight(w, dw, offset)
+                            self.accumulate(self.gf[base + offset], -scale * (sig @ grad))
 
     @ti.func
     def _clear_gauss_nd(self):

@@ -76,7 +76,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         self.capacity = capacity
         # compile-time choices the phases read (through ti.static)
         self.dim, self.basis = f.dim, f.basis_class
-        self.stencil_shape = (self.basis.support,) * self.dim  # nodes per particle, per axis
+        # the stencil's rows: every axis but the last (stencil.py)
+        self.stencil_rows = self.basis.support ** (self.dim - 1)
         self.transfer, self.mode, self.team = f.transfer, f.mode, f.team
         self.apic, self.mls_mpm, self.strain_remap = f.apic, f.mls_mpm, f.strain_remap
         self.consistent, self.mls, self.damping, self.pic = f.consistent, f.mls, f.damping, f.pic

@@ -81,12 +81,14 @@ class RungeKutta:
             x_rate = ti.Vector.zero(float, self.dim)
             v_rate = ti.Vector.zero(float, self.dim)
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
-            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                phi, grad = self._weight(w, dw, offset)
-                vi = self.gp[base + offset]
-                x_rate += phi * vi
-                v_rate += phi * self.gf[base + offset]
-                grad_v += vi.outer_product(grad)
+            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for a in ti.static(range(self.basis.support)):
+                    offset = self._offset_of(r, a)
+                    phi, grad = self._weight(w, dw, offset)
+                    vi = self.gp[base + offset]
+                    x_rate += phi * vi
+                    v_rate += phi * self.gf[base + offset]
+                    grad_v += vi.outer_product(grad)
             F_rate = grad_v @ self.F[p]
             weight = 1.0 / 6.0 if s == 0 or s == 3 else 1.0 / 3.0  # B_s
             if s == 0:

@@ -4,13 +4,14 @@ Mixed into :class:`~timpm.engine.program.Program`.  Reads ``x`` and the run-time
 values (``self.p``); the basis (``self.basis``) is a compile-time class whose ``stencil``
 ``ti.func`` gives the 1D weights, combined here as tensor products.
 
-The phases loop over a particle's stencil nodes with a run-time loop,
-``for offset in ti.grouped(ti.ndrange(*self.stencil_shape))``, not an unrolled one
-(``ti.static``): Taichi's IR passes cost about the square of a kernel's statement count
-(each replaced statement rescans the kernel), and an unrolled 27-node 3D stencil made the
-cube scene's step compile for 62 s against 5 s rolled.  LLVM unrolls the constant-count
-loops again, so the steps run as fast (``benchmarks/engine_ab.py`` against the
-unrolled engine, docs/performance.md).
+The phases loop over a particle's stencil nodes row by row: a run-time loop over the
+rows (every axis but the last: ``stencil_rows`` = support^(dim - 1), one in 1D) and the
+nodes of a row unrolled (``ti.static``), ``offset = self._offset_of(r, a)``.  Taichi's IR
+passes cost about the square of a kernel's statement count (each replaced statement
+rescans the kernel): the 3D cube scene's step, 27 nodes unrolled, compiled cold for 62 s,
+2.3 s so.  The unrolled row keeps the weights of the last axis in registers and the
+column adds of ``_times_offset``; 1D stencils are unrolled whole, as before
+(docs/performance.md, "Time to the first step").
 """
 import taichi as ti
 
@@ -75,14 +76,60 @@ class StencilOps:
         return (xi - ti.cast(base, float) + self.node_offset) * self.p.h()
 
     @ti.func
-    def _times_offset(self, A, offset):
-        """A o for the stencil offset o."""
-        return A @ ti.cast(offset, float)
+    def _row_offsets(self, r):
+        """(o_0, o_1) of stencil row r: the offsets along every axis but the last (the
+        rows run in C order; unused axes zero)."""
+        o0, o1 = 0, 0
+        if ti.static(self.dim == 3):
+            o0 = r // self.basis.support
+            o1 = r % self.basis.support
+        elif ti.static(self.dim == 2):
+            o1 = r
+        return o0, o1
 
     @ti.func
-    def _outer_offset(self, u, offset):
-        """u o^T for the stencil offset o."""
-        return u.outer_product(ti.cast(offset, float))
+    def _offset_of(self, r, a: ti.template()):
+        """The stencil offset of node a of row r."""
+        o0, o1 = self._row_offsets(r)
+        o = ti.Vector.zero(ti.i32, self.dim)
+        o[self.dim - 1] = a
+        if ti.static(self.dim > 1):
+            o[self.dim - 2] = o1
+        if ti.static(self.dim > 2):
+            o[0] = o0
+        return o
+
+    @ti.func
+    def _times_offset(self, A, r, a: ti.template()):
+        """A o for the offset o of node a of stencil row r: the row's axes as products,
+        the last axis (unrolled) as column adds."""
+        o0, o1 = self._row_offsets(r)
+        out = ti.Vector.zero(float, self.dim)
+        if ti.static(self.dim > 2):
+            out += A[:, 0] * o0
+        if ti.static(self.dim > 1):
+            out += A[:, self.dim - 2] * o1
+        if ti.static(a == 1):
+            out += A[:, self.dim - 1]
+        elif ti.static(a > 1):
+            out += a * A[:, self.dim - 1]
+        return out
+
+    @ti.func
+    def _outer_offset(self, u, r, a: ti.template()):
+        """u o^T for the offset o of node a of stencil row r."""
+        o0, o1 = self._row_offsets(r)
+        out = ti.Matrix.zero(float, self.dim, self.dim)
+        for j in ti.static(range(self.dim)):
+            if ti.static(self.dim > 2):
+                out[j, 0] = u[j] * o0
+            if ti.static(self.dim > 1):
+                out[j, self.dim - 2] = u[j] * o1
+            if ti.static(a == 1):
+                out[j, self.dim - 1] = u[j]
+            elif ti.static(a > 1):
+                out[j, self.dim - 1] = a * u[j]
+        return out
 
     @ti.func
     def _element(self, xi):

@@ -11,6 +11,8 @@ Mixed into :class:`~timpm.engine.program.Program`.  One step (``_one_step``) is 
 """
 import taichi as ti
 
+from ..errors import ErrorCode
+
 __all__ = ["Transfer"]
 
 
@@ -90,7 +92,7 @@ class Transfer:
         base, w, dw, xi, inside = self._stencil(p)
         node_values = ti.Matrix.zero(float, 3, self.basis.support)
         if not inside:
-            self._fail(1, p)
+            self._fail(ErrorCode.OFF_GRID, p)
         else:
             mp = self.m[p]
             fp = self._external_force(p)
@@ -112,35 +114,40 @@ class Transfer:
                 affine = mp * self.C[p]  # APIC: the stress enters through grad phi
             mom = mp * self.v[p] + self.p.dt() * fp - affine @ d
             h_affine = self.p.h() * affine
-            for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                phi, grad = self._weight(w, dw, offset)
-                node = base + offset
-                if ti.static(self.mls_mpm):
-                    self._add("gm", copy, node, mp * phi)
-                    self._add("gp", copy, node, phi * (mom + self._times_offset(h_affine, offset)))
-                elif ti.static(self.apic):
-                    # m_p C_p (x_i - x_p) phi_i; the linear basis keeps B_p in C and applies
-                    # D_p^-1 at the new position: B_p D_p^-1 (x_i - x_p) phi_i = B_p grad phi_i
-                    # (Jiang et al. 2015), bounded where a particle barely touches a node
-                    momentum = ti.Vector.zero(float, self.dim)
-                    if ti.static(self.basis.support > 2):
-                        momentum = phi * (mom + self._times_offset(h_affine, offset))
-                    else:
-                        momentum = phi * (mp * self.v[p] + self.p.dt() * fp) + mp * (self.C[p] @ grad)
-                    self._add("gm", copy, node, mp * phi)
-                    self._add("gp", copy, node, momentum - self.p.dt() * (stress_volume @ grad))
-                elif ti.static(not self.mls):
-                    node_values = self._deposit("gm", copy, node, offset, mp * phi, node_values)
-                    node_values = self._deposit("gf", copy, node, offset,
-                                                phi * fp - stress_volume @ grad, node_values)
-                else:  # MLS: the stress enters at the Gauss points (_integrate_gauss)
-                    if ti.static(not self.mls_study):
-                        self.accumulate(self.gm[node], mp * phi)
-                    self.accumulate(self.gf[node], phi * fp)
-                if ti.static(not self.apic and (self.damping or self.has_walls or self.pic
-                                                or self.rk4 or self.midpoint)):
-                    node_values = self._deposit("gp", copy, node, offset, mp * phi * self.v[p],
-                                                node_values)
+            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for a in ti.static(range(self.basis.support)):
+                    offset = self._offset_of(r, a)
+                    phi, grad = self._weight(w, dw, offset)
+                    node = base + offset
+                    if ti.static(self.mls_mpm):
+                        self._add("gm", copy, node, mp * phi)
+                        self._add("gp", copy, node,
+                                  phi * (mom + self._times_offset(h_affine, r, a)))
+                    elif ti.static(self.apic):
+                        # m_p C_p (x_i - x_p) phi_i; the linear basis keeps B_p in C and
+                        # applies D_p^-1 at the new position: B_p D_p^-1 (x_i - x_p) phi_i =
+                        # B_p grad phi_i (Jiang et al. 2015), bounded where a particle barely
+                        # touches a node
+                        momentum = ti.Vector.zero(float, self.dim)
+                        if ti.static(self.basis.support > 2):
+                            momentum = phi * (mom + self._times_offset(h_affine, r, a))
+                        else:
+                            momentum = (phi * (mp * self.v[p] + self.p.dt() * fp)
+                                        + mp * (self.C[p] @ grad))
+                        self._add("gm", copy, node, mp * phi)
+                        self._add("gp", copy, node, momentum - self.p.dt() * (stress_volume @ grad))
+                    elif ti.static(not self.mls):
+                        node_values = self._deposit("gm", copy, node, offset, mp * phi, node_values)
+                        node_values = self._deposit("gf", copy, node, offset,
+                                                    phi * fp - stress_volume @ grad, node_values)
+                    else:  # MLS: the stress enters at the Gauss points (_integrate_gauss)
+                        if ti.static(not self.mls_study):
+                            self.accumulate(self.gm[node], mp * phi)
+                        self.accumulate(self.gf[node], phi * fp)
+                    if ti.static(not self.apic and (self.damping or self.has_walls or self.pic
+                                                    or self.rk4 or self.midpoint)):
+                        node_values = self._deposit("gp", copy, node, offset, mp * phi * self.v[p],
+                                                    node_values)
             if ti.static(self.consistent and self.dim == 1):
                 for a, c in ti.static(ti.ndrange(self.basis.support, self.basis.support)):
                     self.accumulate(self.band[base[0] + a, c - a + self.bandwidth],
@@ -170,11 +177,13 @@ class Transfer:
             else:
                 acc = ti.Vector.zero(float, self.dim)
                 pic = ti.Vector.zero(float, self.dim)
-                for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                    phi, grad = self._weight(w, dw, offset)
-                    acc += phi * self.gf[base + offset]
-                    if ti.static(self.pic):
-                        pic += phi * self.gv[base + offset]
+                for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                    for a in ti.static(range(self.basis.support)):
+                        offset = self._offset_of(r, a)
+                        phi, grad = self._weight(w, dw, offset)
+                        acc += phi * self.gf[base + offset]
+                        if ti.static(self.pic):
+                            pic += phi * self.gv[base + offset]
                 vp = self.v[p] + self.p.dt() * acc
                 if ti.static(self.pic):
                     b = self.p.pic_fraction()
@@ -183,10 +192,12 @@ class Transfer:
             if ti.static(self.mls_study):
                 self._scatter_node_moments(p, vp[0])
             else:
-                for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                    phi, grad = self._weight(w, dw, offset)
-                    node_values = self._deposit("gp", copy, base + offset, offset,
-                                                self.m[p] * phi * vp, node_values)
+                for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                    for a in ti.static(range(self.basis.support)):
+                        offset = self._offset_of(r, a)
+                        phi, grad = self._weight(w, dw, offset)
+                        node_values = self._deposit("gp", copy, base + offset, offset,
+                                                    self.m[p] * phi * vp, node_values)
         return base, inside, node_values
 
     @ti.func
@@ -196,13 +207,15 @@ class Transfer:
         vp = ti.Vector.zero(float, self.dim)
         grad_du = ti.Matrix.zero(float, self.dim, self.dim)
         B = ti.Matrix.zero(float, self.dim, self.dim)  # sum_i phi_i v_i o_i^T
-        for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-            phi, grad = self._weight(w, dw, offset)
-            vi = self.gv[base + offset]
-            vp += phi * vi
-            if ti.static(gradient):
-                grad_du += (vi * self.p.dt()).outer_product(grad)
-            B += self._outer_offset(phi * vi, offset)
+        for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+            for a in ti.static(range(self.basis.support)):
+                offset = self._offset_of(r, a)
+                phi, grad = self._weight(w, dw, offset)
+                vi = self.gv[base + offset]
+                vp += phi * vi
+                if ti.static(gradient):
+                    grad_du += (vi * self.p.dt()).outer_product(grad)
+                B += self._outer_offset(phi * vi, r, a)
         # sum_i phi_i v_i (x_i - x_p)^T = h sum_i phi_i v_i o_i^T - v_p d^T
         d = self._from_first_node(xi, base)
         return vp, self.p.h() * B - vp.outer_product(d), grad_du
@@ -242,9 +255,11 @@ class Transfer:
             grad_du = ti.Matrix.zero(float, self.dim, self.dim)
             if ti.static(self.strain_remap):
                 vp = self.v[p]  # v_p and C_p came with the remap (_g2p_velocity)
-                for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                    phi, grad = self._weight(w, dw, offset)
-                    grad_du += (self.gp[base + offset] * self.p.dt()).outer_product(grad)
+                for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                    for a in ti.static(range(self.basis.support)):
+                        offset = self._offset_of(r, a)
+                        phi, grad = self._weight(w, dw, offset)
+                        grad_du += (self.gp[base + offset] * self.p.dt()).outer_product(grad)
             elif ti.static(self.apic):
                 B = ti.Matrix.zero(float, self.dim, self.dim)
                 vp, B, grad_du = self._affine_gather(base, w, dw, xi, not self.mls_mpm)
@@ -253,11 +268,13 @@ class Transfer:
                 if ti.static(self.mls_mpm):
                     grad_du = self.C[p] * self.p.dt()
             else:
-                for offset in ti.grouped(ti.ndrange(*self.stencil_shape)):
-                    phi, grad = self._weight(w, dw, offset)
-                    vi = self.gp[base + offset]
-                    vp += phi * vi
-                    grad_du += (vi * self.p.dt()).outer_product(grad)
+                for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                    for a in ti.static(range(self.basis.support)):
+                        offset = self._offset_of(r, a)
+                        phi, grad = self._weight(w, dw, offset)
+                        vi = self.gp[base + offset]
+                        vp += phi * vi
+                        grad_du += (vi * self.p.dt()).outer_product(grad)
             du = vp * self.p.dt()
             deps = 0.5 * (grad_du + grad_du.transpose())
             vol_old = self.vol[p]
@@ -299,16 +316,16 @@ class Transfer:
         for k in ti.static(range(self.dim)):
             xn[k] = (x_new[k] - self.p.origin()[k]) * self.p.inv_h()
             if not (xn[k] >= 0.0 and xn[k] <= self.p.elements()[k]):
-                code = 1
+                code = ErrorCode.OFF_GRID
         if ti.static(self.update_volume):
             if not (jac > 0.0):
-                code = 3
+                code = ErrorCode.INVERTED
             elif ti.static(self.f.volume_guard):
                 if not self._volume_in_range(p, vol_new):
-                    code = 7
+                    code = ErrorCode.VOLUME_RANGE
         state = x_new.sum() + vp.sum() + sig_new.sum() + vol_new
         if not (ti.abs(state) < 1e300):  # NaN fails this comparison
-            code = 2
+            code = ErrorCode.NOT_FINITE
         if code != 0:
             self._fail(code, p)
         if ti.static(self.track_crossings):
