@@ -145,6 +145,16 @@ def test_dam_break_front_moves_like_the_experiment():
     assert r.summary["max_abs_difference"] < 0.6
 
 
+@pytest.mark.slow
+def test_the_default_column_collapse_runs_out_as_lajeunesse_measured():
+    # the demo as a user runs it (9,522 particles, chosen to run in real time on two
+    # cores): its run-out within 10% of Lajeunesse et al.'s fit 1.8 a at a = 2
+    r = run_demo("column-collapse", frames=4)
+    assert r.particles >= 9000
+    assert abs(r.summary["lajeunesse_relative_error"]) < 0.10
+    assert r.summary["settled"]
+
+
 def test_lube_law():
     assert np.isclose(lube_runout(1.0), 1.2)
     assert np.isclose(lube_runout(8.0), 1.9 * 4.0)

@@ -1,0 +1,68 @@
+"""Simulated seconds per wall second of every demo and every example scene file, as a user
+runs them: the whole default run from the command line.
+
+    python benchmarks/realtime.py [--json docs/realtime.json]
+
+Each command is a fresh process in an empty working folder (``timpm demo NAME`` with no
+movie, ``timpm run examples/FILE.toml`` with its own outputs), Taichi's offline cache as
+it is; the figures are the command's own ``--json`` record: particles, steps, the
+simulated time over the stepping's wall time (compilation and rendering apart, both
+reported), and the run's end to end wall time.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from datetime import date
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DEMOS = ("column-collapse", "disks", "dam-break")
+
+
+def run(args):
+    with tempfile.TemporaryDirectory(prefix="timpm-realtime-") as work:
+        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        t0 = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "timpm.cli", *args, "--json", "out.json"],
+                              cwd=work, env=env, capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        if proc.returncode != 0:
+            raise RuntimeError(f"{' '.join(args)} failed:\n{proc.stderr[-3000:]}")
+        doc = json.loads((Path(work) / "out.json").read_text())
+    t_end = doc["t_end"]
+    return {"command": "timpm " + " ".join(args), "particles": doc["particles"],
+            "steps": doc["steps"], "t_end": t_end,
+            "simulated_per_wall_second": t_end / doc["simulation_seconds"],
+            "simulation_seconds": doc["simulation_seconds"],
+            "compile_seconds": doc["compile_seconds"],
+            "render_seconds": doc.get("render_seconds", 0.0), "end_to_end_seconds": wall}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--json", metavar="FILE")
+    args = ap.parse_args(argv)
+    commands = [["demo", name] for name in DEMOS]
+    commands += [["run", str(p.relative_to(ROOT))] for p in sorted((ROOT / "examples").glob("*.toml"))]
+    rows = []
+    for cmd in commands:
+        if cmd[0] == "run":
+            cmd = ["run", str(ROOT / cmd[1])]
+        r = run(cmd)
+        rows.append(r)
+        print(f"{r['command'].replace(str(ROOT) + '/', ''):45s} {r['particles']:7d} particles "
+              f"{r['steps']:6d} steps  {r['simulated_per_wall_second']:7.3f} simulated s / wall s"
+              f"  (compile {r['compile_seconds']:.2f} s, end to end {r['end_to_end_seconds']:.1f} s)",
+              flush=True)
+    if args.json:
+        Path(args.json).write_text(json.dumps({"date": date.today().isoformat(),
+                                               "command": " ".join(sys.argv), "runs": rows},
+                                              indent=1))
+
+
+if __name__ == "__main__":
+    main()
