@@ -15,7 +15,7 @@ import taichi as ti
 from taichi.lang import impl
 from taichi.lang.misc import is_arch_supported
 
-from timpm import runtime
+from timpm import runtime, taichi_backend
 
 #: seconds a subprocess may take (each needs ~2 s; a hang is what the limit catches)
 TIMEOUT = 60
@@ -364,17 +364,19 @@ def test_the_compile_clock_books_a_kernels_first_call_only():
     assert runtime.compile_clock() == built
     assert out.to_numpy().tolist() == [2.0] * 4  # to_numpy builds its reader: booked
     read = runtime.compile_clock()
-    assert read > built
+    # taichi-forge copies fields in and out without kernels of its own: nothing to book
+    builds_readers = not taichi_backend.FORGE
+    assert read > built if builds_readers else read == built
     fill(3.0, 1)  # another instance of the template
     instance = runtime.compile_clock()
     assert instance > read
     scalar = ti.field(ti.f64, shape=())
     scalar[None] = 4.0  # the first write builds the field's writer, the first read its reader
     written = runtime.compile_clock()
-    assert written > instance
+    assert written > instance if builds_readers else written == instance
     assert scalar[None] == 4.0
     first_read = runtime.compile_clock()
-    assert first_read > written
+    assert first_read > written if builds_readers else first_read == written
     scalar[None] = 5.0
     assert scalar[None] == 5.0
     assert runtime.compile_clock() == first_read

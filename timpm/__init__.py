@@ -8,7 +8,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 # the Taichi that runs timpm (taichi, or taichi-forge where only that is installed), then
 # runtime: it imports Taichi without its banner (printed when Taichi starts)
-from . import taichi_backend  # noqa: F401  (before anything imports taichi)
+from . import taichi_backend  # before anything imports taichi
 from .runtime import init
 from .basis import BASES, Basis, Linear, get_basis
 from .scene import (Constant, Grid1D, Material, Ramp, Scene, Sine, Traction,
@@ -23,8 +23,9 @@ from .model import Model
 __version__ = "0.1.0"
 
 __all__ = [
-    "BASES", "Basis", "Linear", "get_basis", "init", "Constant", "Grid1D", "Material",
-    "Ramp", "Scene", "Sine", "Traction", "critical_time_step", "equidistant_particles",
+    "taichi_backend", "BASES", "Basis", "Linear", "get_basis", "init", "Constant", "Grid1D",
+    "Material", "Ramp", "Scene", "Sine", "Traction", "critical_time_step",
+    "equidistant_particles",
     "SimulationError", "Solver", "Batch", "__version__", "World", "Body", "Box", "Ball", "Wall",
     "Points", "Model", "LinearElastic", "NeoHookean", "DruckerPrager",
     "WeaklyCompressibleFluid", "get_material",

@@ -10,6 +10,7 @@ untouched.
 
 The same physics in timpm is :func:`timpm.scenarios.mpm88.mpm88_world`.
 """
+import importlib
 import os
 import re
 import subprocess
@@ -19,6 +20,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+# taichi, or taichi-forge where only that is installed (timpm/taichi_backend.py)
+importlib.import_module("timpm.taichi_backend")
 
 from . import BENCHMARKS
 
