@@ -90,8 +90,9 @@ def _arch(arch):
 
 def _optimize(optimize):
     """``optimize`` checked, or ``TIMPM_OPTIMIZE`` ("1" or "0") when None (False if unset:
-    with the stencil loops rolled, Taichi's control-flow optimisation halves no step time
-    measurably and doubles the compilation, benchmarks/optimize_ab.py)."""
+    Taichi's control-flow optimisation doubles the compilation, and since the stencil
+    loops run by rows the steps measure no faster with it beyond the machine's noise;
+    benchmarks/optimize_ab.py)."""
     if optimize is None:
         text = os.environ.get("TIMPM_OPTIMIZE", "").strip()
         if text not in ("", "0", "1"):
@@ -143,15 +144,16 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     use (Linux; like ``OMP_PROC_BIND=spread``; see :func:`pin_workers`).
     ``optimize=True`` (default: ``TIMPM_OPTIMIZE``, else False) turns on Taichi's
     control-flow optimisation (store forwarding, dead-store elimination): kernels compile
-    about 2x slower, and the steps measured no faster beyond the machine's noise since
-    the stencil loops are rolled (``benchmarks/optimize_ab.py``, docs/performance.md).
+    about 2x slower, and the steps measure no faster beyond the machine's noise since the
+    stencil loops run by rows (``benchmarks/optimize_ab.py``, docs/performance.md).
     Every golden case (one thread) is bit for bit the same either way; a two-thread run
-    can differ at round-off (Taichi contracts other multiply-adds).  ``fast_math=False`` turns off Taichi's fast math: every operation
-    rounds as written (no reassociation, no contraction into fused multiply-adds), so
-    that two code paths of the same arithmetic (the fused serial and the parallel mode,
-    one thread) give the same bits on any CPU; with fast math they can differ at
-    round-off, by the CPU's vector width.  The arguments
-    are checked (ValueError) before Taichi is touched.  Calling it again with other
+    can differ at round-off (Taichi contracts other multiply-adds).
+    ``fast_math=False`` turns off Taichi's fast math: every operation rounds as written
+    (no reassociation, no contraction into fused multiply-adds), so that two programs of
+    the same arithmetic (the fused serial and the parallel mode, a team and the private
+    scatter, a batch and its members alone) give the same bits on any CPU; with fast math
+    LLVM may vectorise them apart (round-off).  The arguments are checked (ValueError)
+    before Taichi is touched.  Calling it again with other
     settings restarts Taichi, which frees the fields of every existing solver (using one
     then raises a RuntimeError; the study drivers build new ones).  The calling thread
     owns the runtime (see :func:`check_caller`).
