@@ -15,13 +15,14 @@ Higher-order bases (B-splines, the quadratic Lagrange basis of the study's chapt
 implement the same interface; see ``BASES``.
 """
 
+import argparse
+
 import numpy as np
 import taichi as ti
 
 __all__ = ["Basis", "Linear", "QuadraticLagrange", "QuadraticBSpline", "CubicBSpline",
            "UniformQuadraticBSpline", "UniformCubicBSpline", "bspline", "BASES", "get_basis",
-           "MAX_BSPLINE_DEGREE",
-           "evaluate", "stencils"]
+           "MAX_BSPLINE_DEGREE", "basis_argument", "evaluate", "stencils"]
 
 
 class Basis:
@@ -340,6 +341,16 @@ def get_basis(name: str) -> type[Basis]:
         raise ValueError(
             f"unknown basis {name!r}: choose one of {', '.join(BASES)} "
             f"(or bsplineN / uniform-bsplineN for degree N = 1 to {MAX_BSPLINE_DEGREE})") from None
+
+
+def basis_argument(text: str) -> str:
+    """A command line's basis name, checked where the parser reads it (before Taichi
+    starts or any work): the name back, or argparse's error with the known ones."""
+    try:
+        get_basis(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
 
 
 @ti.kernel

@@ -11,7 +11,7 @@ import numpy as np
 from . import __version__
 from .argtypes import (add_runtime_arguments, numbers_as_values, param, positive_float,
                        positive_int, setting)
-from .basis import BASES, get_basis
+from .basis import BASES, basis_argument, get_basis
 from .checks import MAX_STEPS, step_count
 from .engine.features import MODES
 from .files import replacing, write_json as _write_json
@@ -28,7 +28,8 @@ __all__ = ["main", "entry", "demo_script"]
 def _add_common(p):
     p.add_argument("problem", help=f"one of: {', '.join(PROBLEMS)}")
     p.add_argument("--ppc", type=int, help="particles per element (default: the problem's)")
-    p.add_argument("--basis", default="linear", help=f"one of: {', '.join(BASES)}")
+    p.add_argument("--basis", default="linear", type=basis_argument,
+                   help=f"one of: {', '.join(BASES)}, bsplineN, uniform-bsplineN")
     p.add_argument("--mass", choices=["lumped", "consistent"],
                    help="mass matrix (default: the problem's, lumped but for mms-1d)")
     p.add_argument("--dt", type=positive_float, help="time step [s] (default: the problem's)")
@@ -208,7 +209,7 @@ def _parser():
     cmp.add_argument("--ppc", type=positive_int, default=50)
     cmp.add_argument("--dt", type=positive_float, default=1e-3)
     cmp.add_argument("--t-end", type=positive_float, default=3.0)
-    cmp.add_argument("--basis", default="linear")
+    cmp.add_argument("--basis", default="linear", type=basis_argument)
     _add_allow_many_steps(cmp)
     cmp.add_argument("--json", metavar="FILE")
     cmp.add_argument("--plot", metavar="FILE.png")

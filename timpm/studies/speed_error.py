@@ -68,7 +68,7 @@ import numpy as np
 
 from ..argtypes import add_runtime_arguments, non_negative_int, param, positive_float, positive_int
 from ..checks import distinct, whole
-from ..basis import BASES, get_basis
+from ..basis import BASES, basis_argument, get_basis
 from ..engine.features import MODES
 from ..problems import PROBLEMS, get_problem
 from ..scene import MASS_KINDS, PLACEMENTS, STRESS_UPDATES
@@ -383,6 +383,7 @@ def add_parser(subparsers):
                     "per target error, with its speed-up over linear elements.")
     p.add_argument("problem", help=f"one of: {', '.join(n for n, c in PROBLEMS.items() if c.has_exact)}")
     p.add_argument("--bases", nargs="+", default=["linear", "bspline2", "bspline3"],
+                   type=basis_argument,
                    help=f"bases to sweep (of: {', '.join(BASES)}); default linear bspline2 bspline3")
     p.add_argument("--masses", nargs="+", default=["lumped", "consistent"], choices=list(MASS_KINDS),
                    help="mass matrices to sweep (default: both)")
