@@ -69,6 +69,9 @@ class Demo:
 
     name = ""
     color = "speed"
+    #: the run records its energies (a demo whose summary or plot reads them): a record
+    #: every ~1/200 of the run, each a launch, that also cuts the team's launches short
+    records_energies = False
     t_end: float | None = None
     transfer: str = "mls-mpm"
     basis: str = "uniform-bspline2"
@@ -126,7 +129,7 @@ class ColumnCollapse(Demo):
     aspect: float = 2.0
     width: float = 0.5
     # 23 cells across the column, 3x3 particles a cell: 9,522 particles, in real time on
-    # two cores (1.15-1.19 simulated s per wall s, 2026-11-27), the run-out 0.2% from
+    # two cores (1.16-1.26 simulated s per wall s, 2026-11-27), the run-out 0.2% from
     # Lajeunesse's fit; 34 cells (20,808 particles) ran at 0.35 and 2.1% (docs/results.md)
     cells_per_width: int = 23
     ppc: int = 3
@@ -205,6 +208,7 @@ class Disks(Demo):
 
     name = "disks"
     color = "von-mises"
+    records_energies = True  # the energy balance of the collision (Sulsky et al.)
     CELLS_2D, CELLS_3D = 128, 40
     transfer: str = "apic"
     cells: int | None = None
@@ -459,7 +463,7 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
     color = color or demo.color
     t_end = demo.end_time()
     step_count(t_end, world.dt, allow_many_steps)
-    solver = Solver(world, mode=mode, energies=True,
+    solver = Solver(world, mode=mode, energies=demo.records_energies,
                     record_every=max(1, int(round(t_end / world.dt / 200))))
     quantity(solver, color)  # an unknown or unavailable colour fails before the run
     if movie is not None:
