@@ -6,6 +6,7 @@ The test session's runtime (tests/conftest.py) is never restarted here: what wou
 Taichi with other settings runs in a subprocess, under a timeout that also ends the
 subprocess's own workers."""
 import concurrent.futures
+import importlib.util
 import os
 import textwrap
 
@@ -380,3 +381,21 @@ def test_the_compile_clock_books_a_kernels_first_call_only():
     scalar[None] = 5.0
     assert scalar[None] == 5.0
     assert runtime.compile_clock() == first_read
+
+
+@pytest.mark.parametrize("choice, message", [
+    ("bogus", "TIMPM_TAICHI must be 'taichi' or 'forge' (taichi-forge), got 'bogus'"),
+    ("taichi" if taichi_backend.FORGE else "forge",
+     "but the taichi package is not installed" if taichi_backend.FORGE
+     else "but taichi-forge is not installed"),
+])
+def test_the_taichi_choice_is_checked_at_import(tmp_path, choice, message):
+    """TIMPM_TAICHI names the Taichi that runs timpm; a bad name, or one that is not
+    installed, is refused when timpm is imported, naming the variable and the install."""
+    if choice == "forge" and importlib.util.find_spec("taichi_forge") is not None:
+        pytest.skip("taichi-forge is installed beside taichi here")
+    script = tmp_path / "choose.py"
+    script.write_text("import timpm\n")
+    rc, _, err = run_script(script, dict(os.environ, TIMPM_TAICHI=choice), TIMEOUT)
+    assert rc == 1
+    assert message in err

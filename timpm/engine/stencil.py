@@ -9,7 +9,7 @@ rows (every axis but the last: ``stencil_rows`` = support^(dim - 1), one in 1D) 
 nodes of a row unrolled (``ti.static``), ``offset = self._offset_of(r, a)``.  Taichi's IR
 passes cost about the square of a kernel's statement count (each replaced statement
 rescans the kernel): the 3D cube scene's step, 27 nodes unrolled, compiled cold for 62 s,
-2.3 s so.  The unrolled row keeps the weights of the last axis in registers and the
+2.2 s so.  The unrolled row keeps the weights of the last axis in registers and the
 column adds of ``_times_offset``; 1D stencils are unrolled whole, as before
 (docs/performance.md, "Time to the first step").
 """
