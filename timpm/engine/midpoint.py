@@ -137,10 +137,9 @@ class Midpoint:
             v_mid = ti.Vector.zero(float, self.dim)
             accel = ti.Vector.zero(float, self.dim)
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
-            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+            for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset = self._offset_of(r, a)
-                    phi, grad = self._weight(w, dw, offset)
+                    offset, phi, grad = self._stencil_node(w, dw, r, a)
                     vi = self.gp[base + offset]
                     v_mid += phi * vi
                     accel += phi * self.gf[base + offset]
@@ -268,10 +267,9 @@ class Midpoint:
             affine = mp * self.C[p]
             mom = mp * self.v[p] - affine @ self._from_first_node(xi, base)
             h_affine = self.p.h() * affine
-            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+            for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset = self._offset_of(r, a)
-                    phi, grad = self._weight(w, dw, offset)
+                    offset, phi, grad = self._stencil_node(w, dw, r, a)
                     node = base + offset
                     self.gm[node] += mp * phi
                     if ti.static(self.basis.support > 2 or self.mls_mpm):
@@ -301,10 +299,9 @@ class Midpoint:
             if ti.static(self.mls_mpm):
                 A = self.p.D_inv() * stress_volume
             d = self._from_first_node(xi, base)
-            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+            for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset = self._offset_of(r, a)
-                    phi, grad = self._weight(w, dw, offset)
+                    offset, phi, grad = self._stencil_node(w, dw, r, a)
                     force = phi * fp
                     if ti.static(self.mls_mpm):
                         force -= phi * (self.p.h() * self._times_offset(A, r, a) - A @ d)
@@ -320,9 +317,8 @@ class Midpoint:
             v_new, B, _ = self._affine_gather(base, w, dw, xi, False)
             self.C[p] = self._affine_of(B, base, w, xi)
             dx = ti.Vector.zero(float, self.dim)
-            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+            for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset = self._offset_of(r, a)
-                    phi, grad = self._weight(w, dw, offset)
+                    offset, phi, grad = self._stencil_node(w, dw, r, a)
                     dx += phi * self.gp[base + offset]
             self._midpoint_end_state(p, self.x[p] + self.p.dt() * dx, v_new)

@@ -147,10 +147,9 @@ class MLSStressND:
                                                                          - GAUSS_POINTS[0])
                     base, w, dw, _ = self._stencil_at(y)
                     scale = jw * self.p.h() ** self.dim
-                    for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                    for r in range(self.stencil_rows):
                         for a in ti.static(range(self.basis.support)):
-                            offset = self._offset_of(r, a)
-                            phi, grad = self._weight(w, dw, offset)
+                            offset, phi, grad = self._stencil_node(w, dw, r, a)
                             self.accumulate(self.gf[base + offset], -scale * (sig @ grad))
 
     @ti.func

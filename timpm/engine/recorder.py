@@ -159,10 +159,9 @@ class Recorder:
         for p in range(self.p.n_particles()):
             base, w, dw, xi, inside = self._stencil(p)
             if inside:
-                for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for r in range(self.stencil_rows):
                     for a in ti.static(range(self.basis.support)):
-                        offset = self._offset_of(r, a)
-                        phi, grad = self._weight(w, dw, offset)
+                        offset, phi, grad = self._stencil_node(w, dw, r, a)
                         self.accumulate(self.gm[base + offset], self.m[p] * phi)
                         self.accumulate(self.gp[base + offset], self.m[p] * phi * self.v[p])
 

@@ -81,10 +81,9 @@ class RungeKutta:
             x_rate = ti.Vector.zero(float, self.dim)
             v_rate = ti.Vector.zero(float, self.dim)
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
-            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+            for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset = self._offset_of(r, a)
-                    phi, grad = self._weight(w, dw, offset)
+                    offset, phi, grad = self._stencil_node(w, dw, r, a)
                     vi = self.gp[base + offset]
                     x_rate += phi * vi
                     v_rate += phi * self.gf[base + offset]

@@ -6,10 +6,10 @@ values (``self.p``); the basis (``self.basis``) is a compile-time class whose ``
 
 The phases loop over a particle's stencil nodes row by row: a run-time loop over the
 rows (every axis but the last: ``stencil_rows`` = support^(dim - 1), one in 1D) and the
-nodes of a row unrolled (``ti.static``), ``offset = self._offset_of(r, a)``.  Taichi's IR
-passes cost about the square of a kernel's statement count (each replaced statement
-rescans the kernel): the 3D cube scene's step, 27 nodes unrolled, compiled cold for 62 s,
-2.2 s so.  The unrolled row keeps the weights of the last axis in registers and the
+nodes of a row unrolled (``ti.static``), each node from ``_stencil_node(w, dw, r, a)``.
+Taichi's IR passes cost about the square of a kernel's statement count (each replaced
+statement rescans the kernel): the 3D cube scene's step, 27 nodes unrolled, compiled
+cold for 62 s, 2.2 s so.  The unrolled row keeps the weights of the last axis in registers and the
 column adds of ``_times_offset``; 1D stencils are unrolled whole, as before
 (docs/performance.md, "Time to the first step").
 """
@@ -98,6 +98,14 @@ class StencilOps:
         if ti.static(self.dim > 2):
             o[0] = o0
         return o
+
+    @ti.func
+    def _stencil_node(self, w, dw, r, a: ti.template()):
+        """Node a of stencil row r: its offset, basis value and gradient (the loop
+        ``for r in range(self.stencil_rows): for a in ti.static(range(support))``)."""
+        offset = self._offset_of(r, a)
+        phi, grad = self._weight(w, dw, offset)
+        return offset, phi, grad
 
     @ti.func
     def _times_offset(self, A, r, a: ti.template()):

@@ -114,10 +114,9 @@ class Transfer:
                 affine = mp * self.C[p]  # APIC: the stress enters through grad phi
             mom = mp * self.v[p] + self.p.dt() * fp - affine @ d
             h_affine = self.p.h() * affine
-            for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+            for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset = self._offset_of(r, a)
-                    phi, grad = self._weight(w, dw, offset)
+                    offset, phi, grad = self._stencil_node(w, dw, r, a)
                     node = base + offset
                     if ti.static(self.mls_mpm):
                         self._add("gm", copy, node, mp * phi)
@@ -177,10 +176,9 @@ class Transfer:
             else:
                 acc = ti.Vector.zero(float, self.dim)
                 pic = ti.Vector.zero(float, self.dim)
-                for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for r in range(self.stencil_rows):
                     for a in ti.static(range(self.basis.support)):
-                        offset = self._offset_of(r, a)
-                        phi, grad = self._weight(w, dw, offset)
+                        offset, phi, grad = self._stencil_node(w, dw, r, a)
                         acc += phi * self.gf[base + offset]
                         if ti.static(self.pic):
                             pic += phi * self.gv[base + offset]
@@ -192,10 +190,9 @@ class Transfer:
             if ti.static(self.mls_study):
                 self._scatter_node_moments(p, vp[0])
             else:
-                for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for r in range(self.stencil_rows):
                     for a in ti.static(range(self.basis.support)):
-                        offset = self._offset_of(r, a)
-                        phi, grad = self._weight(w, dw, offset)
+                        offset, phi, grad = self._stencil_node(w, dw, r, a)
                         node_values = self._deposit("gp", copy, base + offset, offset,
                                                     self.m[p] * phi * vp, node_values)
         return base, inside, node_values
@@ -207,10 +204,9 @@ class Transfer:
         vp = ti.Vector.zero(float, self.dim)
         grad_du = ti.Matrix.zero(float, self.dim, self.dim)
         B = ti.Matrix.zero(float, self.dim, self.dim)  # sum_i phi_i v_i o_i^T
-        for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+        for r in range(self.stencil_rows):
             for a in ti.static(range(self.basis.support)):
-                offset = self._offset_of(r, a)
-                phi, grad = self._weight(w, dw, offset)
+                offset, phi, grad = self._stencil_node(w, dw, r, a)
                 vi = self.gv[base + offset]
                 vp += phi * vi
                 if ti.static(gradient):
@@ -255,10 +251,9 @@ class Transfer:
             grad_du = ti.Matrix.zero(float, self.dim, self.dim)
             if ti.static(self.strain_remap):
                 vp = self.v[p]  # v_p and C_p came with the remap (_g2p_velocity)
-                for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for r in range(self.stencil_rows):
                     for a in ti.static(range(self.basis.support)):
-                        offset = self._offset_of(r, a)
-                        phi, grad = self._weight(w, dw, offset)
+                        offset, phi, grad = self._stencil_node(w, dw, r, a)
                         grad_du += (self.gp[base + offset] * self.p.dt()).outer_product(grad)
             elif ti.static(self.apic):
                 B = ti.Matrix.zero(float, self.dim, self.dim)
@@ -268,10 +263,9 @@ class Transfer:
                 if ti.static(self.mls_mpm):
                     grad_du = self.C[p] * self.p.dt()
             else:
-                for r in range(self.stencil_rows):  # the stencil: rows run-time, a row unrolled
+                for r in range(self.stencil_rows):
                     for a in ti.static(range(self.basis.support)):
-                        offset = self._offset_of(r, a)
-                        phi, grad = self._weight(w, dw, offset)
+                        offset, phi, grad = self._stencil_node(w, dw, r, a)
                         vi = self.gp[base + offset]
                         vp += phi * vi
                         grad_du += (vi * self.p.dt()).outer_product(grad)
