@@ -24,21 +24,18 @@ The commands (``--commands``):
 """
 import argparse
 import json
-import os
-import subprocess
 import sys
 import tempfile
-import time
 from datetime import date
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from harness.cli_run import ROOT, run_cli
 
 COMMANDS = {
-    "cube": ["run", str(ROOT / "examples" / "cube_drop_3d.toml"), "--json", "out.json"],
-    "demo": ["demo", "column-collapse", "--out", "out.gif", "--json", "out.json"],
-    "study": ["study", "speed-error", "vibrating-string", "--quiet", "--json", "out.json"],
-    "table": ["convergence", "vibrating-string", "--quiet", "--json", "out.json"],
+    "cube": ["run", str(ROOT / "examples" / "cube_drop_3d.toml")],
+    "demo": ["demo", "column-collapse", "--out", "out.gif"],
+    "study": ["study", "speed-error", "vibrating-string", "--quiet"],
+    "table": ["convergence", "vibrating-string", "--quiet"],
 }
 
 
@@ -51,21 +48,12 @@ def _reported(doc):
     return doc["compile_seconds"], doc["simulation_seconds"]
 
 
-def run_once(engine, command, cache=None):
+def run_once(engine, command, cache):
     """One fresh process: (end to end, compile, stepping) seconds; ``cache``: Taichi's
-    offline cache (None: an empty one)."""
-    with tempfile.TemporaryDirectory(prefix="timpm-first-step-") as work:
-        cache = Path(work) / "taichi-cache" if cache is None else cache
-        python, path = engine
-        env = dict(os.environ, PYTHONPATH=str(path), TI_OFFLINE_CACHE_FILE_PATH=str(cache))
-        env.pop("PYTHONDONTWRITEBYTECODE", None)
-        t0 = time.perf_counter()
-        proc = subprocess.run([python, "-m", "timpm.cli", *COMMANDS[command]],
-                              cwd=work, env=env, capture_output=True, text=True)
-        wall = time.perf_counter() - t0
-        if proc.returncode != 0:
-            raise RuntimeError(f"{command} on {engine} failed:\n{proc.stderr[-3000:]}")
-        compile_s, stepping = _reported(json.loads((Path(work) / "out.json").read_text()))
+    offline cache ("cold": an empty one)."""
+    python, path = engine
+    wall, doc = run_cli(COMMANDS[command], engine=path, python=python, cache=cache)
+    compile_s, stepping = _reported(doc)
     return {"end_to_end": wall, "compile": compile_s, "stepping": stepping}
 
 
@@ -102,7 +90,7 @@ def main(argv=None):
                     run_once(engine, command, warm_caches[name])
             for _ in range(args.repeats):
                 for name, engine in engines.items():  # alternating
-                    cache = None if temperature == "cold" else warm_caches[name]
+                    cache = "cold" if temperature == "cold" else warm_caches[name]
                     runs[name].append(run_once(engine, command, cache))
             result[temperature] = {name: fastest(r) for name, r in runs.items()}
             for name, best in result[temperature].items():

@@ -11,28 +11,17 @@ reported), and the run's end to end wall time.
 """
 import argparse
 import json
-import os
-import subprocess
 import sys
-import tempfile
-import time
 from datetime import date
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from harness.cli_run import ROOT, run_cli
+
 DEMOS = ("column-collapse", "disks", "dam-break")
 
 
 def run(args):
-    with tempfile.TemporaryDirectory(prefix="timpm-realtime-") as work:
-        env = dict(os.environ, PYTHONPATH=str(ROOT))
-        t0 = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", "timpm.cli", *args, "--json", "out.json"],
-                              cwd=work, env=env, capture_output=True, text=True)
-        wall = time.perf_counter() - t0
-        if proc.returncode != 0:
-            raise RuntimeError(f"{' '.join(args)} failed:\n{proc.stderr[-3000:]}")
-        doc = json.loads((Path(work) / "out.json").read_text())
+    wall, doc = run_cli(args)
     t_end = doc["t_end"]
     return {"command": "timpm " + " ".join(args), "particles": doc["particles"],
             "steps": doc["steps"], "t_end": t_end,
@@ -47,17 +36,15 @@ def main(argv=None):
     ap.add_argument("--json", metavar="FILE")
     args = ap.parse_args(argv)
     commands = [["demo", name] for name in DEMOS]
-    commands += [["run", str(p.relative_to(ROOT))] for p in sorted((ROOT / "examples").glob("*.toml"))]
+    commands += [["run", str(p)] for p in sorted((ROOT / "examples").glob("*.toml"))]
     rows = []
     for cmd in commands:
-        if cmd[0] == "run":
-            cmd = ["run", str(ROOT / cmd[1])]
         r = run(cmd)
         rows.append(r)
         print(f"{r['command'].replace(str(ROOT) + '/', ''):45s} {r['particles']:7d} particles "
-              f"{r['steps']:6d} steps  {r['simulated_per_wall_second']:7.3f} simulated s / wall s"
-              f"  (compile {r['compile_seconds']:.2f} s, end to end {r['end_to_end_seconds']:.1f} s)",
-              flush=True)
+              f"{r['steps']:6d} steps  {r['simulated_per_wall_second']:7.3f} simulated s / "
+              f"wall s  (compile {r['compile_seconds']:.2f} s, end to end "
+              f"{r['end_to_end_seconds']:.1f} s)", flush=True)
     if args.json:
         Path(args.json).write_text(json.dumps({"date": date.today().isoformat(),
                                                "command": " ".join(sys.argv), "runs": rows},
