@@ -49,13 +49,12 @@ def _choose() -> str:
     if "taichi" in sys.modules:  # imported before timpm: that one runs
         return "taichi-forge" if sys.modules["taichi"].__name__ == "taichi_forge" else "taichi"
     have_taichi = importlib.util.find_spec("taichi") is not None
-    have_forge = importlib.util.find_spec("taichi_forge") is not None
     if want == "taichi" or (want == "" and have_taichi):
         if not have_taichi:
             raise ImportError("TIMPM_TAICHI=taichi, but the taichi package is not installed "
                               "(pip install 'taichi>=1.7,<1.8')")
         return "taichi"
-    if not have_forge:
+    if importlib.util.find_spec("taichi_forge") is None:
         if want:
             raise ImportError("TIMPM_TAICHI=forge, but taichi-forge is not installed "
                               "(pip install taichi-forge)")
