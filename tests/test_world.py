@@ -99,7 +99,7 @@ def reset(s, x=None, v=None, C=None):
         s.write("F", eye)
     if "plastic" in s.needs:
         s.write("plastic", np.zeros(n))
-    if s.apic:
+    if s.features.affine:
         set_affine(s, np.zeros((n, d, d)) if C is None else C)
     s.write("err", 0)
     s.write("err_count", 0)
@@ -266,7 +266,7 @@ def free_flight(s, seed=4, omega=0.0, affine=0.05, noise=0.0):
     if omega:
         A = A + spin(x, centre, omega if d == 2 else omega * np.array([0.3, -0.5, 1.0]))[1]
     v = (x - centre) @ A.T + 0.01 * rng.normal(size=d) + noise * rng.normal(size=x.shape)
-    C = np.broadcast_to(A, (len(x), d, d)).copy() if s.apic else None
+    C = np.broadcast_to(A, (len(x), d, d)).copy() if s.features.affine else None
     reset(s, x=x, v=v, C=C)
     return x, v, C
 

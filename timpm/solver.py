@@ -112,7 +112,7 @@ class Solver:
 
     # ---- compile-time choices, as attributes -----------------------------------------------
     def __getattr__(self, name):
-        # the feature set's flags (apic, consistent, recording, ...) read as attributes
+        # the feature set's flags (consistent, recording, ...) read as attributes
         features = self.__dict__.get("features")
         if features is not None and not name.startswith("_") and hasattr(features, name):
             return getattr(features, name)
@@ -453,7 +453,7 @@ class Solver:
         prog = self.program()
         prog.project()
         out = self.read("gm"), self._component(self.read("gp"))
-        if self.apic:
+        if self.features.affine:
             prog.clear()  # the affine step expects a cleared grid
         return out
 
@@ -485,7 +485,7 @@ class Solver:
 
     def affine(self) -> np.ndarray:
         """The affine velocity C_p = B_p D_p^-1 of the APIC transfers, (n, dim, dim)."""
-        if not self.apic:
+        if not self.features.affine:
             raise RuntimeError(f"the {self.transfer} transfer keeps no affine velocity")
         C = self.read("C")
         if self.basis.support == 2:  # the linear basis stores B_p
@@ -494,7 +494,7 @@ class Solver:
 
     def set_affine(self, C):
         """Set the affine velocity C_p of every particle ((n, dim, dim) or one matrix)."""
-        if not self.apic:
+        if not self.features.affine:
             raise RuntimeError(f"the {self.transfer} transfer keeps no affine velocity")
         C = matrices("set_affine", C, self.n_particles, self.dim)
         if self.basis.support == 2:

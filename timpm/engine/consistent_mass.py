@@ -1,7 +1,7 @@
 """The consistent mass matrix (study A.1): banded LU without pivoting, on one thread.
 
 Mixed into :class:`~timpm.engine.program.Program` (1D scenes with ``mass="consistent"``):
-P2G assembles ``band[i, k] = M[i, i + k - b]``, ``_banded_factorise`` factorises it in
+P2G assembles ``band[i, k] = M[i, i + k - b]``, ``banded_factorise`` factorises it in
 place every step and ``_banded_substitute`` solves ``M x = rhs``.
 """
 import taichi as ti
@@ -15,7 +15,7 @@ class ConsistentMass:
     """See the module."""
 
     @ti.func
-    def _banded_factorise(self):
+    def banded_factorise(self):
         # consistent mass (A.1): banded LU without pivoting, in place, on one thread; fixed
         # and empty rows become identity rows (their right-hand sides are zeroed)
         b = ti.static(self.bandwidth)
@@ -23,7 +23,7 @@ class ConsistentMass:
         for _ in range(1):
             for i in range(nn):
                 self.inactive[i] = 0
-                if self._is_fixed(i) or self.band[i, b] <= self.p.mass_tol():
+                if self.is_fixed(i) or self.band[i, b] <= self.p.mass_tol():
                     self.inactive[i] = 1
                     for k in ti.static(range(2 * b + 1)):
                         self.band[i, k] = 0.0
@@ -36,7 +36,7 @@ class ConsistentMass:
             for k in range(nn):
                 pivot = self.band[k, b]
                 if ti.abs(pivot) <= self.p.pivot_tol():
-                    self._fail(ErrorCode.SINGULAR_MASS, k)
+                    self.fail(ErrorCode.SINGULAR_MASS, k)
                     pivot = 1.0
                     self.band[k, b] = 1.0
                 if pivot < 0.0:

@@ -40,10 +40,10 @@ class ConsistentMassCG:
     """See the module."""
 
     @ti.func
-    def _cg_keep_weights(self):
+    def cg_keep_weights(self):
         # the particles' node bases and weights phi_i(x_p) for the mass products of the step
         for p in range(self.p.n_particles()):
-            base, w, dw, xi, inside = self._stencil(p)
+            base, w, dw, xi, inside = self.stencil(p)
             offsets = ti.static(self._cg_offsets())
             phi = ti.Vector.zero(float, len(offsets))
             if inside:
@@ -71,7 +71,7 @@ class ConsistentMassCG:
     def _held_by_walls(self, I, v):
         out = v
         if ti.static(self.has_walls):
-            out = self._wall(I, v)
+            out = self.apply_walls(I, v)
         return out
 
     @ti.func
@@ -79,7 +79,7 @@ class ConsistentMassCG:
         """z = C M_L^-1 r and the sums r . z per component."""
         rz = ti.Vector.zero(float, self.dim)
         for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
-            z = self._held_by_walls(I, self._lumped_solve(I, self.cg_r[I]))
+            z = self._held_by_walls(I, self.lumped_solve(I, self.cg_r[I]))
             self.cg_z[I] = z
             rz += self.cg_r[I] * z
         return rz
@@ -96,7 +96,7 @@ class ConsistentMassCG:
                 b = self._constrained(I, rhs[I])
                 b2 += b * b
                 self.cg_r[I] = b
-                self.cg_x[I] = self._held_by_walls(I, self._lumped_solve(I, rhs[I]))
+                self.cg_x[I] = self._held_by_walls(I, self.lumped_solve(I, rhs[I]))
                 self.cg_d[I] = self.cg_x[I]
             rz = ti.Vector.zero(float, self.dim)
             converged = False
@@ -146,6 +146,6 @@ class ConsistentMassCG:
                 for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                     self.cg_d[I] = self.cg_z[I] + beta * self.cg_d[I]
             if not converged:
-                self._fail(ErrorCode.MASS_SOLVE, 0)
+                self.fail(ErrorCode.MASS_SOLVE, 0)
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                 rhs[I] = self.cg_x[I]

@@ -1,16 +1,16 @@
 """The drivers of a step: errors, the fused serial loop, and the team of threads.
 
-Mixed into :class:`~timpm.engine.program.Program`.  Every driver runs the same step
-(``_one_step``, or its passes in a team):
+Mixed into :class:`~timpm.engine.program.Program`.  Every driver runs the same step, the
+phases of the scheme (:mod:`timpm.engine.schemes`), or an integrator's (rk4, midpoint):
 
 - *parallel*: one launch per step, every loop of the step parallel over the CPU threads;
 - *serial* (fused): many steps in one launch, one task on one thread (``advance_steps``);
-- *team*: many steps (MUSL or affine) in one parallel task, each thread of Taichi's static
-  split a fixed block of particles (its own grid copy) and of nodes, spin barriers between
-  the passes (``_team_steps``).
+- *team*: many steps in one parallel task, each thread of Taichi's static split a fixed
+  block of particles (its own grid copy) and of nodes, spin barriers between the phases
+  (``_team_steps``).
 
 A failure (a particle off the grid, a NaN, an inverted volume, a singular mass matrix,
-a team that does not meet) records its code, step and particle or node (``_fail``); the
+a team that does not meet) records its code, step and particle or node (``fail``); the
 run stops after that step and Python raises the error.
 """
 import taichi as ti
@@ -24,7 +24,7 @@ class Drivers:
     """Errors, the fused serial steps and the team (see the module)."""
 
     @ti.func
-    def _fail(self, code, where):
+    def fail(self, code, where):
         """Record the first error of the run: its code (an :class:`~timpm.errors.ErrorCode`),
         step and particle or node."""
         first = False
@@ -71,58 +71,52 @@ class Drivers:
         return done
 
     @ti.func
+    def _one_step(self):
+        if ti.static(self.rk4):
+            self._rk4_step()  # four grid solves of the Runge-Kutta stages (rk4.py)
+        elif ti.static(self.midpoint):
+            if ti.static(self.affine):  # the energy-conserving midpoint iteration (midpoint.py)
+                self._affine_midpoint_step()
+            else:
+                self._midpoint_step()
+        else:
+            for phase in ti.static(self.phases):  # the scheme's step (schemes/)
+                self._run_phase(phase)
+        self._count_step()
+
+    @ti.func
+    def _run_phase(self, phase: ti.template()):
+        """One phase of a scheme for every particle or node (``schemes.phases``): its loop
+        parallel over the CPU threads, or a part of the one serial task."""
+        if ti.static(phase.kind == "scatter"):
+            self._scatter_particles(phase)
+            if ti.static(self.private_scatter and len(phase.merge) > 0):
+                self._merge_copies(phase.merge)
+        elif ti.static(phase.kind == "particles"):
+            for p in range(self.p.n_particles()):
+                phase.particle(self, p)
+        elif ti.static(phase.kind == "nodes"):
+            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                phase.node(self, I)
+        else:
+            phase.body(self)
+
+    @ti.func
     def _team_steps(self, n_steps):
         self.team_arrived[None] = 0
         self.team_abort[None] = 0
         B = self.p.scatter_block()
         for q in range(self.n_copies * B):
             if q % B == 0:  # thread q // B of Taichi's static split runs its whole block
-                if ti.static(self.apic):
-                    self._team_member(q // B, n_steps)
-                else:
-                    self._team_member_musl(q // B, n_steps)
+                self._team_member(q // B, n_steps)
 
     @ti.func
     def _team_member(self, c, n_steps):
-        """Thread c of the team: n_steps affine steps on its particles [c B, (c + 1) B)
-        (scattered into its grid copy) and its share of the nodes."""
-        n_nodes = self.p.node_count()
-        nodes_per_thread = self.p.nodes_per_thread()
-        B = self.p.scatter_block()
-        first, end = c * B, ti.min((c + 1) * B, self.p.n_particles())
-        start = self.step_count[None]  # thread 0 changes it only after the second barrier
-        arrivals = 0
-        for s in range(n_steps):
-            self.rank_step[c] = start + s
-            # P2G of the thread's particles into its own grid copy (as _p2g)
-            for p in range(first, end):
-                self._scatter_particle("p2g", p, c)
-            arrivals += self.n_copies
-            self._team_barrier(c, arrivals)
-            # all threads read the same errors here: the next is written in G2P, after the
-            # next barrier
-            if (ti.atomic_add(self.err_count[None], 0) != 0
-                    or ti.atomic_add(self.team_abort[None], 0) != 0):
-                break
-            # grid: the copies summed, v = P / m, walls, on the thread's nodes (as
-            # _grid_velocity)
-            for f in range(c * nodes_per_thread, ti.min((c + 1) * nodes_per_thread, n_nodes)):
-                self._grid_velocity_node(self._node_of(f))
-            arrivals += self.n_copies
-            self._team_barrier(c, arrivals)
-            if ti.atomic_add(self.team_abort[None], 0) != 0:
-                break
-            # G2P of the thread's particles (as _g2p_update): the next P2G reads only them
-            for p in range(first, end):
-                self._g2p_update_particle(p)
-            if c == 0:
-                self.step_count[None] = start + s + 1
-                self.time[None] = (start + s + 1) * self.p.dt()
-
-    @ti.func
-    def _team_member_musl(self, c, n_steps):
-        """Thread c of the team: n_steps MUSL steps (the study's, with the private scatter)
-        on its particles and its share of the nodes, four barriers a step."""
+        """Thread c of the team: n_steps steps of the scheme's phases on its particles [c B,
+        (c + 1) B) (scattered into its grid copy) and its share of the nodes, a barrier
+        between two phases.  After the first barrier every thread reads the same errors
+        (the next is written after the next barrier); after the others, a team that did
+        not meet."""
         n_nodes = self.p.node_count()
         nodes_per_thread = self.p.nodes_per_thread()
         B = self.p.scatter_block()
@@ -132,42 +126,33 @@ class Drivers:
         arrivals = 0
         for s in range(n_steps):
             self.rank_step[c] = start + s
-            # P2G of mass and forces (and momentum) into the thread's grid copy (as _p2g)
-            for p in range(first, end):
-                self._scatter_particle("p2g", p, c)
-            arrivals += self.n_copies
-            self._team_barrier(c, arrivals)
-            if (ti.atomic_add(self.err_count[None], 0) != 0
-                    or ti.atomic_add(self.team_abort[None], 0) != 0):
+            going = True
+            for k in ti.static(range(len(self.phases))):
+                ti.static_assert(self.phases[k].kind != "whole", "a team runs no whole phase")
+                if ti.static(k > 0):
+                    if going:
+                        arrivals += self.n_copies
+                        self._team_barrier(c, arrivals)
+                        if ti.static(k == 1):
+                            going = (ti.atomic_add(self.err_count[None], 0) == 0
+                                     and ti.atomic_add(self.team_abort[None], 0) == 0)
+                        else:
+                            going = ti.atomic_add(self.team_abort[None], 0) == 0
+                if going:
+                    if ti.static(self.phases[k].kind == "scatter"):  # into the thread's copy
+                        for p in range(first, end):
+                            self._scatter_particle(self.phases[k], p, c)
+                    elif ti.static(self.phases[k].kind == "particles"):
+                        for p in range(first, end):
+                            self.phases[k].particle(self, p)
+                    else:  # on its nodes, the copies of the scatter before summed in
+                        for f in range(lo, hi):
+                            I = self._node_of(f)
+                            for name in ti.static(self.merged_before[k]):
+                                ti.static(getattr(self, name))[I] = self.merged(name, I)
+                            self.phases[k].node(self, I)
+            if not going:
                 break
-            # grid: the copies summed, a = M^-1 F with damping and walls (as
-            # _grid_acceleration) on the thread's nodes
-            for f in range(lo, hi):
-                I = self._node_of(f)
-                for name in ti.static(tuple(self.copies)):
-                    ti.static(getattr(self, name))[I] = self._merged(name, I)
-                self._grid_acceleration_node(I)
-            arrivals += self.n_copies
-            self._team_barrier(c, arrivals)
-            # G2P of the velocity, P2G of the new momentum into the copy (_g2p_velocity)
-            for p in range(first, end):
-                self._scatter_particle("g2p-velocity", p, c)
-            arrivals += self.n_copies
-            self._team_barrier(c, arrivals)
-            # grid: v = P / m with the walls (as _solve_mass), u_i += v_i dt
-            for f in range(lo, hi):
-                I = self._node_of(f)
-                self.gp[I] = self._merged("gp", I)
-                self._solve_mass_node(self.gp, True, I)
-                if ti.static(self.grid_displacement):
-                    self.gu[I] += self.gp[I] * self.p.dt()
-            arrivals += self.n_copies
-            self._team_barrier(c, arrivals)
-            if ti.atomic_add(self.team_abort[None], 0) != 0:
-                break
-            # G2P of displacement, strain, stress, volume (as _g2p_update)
-            for p in range(first, end):
-                self._g2p_update_particle(p)
             if c == 0:
                 self.step_count[None] = start + s + 1
                 self.time[None] = (start + s + 1) * self.p.dt()
@@ -185,7 +170,7 @@ class Drivers:
                     break
                 if spins > TEAM_SPIN_LIMIT:
                     ti.atomic_add(self.team_abort[None], 1)
-                    self._fail(ErrorCode.TEAM_BARRIER, c * self.p.scatter_block())
+                    self.fail(ErrorCode.TEAM_BARRIER, c * self.p.scatter_block())
                     break
 
     @ti.func

@@ -1,5 +1,5 @@
 """Why a run stops, read in Python: the error record the kernels keep (code, step, particle
-or node: ``Drivers._fail``) and the energy balance of the recorded energies, each as a
+or node: ``Drivers.fail``) and the energy balance of the recorded energies, each as a
 :class:`~timpm.errors.SimulationError` that names the step and where."""
 import numpy as np
 

@@ -19,6 +19,7 @@ import numpy as np
 from ..basis import get_basis
 from ..model import Model
 from .. import runtime
+from .schemes import scheme_class
 
 __all__ = ["FeatureSet", "Layout", "plan", "MODES", "SCATTERS", "MIN_CPU_BLOCK", "auto_mode"]
 
@@ -85,7 +86,7 @@ class FeatureSet:
         return get_basis(self.basis)
 
     @property
-    def apic(self) -> bool:
+    def affine(self) -> bool:
         """The affine transfers: APIC, and MLS-MPM (Hu et al. 2018), which also takes the
         force and the velocity gradient from the affine moments."""
         return self.transfer in ("apic", "mls-mpm")
@@ -165,7 +166,7 @@ class FeatureSet:
         share their element, so a run of them sums its node values in registers and adds
         them to the grid once (a store-to-load chain through the grid per particle
         otherwise)."""
-        return (self.dim == 1 and not self.apic and not self.consistent and not self.mls
+        return (self.dim == 1 and not self.affine and not self.consistent and not self.mls
                 and (self.mode == "serial" or self.serial_scatter))
 
     @property
@@ -331,8 +332,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         scatter_block=max(MIN_CPU_BLOCK, -(-n // n_copies)), n_tracked=len(track))
     if features.volume_guard:
         values.update(volume_min=volume_range[0], volume_max=volume_range[1])
-    if features.pic:
-        values.update(pic_fraction=model.pic_fraction)
+    for name in scheme_class(features).PARAMS:  # the transfer scheme's own values
+        values[name] = getattr(model, name)
     if features.midpoint:
         # the relaxation of vbar that balances the pass's slow and fast modes for
         # mu = |w dt| / 2 up to dt / dt_crit (1 without an estimate; engine/midpoint.py)

@@ -103,7 +103,7 @@ class Midpoint:
             relax = self._midpoint_relaxation(it, change[0], previous, relax)
             previous = change[0]
         if not converged and self.err_count[None] == 0:
-            self._fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
+            self.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
         if self.err_count[None] == 0:
             for p in range(self.p.n_particles()):
                 self._midpoint_finish(p)
@@ -130,7 +130,7 @@ class Midpoint:
         # G2P of the iterate: v_end = v_n + dt sum phi_i a_i, F_end = (I + dt grad vbar) F_n,
         # x_end = x_n + dt sum phi_i vbar_i; the next iterate's vbar_p (relaxed) and sbar_p.
         # Returns the residual of vbar_p, the change of F_end and their scales (max norms)
-        base, w, dw, xi, inside = self._stencil(p)
+        base, w, dw, xi, inside = self.stencil(p)
         change = ti.Vector.zero(float, 2)
         size = ti.Vector.zero(float, 2)
         if inside:
@@ -139,7 +139,7 @@ class Midpoint:
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
             for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self._stencil_node(w, dw, r, a)
+                    offset, phi, grad = self.stencil_node(w, dw, r, a)
                     vi = self.gp[base + offset]
                     v_mid += phi * vi
                     accel += phi * self.gf[base + offset]
@@ -165,7 +165,7 @@ class Midpoint:
         # step too large for the motion, or passes that diverge): sigma(F) has no value
         state = F1.sum() + v_bar.sum()
         if not (F1.determinant() > 0.0 and ti.abs(state) < 1e300):  # NaN fails both
-            self._fail(ErrorCode.MIDPOINT, p)
+            self.fail(ErrorCode.MIDPOINT, p)
 
     @ti.func
     def _averaged_stress(self, p, F0, F1):
@@ -181,7 +181,7 @@ class Midpoint:
     @ti.func
     def _midpoint_finish(self, p):
         # the step's end: x, v, F of the converged iterate, sigma(F) and V = det F V0
-        base, w, dw, xi, inside = self._stencil(p)
+        base, w, dw, xi, inside = self.stencil(p)
         if inside:
             self._midpoint_end_state(p, self.x_end[p], self.v_end[p])
 
@@ -204,11 +204,11 @@ class Midpoint:
         # P2G at t_n: m_i and P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) (the linear basis:
         # m_p (phi_i v_p + B_p grad phi_i)); v_i^n = P_i / m_i with the wall conditions
         # (gp), the iterate vbar_i (gv) starts there
-        self._clear_grid()
+        self.clear_grid()
         for p in range(self.p.n_particles()):
             self.F_start[p] = self.F[p]
             self._affine_momentum(p)
-        self._solve_mass(self.gp, True)
+        self.solve_mass(self.gp, True)
         for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
             self.gv[I] = self.gp[I]
         converged = False
@@ -229,7 +229,7 @@ class Midpoint:
                 break
             # grid: a_i = M^-1 F_i (walls), v_i^(n+1) = v_i^n + dt a_i kept in gf; the
             # residual of vbar_i = (v_i^n + v_i^(n+1)) / 2
-            self._solve_mass(self.gf, True)
+            self.solve_mass(self.gf, True)
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                 v_end = self.gp[I] + self.p.dt() * self.gf[I]
                 self.gf[I] = v_end
@@ -248,43 +248,43 @@ class Midpoint:
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                 self.gv[I] += relax * (0.5 * (self.gp[I] + self.gf[I]) - self.gv[I])
         if not converged and self.err_count[None] == 0:
-            self._fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
+            self.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
         if self.err_count[None] == 0:
             # G2P: v_p = sum phi_i v_i^(n+1), C_p from v_i^(n+1), x_p += dt sum phi_i vbar_i
             for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
                 self.gp[I] = self.gv[I]  # vbar_i
-                self.gv[I] = self.gf[I]  # v_i^(n+1), which _affine_gather reads
+                self.gv[I] = self.gf[I]  # v_i^(n+1), which affine_gather reads
             for p in range(self.p.n_particles()):
                 self._affine_midpoint_finish(p)
 
     @ti.func
     def _affine_momentum(self, p):
-        base, w, dw, xi, inside = self._stencil(p)
+        base, w, dw, xi, inside = self.stencil(p)
         if not inside:
-            self._fail(ErrorCode.OFF_GRID, p)
+            self.fail(ErrorCode.OFF_GRID, p)
         else:
             mp = self.m[p]
             affine = mp * self.C[p]
-            mom = mp * self.v[p] - affine @ self._from_first_node(xi, base)
+            mom = mp * self.v[p] - affine @ self.from_first_node(xi, base)
             h_affine = self.p.h() * affine
             for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self._stencil_node(w, dw, r, a)
+                    offset, phi, grad = self.stencil_node(w, dw, r, a)
                     node = base + offset
                     self.gm[node] += mp * phi
                     if ti.static(self.basis.support > 2 or self.mls_mpm):
-                        self.gp[node] += phi * (mom + self._times_offset(h_affine, r, a))
+                        self.gp[node] += phi * (mom + self.times_offset(h_affine, r, a))
                     else:
                         self.gp[node] += phi * mp * self.v[p] + mp * (self.C[p] @ grad)
 
     @ti.func
     def _affine_midpoint_particle(self, p):
         # returns the change of F_end and the largest F increment
-        base, w, dw, xi, inside = self._stencil(p)
+        base, w, dw, xi, inside = self.stencil(p)
         change = 0.0
         size = 0.0
         if inside:
-            _, B, grad_du = self._affine_gather(base, w, dw, xi, not self.mls_mpm)
+            _, B, grad_du = self.scheme.affine_gather(self, base, w, dw, xi, not self.mls_mpm)
             if ti.static(self.mls_mpm):
                 grad_du = B * self.p.D_inv() * self.p.dt()
             F0 = self.F_start[p]
@@ -294,17 +294,17 @@ class Midpoint:
             size = ti.abs(F1 - F0).max()
             self.F[p] = F1
             stress_volume = self._averaged_stress(p, F0, F1) * self.vol[p]
-            fp = self._external_force(p)
+            fp = self.external_force(p)
             A = stress_volume  # MLS-MPM: D^-1 sbar V
             if ti.static(self.mls_mpm):
                 A = self.p.D_inv() * stress_volume
-            d = self._from_first_node(xi, base)
+            d = self.from_first_node(xi, base)
             for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self._stencil_node(w, dw, r, a)
+                    offset, phi, grad = self.stencil_node(w, dw, r, a)
                     force = phi * fp
                     if ti.static(self.mls_mpm):
-                        force -= phi * (self.p.h() * self._times_offset(A, r, a) - A @ d)
+                        force -= phi * (self.p.h() * self.times_offset(A, r, a) - A @ d)
                     else:
                         force -= stress_volume @ grad
                     self.gf[base + offset] += force
@@ -312,13 +312,13 @@ class Midpoint:
 
     @ti.func
     def _affine_midpoint_finish(self, p):
-        base, w, dw, xi, inside = self._stencil(p)
+        base, w, dw, xi, inside = self.stencil(p)
         if inside:
-            v_new, B, _ = self._affine_gather(base, w, dw, xi, False)
-            self.C[p] = self._affine_of(B, base, w, xi)
+            v_new, B, _ = self.scheme.affine_gather(self, base, w, dw, xi, False)
+            self.C[p] = self.scheme.affine_of(self, B, base, w, xi)
             dx = ti.Vector.zero(float, self.dim)
             for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self._stencil_node(w, dw, r, a)
+                    offset, phi, grad = self.stencil_node(w, dw, r, a)
                     dx += phi * self.gp[base + offset]
             self._midpoint_end_state(p, self.x[p] + self.p.dt() * dx, v_new)

@@ -72,7 +72,7 @@ class MLSProjection:
     """See the module."""
 
     @ti.func
-    def _scatter_gauss_moments(self, p):
+    def scatter_gauss_moments(self, p):
         # MLS moments at the Gauss points within 1.5 h of the particle, quadratic-spline
         # weight, basis [1, d] with d = (x_p - y) / h
         xi = (self.x[p][0] - self.p.origin()[0]) * self.p.inv_h()
@@ -99,7 +99,7 @@ class MLSProjection:
                             self.accumulate(self.g_rho[e, g], w * rho * ti.Vector([1.0, d]))
 
     @ti.func
-    def _body_extent(self):
+    def body_extent(self):
         # the body is the union of the particle domains x_p -+ V_p / 2 (element units)
         for p in range(self.p.n_particles()):
             xi = (self.x[p][0] - self.p.origin()[0]) * self.p.inv_h()
@@ -119,7 +119,7 @@ class MLSProjection:
         return a + (b - a) * GAUSS_POINTS[g], GAUSS_WEIGHTS[g] * ti.max(b - a, 0.0) * self.p.h()
 
     @ti.func
-    def _integrate_gauss(self):
+    def integrate_gauss(self):
         # M_ii = int rho phi_i, F_i = int (rho g phi_i - sigma dphi_i) by Gauss quadrature
         # over each element's part of the body, rho and sigma reconstructed by MLS (4.4);
         # beyond the study's case only F_i = -int sigma dphi_i (mass from the particles)
@@ -145,7 +145,7 @@ class MLSProjection:
                                             -jw * sig * dw[a] * self.p.inv_h())
 
     @ti.func
-    def _scatter_node_moments(self, p, vp):
+    def scatter_node_moments(self, p, vp):
         # MLS moments at the nodes within 2 h, cubic-spline weight (r = |d| / 2)
         xi = (self.x[p][0] - self.p.origin()[0]) * self.p.inv_h()
         i0 = ti.floor(xi, ti.i32)
@@ -159,10 +159,10 @@ class MLSProjection:
                     self.accumulate(self.n_vel[i], w * vp * ti.Vector([1.0, d]))
 
     @ti.func
-    def _mls_nodal_velocity(self):
+    def mls_nodal_velocity(self):
         # v_i = sum_p Phi_p(x_i) v_p: the MLS reconstruction of the velocity field (4.4)
         for i in range(self.p.nodes()[0]):
             v = 0.0
-            if not self._is_fixed(i):
+            if not self.is_fixed(i):
                 v = _mls_value(self.n_mom[i], self.n_vel[i])
             self.gp[i][0] = v

@@ -50,7 +50,7 @@ class MLSStressND:
         return P
 
     @ti.func
-    def _scatter_gauss_moments_nd(self, p):
+    def scatter_gauss_moments_nd(self, p):
         # MLS moments at the Gauss points within 1.5 h along each axis: the Gauss points of
         # the cells e0 - 2 .. e0 + 2 per axis (global index 2 e + g), weight prod w(|d_k|)
         xi = ti.Vector.zero(float, self.dim)
@@ -129,7 +129,7 @@ class MLSStressND:
         return z @ B
 
     @ti.func
-    def _integrate_gauss_nd(self):
+    def integrate_gauss_nd(self):
         # F_i = -sum_cells sum_g w_g h^dim sigma_h(y_g) grad phi_i(y_g), sigma_h the MLS fit
         # of the particles' stress at the Gauss point y_g (each cell full: the body fills
         # the grid)
@@ -149,7 +149,7 @@ class MLSStressND:
                     scale = jw * self.p.h() ** self.dim
                     for r in range(self.stencil_rows):
                         for a in ti.static(range(self.basis.support)):
-                            offset, phi, grad = self._stencil_node(w, dw, r, a)
+                            offset, phi, grad = self.stencil_node(w, dw, r, a)
                             self.accumulate(self.gf[base + offset], -scale * (sig @ grad))
 
     @ti.func

@@ -7,9 +7,10 @@ every other scene value are run-time values (:mod:`.params`).  Scenes of one fea
 take turns in the same fields: a solver *activates* its state (uploads it) before it runs
 or reads, and the state it replaces is saved to host memory first.
 
-The phases of a step come from the mixins, one unit each: the stencil, the scatter
-strategies, the grid phases, the consistent mass, the transfers, the MLS projection,
-recording and the drivers (fused serial, parallel, team).
+The step is the transfer scheme's list of phases (:mod:`.schemes`); the operations those
+phases call come from the mixins, one unit each: the stencil, the scatter strategies, the
+grid operations, the consistent mass, the particle update, the MLS projection, recording
+and the drivers (fused serial, parallel, team).
 """
 import math
 import weakref
@@ -27,6 +28,7 @@ from .params import ParamBlock
 from .recorder import NUMPY_DTYPES, Recorder, components, entry_size
 from .midpoint import Midpoint, midpoint_fields
 from .rk4 import RungeKutta, rk4_fields
+from .schemes import scheme_for
 from .scatter import ScatterOps
 from .stencil import StencilOps
 from .transfer import Transfer
@@ -35,7 +37,7 @@ from .uploads import Uploads
 __all__ = ["Program"]
 
 
-def _param_spec(features):
+def _param_spec(features, scheme):
     d = features.dim
     spec = {"n_particles": "int", "elements": ("int", d), "nodes": ("int", d),
             "node_count": "int", "nodes_per_thread": "int", "scatter_block": "int",
@@ -46,8 +48,7 @@ def _param_spec(features):
         spec.update(D_inv="real", dt_D_inv="real")
     if features.volume_guard:
         spec.update(volume_min="real", volume_max="real")
-    if features.pic:
-        spec.update(pic_fraction="real")
+    spec.update(scheme.PARAMS)  # the scheme's own run-time values
     if features.midpoint:
         spec.update(midpoint_relaxation="real")
     if features.traction is not None:
@@ -79,8 +80,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         # the stencil's rows: every axis but the last (stencil.py)
         self.stencil_rows = self.basis.support ** (self.dim - 1)
         self.transfer, self.mode, self.team = f.transfer, f.mode, f.team
-        self.apic, self.mls_mpm, self.strain_remap = f.apic, f.mls_mpm, f.strain_remap
-        self.consistent, self.mls, self.damping, self.pic = f.consistent, f.mls, f.damping, f.pic
+        self.affine, self.mls_mpm, self.strain_remap = f.affine, f.mls_mpm, f.strain_remap
+        self.consistent, self.mls, self.damping = f.consistent, f.mls, f.damping
         self.mls_study, self.mls_order = f.mls_study, f.mls_stress_order
         self.private_scatter, self.serial_scatter = f.private_scatter, f.serial_scatter
         self.run_sums, self.n_copies = f.run_sums, f.n_copies
@@ -100,11 +101,13 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         self.path_work = f.energies and not all(cls.has_energy_function(flags)
                                                  for cls, flags in f.materials)
         self.bandwidth, self.node_offset = f.bandwidth, f.node_offset
-        # rows of the run sums: the grid fields each scattering phase adds to
-        self.scatter_rows = {"p2g": ("gm", "gf") + (("gp",) if self.damping or self.pic
-                                                    or self.rk4 or self.midpoint
-                                                    else ()),
-                             "g2p-velocity": ("gp",)}
+        # the transfer scheme and its step as a list of phases (schemes/)
+        self.scheme = scheme_for(f)
+        self.phases = self.scheme.phases()
+        # a team's node phase sums the copies of the scatter before it (drivers.py)
+        self.merged_before = tuple(
+            before.merge if k > 0 and before.kind == "scatter" else ()
+            for k, before in enumerate((None,) + self.phases[:-1]))
         self._allocate(capacity)
         self._bind_kernels()
         self._active = None  # weak reference to the solver whose state the fields hold
@@ -115,7 +118,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         d, n = self.dim, cap.particles
         fb = ti.FieldsBuilder()
         real = float  # Taichi's default_fp: timpm.init(precision=...)
-        block = ParamBlock(_param_spec(self.f), real, fb)
+        block = ParamBlock(_param_spec(self.f, self.scheme), real, fb)
         self.params = block
         self.p = block.groups["p"]
         # the compiled unit of each material, reading its constants from its group
@@ -139,7 +142,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
             particle["b"] = ti.Vector.field(d, real)  # body force per unit mass b(X, t)
         if self.surface_force:
             particle["f_ext"] = ti.Vector.field(d, real)  # force (of tractions) times f(t)
-        if self.apic:
+        if self.affine:
             # affine velocity C_p of the APIC transfers (B_p = C_p D_p for the linear basis)
             particle["C"] = ti.Matrix.field(d, d, real)
         if self.multi_material:
@@ -153,10 +156,9 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         # grid: mass, momentum then velocity, force then acceleration (the affine transfer
         # folds the force into the momentum), Dirichlet mask (1D)
         grid = {"gm": ti.field(real), "gp": ti.Vector.field(d, real)}
-        if not self.apic or self.midpoint:  # (the affine midpoint: its forces)
+        if not self.affine or self.midpoint:  # (the affine midpoint: its forces)
             grid["gf"] = ti.Vector.field(d, real)
-        if self.apic or self.pic:
-            grid["gv"] = ti.Vector.field(d, real)  # velocity of the last grid update
+        grid.update(self.scheme.grid_fields(d, real))  # the scheme's own
         if self.f.fixed:
             grid["fixed"] = ti.field(ti.i32)
         if self.prescribed:
@@ -169,7 +171,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         # copy axis: no branch on the thread per add), summed into the grid afterwards
         self.copies = {}
         if self.private_scatter:
-            for name in ["gm", "gp"] + ([] if self.apic else ["gf"]):
+            for name in ["gm", "gp"] + ([] if self.affine else ["gf"]):
                 self.copies[name] = ti.field(real) if name == "gm" else ti.Vector.field(d, real)
             fb.dense(ti.axes(*range(d + 1)), (self.n_copies, *cap.nodes)).place(
                 *self.copies.values())
@@ -207,7 +209,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
             fb.dense(ti.i, n).place(*stages.values())
             scratch.update(stages)
         if self.midpoint:  # the midpoint iteration's scratch
-            iterate = midpoint_fields(d, real, self.apic)
+            iterate = midpoint_fields(d, real, self.affine)
             fb.dense(ti.i, n).place(*iterate.values())
             scratch.update(iterate)
         # run state and the first error
@@ -332,7 +334,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
 
         @ti.kernel
         def clear():
-            self._clear_grid()
+            self.clear_grid()
 
         self.step, self.record, self.advance = step, record, advance
         self.project, self.clear = project, clear

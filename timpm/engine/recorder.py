@@ -150,18 +150,18 @@ class Recorder:
 
     @ti.func
     def _clear_and_project(self):
-        self._clear_grid()
+        self.clear_grid()
         self._project()
 
     @ti.func
     def _project(self):
         # P2G of mass and momentum alone: m_i = sum m_p phi_i, P_i = sum m_p phi_i v_p
         for p in range(self.p.n_particles()):
-            base, w, dw, xi, inside = self._stencil(p)
+            base, w, dw, xi, inside = self.stencil(p)
             if inside:
                 for r in range(self.stencil_rows):
                     for a in ti.static(range(self.basis.support)):
-                        offset, phi, grad = self._stencil_node(w, dw, r, a)
+                        offset, phi, grad = self.stencil_node(w, dw, r, a)
                         self.accumulate(self.gm[base + offset], self.m[p] * phi)
                         self.accumulate(self.gp[base + offset], self.m[p] * phi * self.v[p])
 

@@ -76,14 +76,14 @@ class RungeKutta:
         # G2P of the stage's rates: x' = sum phi_i v_i, v' = sum phi_i a_i, F' = (sum v_i
         # grad phi_i^T) F; their sums weighted by B; the next stage's state (the step's end
         # after the fourth) with sigma(F) and V = det F V0
-        base, w, dw, xi, inside = self._stencil(p)
+        base, w, dw, xi, inside = self.stencil(p)
         if inside and not self._halted(p):
             x_rate = ti.Vector.zero(float, self.dim)
             v_rate = ti.Vector.zero(float, self.dim)
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
             for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self._stencil_node(w, dw, r, a)
+                    offset, phi, grad = self.stencil_node(w, dw, r, a)
                     vi = self.gp[base + offset]
                     x_rate += phi * vi
                     v_rate += phi * self.gf[base + offset]

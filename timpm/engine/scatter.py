@@ -1,14 +1,14 @@
 """P2G scatter strategies: atomic adds, one thread's plain adds, private grid copies.
 
 Mixed into :class:`~timpm.engine.program.Program`.  A scattering particle phase calls
-``_add(name, copy, node, value)`` (or ``_deposit`` where 1D run sums may collect it); the
+``scatter_add(name, copy, node, value)`` (or ``deposit`` where 1D run sums may collect it); the
 strategy is a compile-time choice of the feature set:
 
 - ``atomic``: parallel atomic adds into the grid (the GPU path);
 - ``serial``: the scatter loop on one thread with plain adds (1D: a run of particles in
   one element summed in registers first, the *run sums*);
 - ``private``: thread c adds into its own copy c of each scattered grid field, summed
-  into the grid afterwards (``_merged``, ``_merge_copies``).
+  into the grid afterwards (``merged``, ``_merge_copies``).
 """
 import taichi as ti
 
@@ -44,7 +44,7 @@ class ScatterOps:
             body()
 
     @ti.func
-    def _add(self, name: ti.template(), copy, node, value):
+    def scatter_add(self, name: ti.template(), copy, node, value):
         """grid field ``name`` at ``node`` += value, by the scatter strategy: into the
         calling thread's private copy (plain adds) or the grid itself (atomic in a
         parallel loop, plain in a serial one)."""
@@ -65,7 +65,7 @@ class ScatterOps:
         return at
 
     @ti.func
-    def _merged(self, name: ti.template(), I):
+    def merged(self, name: ti.template(), I):
         """Grid quantity ``name`` at node I: with the private scatter the sum of the
         threads' copies (cleared for the next scatter), else the grid field itself."""
         total = ti.static(getattr(self, name))[I]
@@ -89,12 +89,12 @@ class ScatterOps:
         for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
             for name in ti.static(names):
                 grid = ti.static(getattr(self, name))
-                grid[I] = self._merged(name, I)  # a plain store: no other thread writes I
+                grid[I] = self.merged(name, I)  # a plain store: no other thread writes I
 
     @ti.func
     def _scatter_particles(self, phase: ti.template()):
-        """Run the scattering particle phase ("p2g" or "g2p-velocity") for every particle,
-        by the scatter strategy."""
+        """Run a scheme's scattering particle phase (a ``schemes.Scatter``) for every
+        particle, by the scatter strategy."""
         if ti.static(self.private_scatter):
             # Taichi's CPU range-for gives thread c the iterations [c B, (c + 1) B) with
             # B = max(ceil(N / threads), 512): iteration p writes the copy of thread p // B
@@ -105,7 +105,7 @@ class ScatterOps:
         elif ti.static(self.run_sums):
             ti.loop_config(serialize=True)
             for _ in range(1):  # one task: the sums stay in registers
-                rows = ti.static(self.scatter_rows[phase])
+                rows = ti.static(phase.rows)
                 first = -1  # first node of the run's stencil
                 sums = ti.Matrix.zero(float, 3, self.basis.support)
                 for p in range(self.p.n_particles()):
@@ -133,10 +133,7 @@ class ScatterOps:
         inside = 0
         node_values = ti.Matrix.zero(float, 3, self.basis.support)
         if not self._halted(p):
-            if ti.static(phase == "p2g"):
-                base, inside, node_values = self._p2g_particle(p, copy)
-            else:
-                base, inside, node_values = self._g2p_velocity_particle(p, copy)
+            base, inside, node_values = phase.particle(self, p, copy)
         return base, inside, node_values
 
     @ti.func
@@ -152,21 +149,21 @@ class ScatterOps:
                         self.accumulate(ti.static(getattr(self, name))[first + a][0], sums[row, a])
 
     @ti.func
-    def _deposit(self, name: ti.template(), copy, node, offset, value,
+    def deposit(self, name: ti.template(), copy, node, offset, value,
                  node_values):
         """Scatter ``value`` to grid field ``name`` at ``node``: into the run sums' column
-        ``offset`` (returned), or by the scatter strategy (``_add``)."""
+        ``offset`` (returned), or by the scatter strategy (``scatter_add``)."""
         if ti.static(self.run_sums):
             if ti.static(name == "gm"):
                 node_values[SUM_ROWS[name], offset[0]] = value
             else:
                 node_values[SUM_ROWS[name], offset[0]] = value[0]
         else:
-            self._add(name, copy, node, value)
+            self.scatter_add(name, copy, node, value)
         return node_values
 
     @ti.func
-    def _reached(self, I):
+    def reached(self, I):
         """Whether a particle scattered mass to node I (in any private copy)."""
         reached = False
         if ti.static(self.private_scatter):

@@ -6,11 +6,11 @@ values (``self.p``); the basis (``self.basis``) is a compile-time class whose ``
 
 The phases loop over a particle's stencil nodes row by row: a run-time loop over the
 rows (every axis but the last: ``stencil_rows`` = support^(dim - 1), one in 1D) and the
-nodes of a row unrolled (``ti.static``), each node from ``_stencil_node(w, dw, r, a)``.
+nodes of a row unrolled (``ti.static``), each node from ``stencil_node(w, dw, r, a)``.
 Taichi's IR passes cost about the square of a kernel's statement count (each replaced
 statement rescans the kernel): the 3D cube scene's step, 27 nodes unrolled, compiled
 cold for 62 s, 2.2 s so.  The unrolled row keeps the weights of the last axis in registers and the
-column adds of ``_times_offset``; 1D stencils are unrolled whole, as before
+column adds of ``times_offset``; 1D stencils are unrolled whole, as before
 (docs/performance.md, "Time to the first step").
 """
 import taichi as ti
@@ -22,7 +22,7 @@ class StencilOps:
     """See the module."""
 
     @ti.func
-    def _stencil(self, p):
+    def stencil(self, p):
         """Node base, weights and gradients of particle p, its coordinate in element units,
         and whether p is on the grid."""
         xi = ti.Vector.zero(float, self.dim)
@@ -70,7 +70,7 @@ class StencilOps:
         return phi, grad
 
     @ti.func
-    def _from_first_node(self, xi, base):
+    def from_first_node(self, xi, base):
         """x_p - x of the stencil's first node, so that x_i - x_p = h o - this for the node
         at stencil offset o (the factored affine terms of P2G and G2P)."""
         return (xi - ti.cast(base, float) + self.node_offset) * self.p.h()
@@ -100,7 +100,7 @@ class StencilOps:
         return o
 
     @ti.func
-    def _stencil_node(self, w, dw, r, a: ti.template()):
+    def stencil_node(self, w, dw, r, a: ti.template()):
         """Node a of stencil row r: its offset, basis value and gradient (the loop
         ``for r in range(self.stencil_rows): for a in ti.static(range(support))``)."""
         offset = self._offset_of(r, a)
@@ -108,7 +108,7 @@ class StencilOps:
         return offset, phi, grad
 
     @ti.func
-    def _times_offset(self, A, r, a: ti.template()):
+    def times_offset(self, A, r, a: ti.template()):
         """A o for the offset o of node a of stencil row r: the row's axes as products,
         the last axis (unrolled) as column adds."""
         o0, o1 = self._row_offsets(r)
@@ -124,7 +124,7 @@ class StencilOps:
         return out
 
     @ti.func
-    def _outer_offset(self, u, r, a: ti.template()):
+    def outer_offset(self, u, r, a: ti.template()):
         """u o^T for the offset o of node a of stencil row r."""
         o0, o1 = self._row_offsets(r)
         out = ti.Matrix.zero(float, self.dim, self.dim)

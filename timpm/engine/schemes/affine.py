@@ -1,0 +1,207 @@
+"""The affine transfers, APIC (Jiang et al. 2015) and MLS-MPM (Hu et al. 2018):
+
+1. P2G of mass and momentum with the affine part, P_i = sum m_p phi_i (v_p + C_p (x_i -
+   x_p)) + dt F_i (MLS-MPM: the stress through D^-1 in the same affine matrix);
+2. v_i = P_i / m_i on the grid, with the walls (m_i, P_i cleared in the same pass);
+3. (APIC with the linear basis: G2P of v_p and C_p, P2G P'_i = sum m_p phi_i v_p, v'_i =
+   P'_i / m_i, the study's strain remap);
+4. G2P of v_p, C_p = B_p D_p^-1, the velocity gradient, stress and volume.
+"""
+import taichi as ti
+
+from ...errors import ErrorCode
+from .phases import Nodes, Particles, Scatter, Whole
+
+__all__ = ["Affine"]
+
+
+@ti.data_oriented
+class Affine:
+    """See the module."""
+
+    PARAMS = {}
+
+    @staticmethod
+    def applies(features):
+        return features.transfer in ("apic", "mls-mpm")
+
+    @staticmethod
+    def grid_fields(dim, real):
+        """The grid velocity v_i of the last grid update (G2P reads it)."""
+        return {"gv": ti.Vector.field(dim, real)}
+
+    def __init__(self, features):
+        self.f = features
+        self.p2g = Scatter("P2G: m_i, P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i",
+                           self.p2g_particle, rows=("gm", "gp"))
+        self.remap = Scatter("G2P: v_p, C_p; P2G: P'_i = sum m_p phi_i v_p (strain remap)",
+                             self.remap_particle, rows=("gp",), merge=("gp",))
+
+    def phases(self):
+        steps = []
+        if self.f.strain_remap:
+            steps.append(Whole("clear the grid (m_i stays for the remap)", self.clear))
+        steps += [self.p2g, Nodes("grid: v_i = P_i / m_i, walls", self.velocity_node)]
+        if self.f.strain_remap:
+            steps += [self.remap, Nodes("grid: v'_i = P'_i / m_i, walls", self.remap_node)]
+        steps.append(Particles("G2P: v_p, C_p, grad v, sigma_p, V_p", self.update_particle))
+        return tuple(steps)
+
+    @ti.func
+    def clear(self, prog: ti.template()):
+        prog.clear_grid()
+
+    @ti.func
+    def p2g_particle(self, prog: ti.template(), p, copy):
+        # P2G: m_i = sum m_p phi_i; P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i,
+        # F_i = sum phi_i m_p (g + b_p) - sigma_p V_p grad phi_i (MLS-MPM: the stress as
+        # -dt D^-1 sigma_p V_p (x_i - x_p) phi_i, in the affine matrix)
+        base, w, dw, xi, inside = prog.stencil(p)
+        node_values = ti.Matrix.zero(float, 3, prog.basis.support)
+        if not inside:
+            prog.fail(ErrorCode.OFF_GRID, p)
+        else:
+            mp = prog.m[p]
+            fp = prog.external_force(p)
+            stress_volume = prog.sigma[p] * prog.vol[p]
+            affine = ti.Matrix.zero(float, prog.dim, prog.dim)
+            if ti.static(prog.mls_mpm):
+                affine = mp * prog.C[p] - prog.p.dt_D_inv() * stress_volume
+            # the affine momentum A (x_i - x_p) with x_i - x_p = h o - d (o: the node's
+            # offset in the stencil) is h A o - A d: one vector per particle, then adds
+            d = prog.from_first_node(xi, base)
+            if ti.static(not prog.mls_mpm and prog.basis.support > 2):
+                affine = mp * prog.C[p]  # APIC: the stress enters through grad phi
+            mom = mp * prog.v[p] + prog.p.dt() * fp - affine @ d
+            h_affine = prog.p.h() * affine
+            for r in range(prog.stencil_rows):
+                for a in ti.static(range(prog.basis.support)):
+                    offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                    node = base + offset
+                    if ti.static(prog.mls_mpm):
+                        prog.scatter_add("gm", copy, node, mp * phi)
+                        prog.scatter_add("gp", copy, node,
+                                  phi * (mom + prog.times_offset(h_affine, r, a)))
+                    else:
+                        # m_p C_p (x_i - x_p) phi_i; the linear basis keeps B_p in C and
+                        # applies D_p^-1 at the new position: B_p D_p^-1 (x_i - x_p) phi_i =
+                        # B_p grad phi_i (Jiang et al. 2015), bounded where a particle barely
+                        # touches a node
+                        momentum = ti.Vector.zero(float, prog.dim)
+                        if ti.static(prog.basis.support > 2):
+                            momentum = phi * (mom + prog.times_offset(h_affine, r, a))
+                        else:
+                            momentum = (phi * (mp * prog.v[p] + prog.p.dt() * fp)
+                                        + mp * (prog.C[p] @ grad))
+                        prog.scatter_add("gm", copy, node, mp * phi)
+                        prog.scatter_add("gp", copy, node, momentum - prog.p.dt() * (stress_volume @ grad))
+        return base, inside, node_values
+
+    @ti.func
+    def velocity_node(self, prog: ti.template(), I):
+        # v_i = P_i / m_i, wall conditions applied; in the same pass the private copies
+        # are summed in and m_i, P_i cleared for the next P2G (a node no particle reached
+        # has m = P = 0 and is left alone: G2P weighs it by 0)
+        if prog.reached(I):
+            m = prog.merged("gm", I)
+            P = prog.merged("gp", I)
+            v = ti.Vector.zero(float, prog.dim)
+            if m > prog.p.mass_tol() and not prog.is_fixed(I):
+                v = P / m
+                if ti.static(prog.has_walls):
+                    v = prog.apply_walls(I, v)
+            if ti.static(prog.prescribed):
+                if prog.is_fixed(I):
+                    v = prog.prescribed_velocity(I, True)
+            prog.gv[I] = v
+            if ti.static(prog.strain_remap):
+                prog.gm[I] = m  # P cleared for the remap
+                prog.gp[I] = ti.Vector.zero(float, prog.dim)
+            elif ti.static(not prog.private_scatter):
+                prog.gm[I] = 0.0
+                prog.gp[I] = ti.Vector.zero(float, prog.dim)
+
+    @ti.func
+    def remap_particle(self, prog: ti.template(), p, copy):
+        # the strain remap: v_p = sum_i phi_i v_i, C_p = B_p (as update_particle), then
+        # P'_i = sum m_p phi_i v_p
+        base, w, dw, xi, inside = prog.stencil(p)
+        node_values = ti.Matrix.zero(float, 3, prog.basis.support)
+        if inside:
+            vp, B, _ = self.affine_gather(prog, base, w, dw, xi, False)
+            prog.C[p] = B  # the linear basis keeps B_p (see p2g_particle)
+            prog.v[p] = vp
+            for r in range(prog.stencil_rows):
+                for a in ti.static(range(prog.basis.support)):
+                    offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                    node_values = prog.deposit("gp", copy, base + offset, offset,
+                                                prog.m[p] * phi * vp, node_values)
+        return base, inside, node_values
+
+    @ti.func
+    def remap_node(self, prog: ti.template(), I):
+        prog.solve_mass_node(prog.gp, True, I)
+
+    @ti.func
+    def affine_gather(self, prog: ti.template(), base, w, dw, xi, gradient: ti.template()):
+        """G2P of the grid velocity: v_p = sum_i phi_i v_i, B_p = sum_i phi_i v_i (x_i -
+        x_p)^T and, with ``gradient``, grad du = sum_i v_i dt grad phi_i^T."""
+        vp = ti.Vector.zero(float, prog.dim)
+        grad_du = ti.Matrix.zero(float, prog.dim, prog.dim)
+        B = ti.Matrix.zero(float, prog.dim, prog.dim)  # sum_i phi_i v_i o_i^T
+        for r in range(prog.stencil_rows):
+            for a in ti.static(range(prog.basis.support)):
+                offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                vi = prog.gv[base + offset]
+                vp += phi * vi
+                if ti.static(gradient):
+                    grad_du += (vi * prog.p.dt()).outer_product(grad)
+                B += prog.outer_offset(phi * vi, r, a)
+        # sum_i phi_i v_i (x_i - x_p)^T = h sum_i phi_i v_i o_i^T - v_p d^T
+        d = prog.from_first_node(xi, base)
+        return vp, prog.p.h() * B - vp.outer_product(d), grad_du
+
+    @ti.func
+    def affine_of(self, prog: ti.template(), B, base, w, xi):
+        """C_p = B_p D_p^-1 from B_p = sum_i phi_i v_i (x_i - x_p)^T: D^-1 the constant of
+        MLS-MPM, else D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T, diagonal for tensor
+        products of a basis reproducing linear fields (the linear basis keeps B_p, see
+        p2g_particle)."""
+        C = B
+        if ti.static(prog.mls_mpm):
+            C = B * prog.p.D_inv()
+        elif ti.static(prog.basis.support > 2):
+            for k in ti.static(range(prog.dim)):
+                dk = 0.0
+                for a in ti.static(range(prog.basis.support)):
+                    r = (base[k] + a - prog.node_offset - xi[k]) * prog.p.h()
+                    dk += w[a, k] * r * r
+                for j in ti.static(range(prog.dim)):
+                    C[j, k] /= dk
+        return C
+
+    @ti.func
+    def gather(self, prog: ti.template(), p, base, w, dw, xi):
+        """v_p and grad du: from the remapped P'_i (the strain remap: v_p and C_p came with
+        it), else v_p = sum_i phi_i v_i, C_p = B_p D_p^-1 stored and grad du from the grid
+        (MLS-MPM: C_p dt)."""
+        vp = ti.Vector.zero(float, prog.dim)
+        grad_du = ti.Matrix.zero(float, prog.dim, prog.dim)
+        if ti.static(prog.strain_remap):
+            vp = prog.v[p]
+            for r in range(prog.stencil_rows):
+                for a in ti.static(range(prog.basis.support)):
+                    offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                    grad_du += (prog.gp[base + offset] * prog.p.dt()).outer_product(grad)
+        else:
+            B = ti.Matrix.zero(float, prog.dim, prog.dim)
+            vp, B, grad_du = self.affine_gather(prog, base, w, dw, xi, not prog.mls_mpm)
+            prog.v[p] = vp
+            prog.C[p] = self.affine_of(prog, B, base, w, xi)
+            if ti.static(prog.mls_mpm):
+                grad_du = prog.C[p] * prog.p.dt()
+        return vp, grad_du
+
+    @ti.func
+    def update_particle(self, prog: ti.template(), p):
+        prog.g2p_update_particle(p)

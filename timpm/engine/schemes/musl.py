@@ -1,0 +1,230 @@
+"""The study's Modified Lagrangian (MUSL) step with Euler-Cromer time stepping (2.2.4,
+Figure 2.7), in any dimension, with the lumped or consistent mass and the standard or MLS
+projection:
+
+1. P2G of mass and forces (and momentum where the grid phase reads it);
+2. a_i = M^-1 F_i on the grid, with local damping and the walls;
+3. G2P of the velocity, v_p += dt sum_i phi_i a_i, and P2G of the new momentum;
+4. v_i = M^-1 P_i on the grid, with the walls;
+5. G2P of displacement, strain, stress and volume from v_i.
+"""
+import taichi as ti
+
+from ...errors import ErrorCode
+from .phases import Nodes, Particles, Scatter, Whole
+
+__all__ = ["MUSL"]
+
+
+@ti.data_oriented
+class MUSL:
+    """See the module.  Its functions take the program (fields, run-time values, the
+    stencil and scatter helpers) as their first argument."""
+
+    #: run-time values of its own (name: "real" or "int"), read from the Model's attribute
+    PARAMS = {}
+
+    @staticmethod
+    def applies(features):
+        return features.transfer == "musl"
+
+    @staticmethod
+    def grid_fields(dim, real):
+        """Grid fields of its own."""
+        return {}
+
+    def __init__(self, features):
+        f = self.f = features
+        # P2G scatters the momentum where a later phase reads it (the grid phase's damping
+        # and walls, the Runge-Kutta and midpoint rates)
+        self.scatters_momentum = f.damping or f.has_walls or f.rk4 or f.midpoint
+        momentum = ("gp",) if self.scatters_momentum else ()
+        self.p2g = Scatter("P2G: m_i, F_i (and P_i) (A.1/A.2)", self.p2g_particle,
+                           rows=("gm", "gf") + momentum, merge=("gm", "gp", "gf"))
+        self.velocity = Scatter("G2P: v_p += dt sum phi_i a_i; P2G: P_i = sum m_p phi_i v_p",
+                                self.velocity_particle, rows=("gp",), merge=("gp",))
+
+    def phases(self):
+        f = self.f
+        steps = []
+        if not f.private_scatter:  # (a merge stores the copies' sums: nothing to clear)
+            steps.append(Whole("clear the grid", self.clear))
+        steps.append(self.p2g)
+        if f.mls or f.consistent:
+            steps.append(Whole("MLS Gauss-point forces; the consistent mass factorised",
+                               self.after_p2g))
+        steps.append(Nodes("grid: local damping (A.4), a_i = M^-1 F_i, walls",
+                           self.acceleration_node))
+        if f.consistent:
+            steps.append(Whole("grid: a = M^-1 F, the consistent mass", self.acceleration_solve))
+        steps.append(self.velocity)
+        if f.mls_study or f.consistent:
+            steps.append(Whole("grid: v_i = M^-1 P_i (MLS nodal velocity, consistent mass)",
+                               self.velocity_solve))
+        if f.mls_study or f.consistent:
+            if f.grid_displacement:
+                steps.append(Nodes("grid: u_i += v_i dt (5.2)", self.displacement_node))
+        else:
+            steps.append(Nodes("grid: v_i = P_i / m_i, walls; u_i += v_i dt", self.velocity_node))
+        steps.append(Particles("G2P: u_p, grad du, sigma_p, V_p", self.update_particle))
+        return tuple(steps)
+
+    # ---- P2G -----------------------------------------------------------------------------
+    @ti.func
+    def clear(self, prog: ti.template()):
+        # the grid cleared; with the MLS projection in 1D the body's extent
+        prog.clear_grid()
+        if ti.static(prog.mls and prog.dim == 1):
+            prog.body_extent()
+
+    @ti.func
+    def p2g_particle(self, prog: ti.template(), p, copy):
+        # P2G (2.2.4): M_ij = sum m_p phi_i phi_j (A.1) or M_ii = sum m_p phi_i (A.2);
+        # F_i = sum phi_i (m_p (g + b_p(t)) + f_trac(t)) - sigma_p V_p dphi_i
+        base, w, dw, xi, inside = prog.stencil(p)
+        node_values = ti.Matrix.zero(float, 3, prog.basis.support)
+        if not inside:
+            prog.fail(ErrorCode.OFF_GRID, p)
+        else:
+            mp = prog.m[p]
+            fp = prog.external_force(p)
+            stress_volume = prog.sigma[p] * prog.vol[p]
+            if ti.static(prog.mls):
+                if ti.static(prog.mls_study):
+                    fp[0] -= mp * prog.p.gravity()[0]  # gravity and mass: from the Gauss points
+                if ti.static(prog.dim == 1):
+                    prog.scatter_gauss_moments(p)
+                else:
+                    prog.scatter_gauss_moments_nd(p)
+            for r in range(prog.stencil_rows):
+                for a in ti.static(range(prog.basis.support)):
+                    offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                    node = base + offset
+                    if ti.static(not prog.mls):
+                        node_values = prog.deposit("gm", copy, node, offset, mp * phi, node_values)
+                        node_values = prog.deposit("gf", copy, node, offset,
+                                                    phi * fp - stress_volume @ grad, node_values)
+                    else:  # MLS: the stress enters at the Gauss points (integrate_gauss)
+                        if ti.static(not prog.mls_study):
+                            prog.accumulate(prog.gm[node], mp * phi)
+                        prog.accumulate(prog.gf[node], phi * fp)
+                    if ti.static(self.scatters_momentum):
+                        node_values = prog.deposit("gp", copy, node, offset, mp * phi * prog.v[p],
+                                                    node_values)
+            if ti.static(prog.consistent and prog.dim == 1):
+                for a, c in ti.static(ti.ndrange(prog.basis.support, prog.basis.support)):
+                    prog.accumulate(prog.band[base[0] + a, c - a + prog.bandwidth],
+                                    mp * w[a, 0] * w[c, 0])
+        return base, inside, node_values
+
+    @ti.func
+    def after_p2g(self, prog: ti.template()):
+        # MLS: the stress integrated at the Gauss points; the consistent mass factorised
+        # (1D banded LU) or its weights kept for the conjugate gradients
+        if ti.static(prog.mls and prog.dim == 1):
+            prog.integrate_gauss()
+        elif ti.static(prog.mls):
+            prog.integrate_gauss_nd()
+        if ti.static(prog.consistent and prog.dim == 1):
+            prog.banded_factorise()
+        elif ti.static(prog.consistent):
+            prog.cg_keep_weights()
+
+    # ---- the grid: accelerations -----------------------------------------------------------
+    @ti.func
+    def acceleration_node(self, prog: ti.template(), I):
+        # F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F; at a wall
+        # a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
+        if ti.static(prog.damping):
+            prog.gf[I] -= prog.p.damping() * ti.math.sign(prog.gp[I]) * ti.abs(prog.gf[I])
+        if ti.static(prog.has_walls and not prog.consistent):
+            a = ti.Vector.zero(float, prog.dim)  # Dirichlet and empty nodes: a = 0
+            if prog.gm[I] > prog.p.mass_tol() and not prog.is_fixed(I):
+                vn = prog.gp[I] / prog.gm[I]
+                a = (prog.apply_walls(I, vn + prog.p.dt() * prog.gf[I] / prog.gm[I]) - vn) / prog.p.dt()
+            prog.gf[I] = a
+        elif ti.static(not prog.consistent):
+            prog.gf[I] = prog.lumped_solve(I, prog.gf[I])  # a = F / m in the same pass
+        if ti.static(prog.prescribed):
+            if prog.is_fixed(I):  # a Dirichlet node: a = (v(t_n + dt) - v(t_n)) / dt
+                prog.gf[I] = (prog.prescribed_velocity(I, True)
+                              - prog.prescribed_velocity(I, False)) / prog.p.dt()
+        self.after_acceleration(prog, I)
+        if ti.static(self.scatters_momentum):
+            prog.gp[I] = ti.Vector.zero(float, prog.dim)  # P2G scattered P_i
+
+    @ti.func
+    def after_acceleration(self, prog: ti.template(), I):
+        """A hook of the grid phase at node I, after a_i (nothing here)."""
+        pass
+
+    @ti.func
+    def acceleration_solve(self, prog: ti.template()):
+        prog.solve_mass(prog.gf, False)  # (in 1D the Model refuses walls with it)
+
+    # ---- G2P of the velocity, P2G of the momentum ------------------------------------------
+    @ti.func
+    def velocity_particle(self, prog: ti.template(), p, copy):
+        # G2P: v_p += dt sum_i phi_i(x_p) a_i; P2G: P_i = sum m_p phi_i(x_p) v_p (2.2.4)
+        base, w, dw, xi, inside = prog.stencil(p)
+        node_values = ti.Matrix.zero(float, 3, prog.basis.support)
+        if inside:
+            acc = ti.Vector.zero(float, prog.dim)
+            for r in range(prog.stencil_rows):
+                for a in ti.static(range(prog.basis.support)):
+                    offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                    acc += phi * prog.gf[base + offset]
+            vp = self.new_velocity(prog, base, w, dw, prog.v[p] + prog.p.dt() * acc)
+            prog.v[p] = vp
+            if ti.static(prog.mls_study):
+                prog.scatter_node_moments(p, vp[0])
+            else:
+                for r in range(prog.stencil_rows):
+                    for a in ti.static(range(prog.basis.support)):
+                        offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                        node_values = prog.deposit("gp", copy, base + offset, offset,
+                                                    prog.m[p] * phi * vp, node_values)
+        return base, inside, node_values
+
+    @ti.func
+    def new_velocity(self, prog: ti.template(), base, w, dw, flip):
+        """The particle's new velocity from its FLIP update v_p + dt sum phi_i a_i (a hook:
+        that update itself here)."""
+        return flip
+
+    # ---- the grid: velocities --------------------------------------------------------------
+    @ti.func
+    def velocity_node(self, prog: ti.template(), I):
+        # v_i = P_i / m_i with the walls and the prescribed velocities; u_i += v_i dt (5.2)
+        prog.solve_mass_node(prog.gp, True, I)
+        if ti.static(prog.grid_displacement):
+            prog.gu[I] += prog.gp[I] * prog.p.dt()
+
+    @ti.func
+    def velocity_solve(self, prog: ti.template()):
+        if ti.static(prog.mls_study):
+            prog.mls_nodal_velocity()
+        else:
+            prog.solve_mass(prog.gp, True)
+
+    @ti.func
+    def displacement_node(self, prog: ti.template(), I):
+        prog.gu[I] += prog.gp[I] * prog.p.dt()
+
+    # ---- G2P of the particle state ---------------------------------------------------------
+    @ti.func
+    def gather(self, prog: ti.template(), p, base, w, dw, xi):
+        """v_p = sum_i phi_i v_i and grad du = sum_i v_i dt grad phi_i^T."""
+        vp = ti.Vector.zero(float, prog.dim)
+        grad_du = ti.Matrix.zero(float, prog.dim, prog.dim)
+        for r in range(prog.stencil_rows):
+            for a in ti.static(range(prog.basis.support)):
+                offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                vi = prog.gp[base + offset]
+                vp += phi * vi
+                grad_du += (vi * prog.p.dt()).outer_product(grad)
+        return vp, grad_du
+
+    @ti.func
+    def update_particle(self, prog: ti.template(), p):
+        prog.g2p_update_particle(p)
