@@ -13,8 +13,8 @@ from .runtime import init
 from .basis import BASES, Basis, Linear, get_basis
 from .scene import (Constant, Grid1D, Material, Ramp, Scene, Sine, Traction,
                     critical_time_step, equidistant_particles)
-from .materials import (DruckerPrager, LinearElastic, NeoHookean, WeaklyCompressibleFluid,
-                        get_material)
+from .materials import (DruckerPrager, LinearElastic, MohrCoulomb, NeoHookean,
+                        WeaklyCompressibleFluid, get_material)
 from .solver import SimulationError, Solver
 from .batch import Batch
 from .world import Ball, Body, Box, Points, Wall, World
@@ -27,6 +27,6 @@ __all__ = [
     "Material", "Ramp", "Scene", "Sine", "Traction", "critical_time_step",
     "equidistant_particles",
     "SimulationError", "Solver", "Batch", "__version__", "World", "Body", "Box", "Ball", "Wall",
-    "Points", "Model", "LinearElastic", "NeoHookean", "DruckerPrager",
+    "Points", "Model", "LinearElastic", "NeoHookean", "DruckerPrager", "MohrCoulomb",
     "WeaklyCompressibleFluid", "get_material",
 ]

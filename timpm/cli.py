@@ -475,6 +475,10 @@ def _main(argv=None):
 
         if is_scene_argument(argv[1:]):
             return run_scene_file(argv[1:])
+        from .studies.element_test import ELEMENT_TESTS, main as run_element_test
+
+        if argv[1:2] and argv[1] in ELEMENT_TESTS:  # a soil law's element test
+            return run_element_test(argv[1:])
     args = _parser().parse_args(argv)
     if args.command == "study":
         return args.func(args)

@@ -136,6 +136,8 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
             particle["F"] = ti.Matrix.field(d, d, real)  # (elastic) deformation gradient
         if "J" in self.needs:
             particle["J"] = ti.field(real)  # volume ratio by its linearised rate (JFluid)
+        if "ezz" in self.needs and d == 2:
+            particle["ezz"] = ti.field(real)  # out-of-plane elastic log strain (plane strain)
         if "plastic" in self.needs:
             particle["plastic"] = ti.field(real)  # accumulated plastic strain
         if self.body_force:

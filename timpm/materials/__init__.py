@@ -1,7 +1,8 @@
 """Constitutive models, one file each; :mod:`.base` states the contract they keep.
 
 Materials for multi-dimensional scenes: :class:`LinearElastic`, :class:`NeoHookean`,
-:class:`DruckerPrager` (sand, return mapping of Klar et al. 2016),
+:class:`DruckerPrager` (sand, return mapping of Klar et al. 2016), :class:`MohrCoulomb`
+(soil with cohesion, dilatancy and a tension cut-off),
 :class:`WeaklyCompressibleFluid` (Tait equation of state) and :class:`JFluid` (mpm88's
 fluid).  :class:`Hypoelastic1D` is the study's 1D law (a :class:`timpm.scene.Scene` makes it from
 its :class:`timpm.scene.Material`).
@@ -12,12 +13,13 @@ from .fluid import WeaklyCompressibleFluid
 from .hypoelastic import Hypoelastic1D
 from .j_fluid import JFluid
 from .linear_elastic import LinearElastic
+from .mohr_coulomb import MohrCoulomb
 from .neo_hookean import NeoHookean
 
-__all__ = ["Material", "SolidMaterial", "LinearElastic", "NeoHookean", "DruckerPrager",
+__all__ = ["Material", "SolidMaterial", "LinearElastic", "NeoHookean", "DruckerPrager", "MohrCoulomb",
            "WeaklyCompressibleFluid", "JFluid", "Hypoelastic1D", "MATERIALS", "get_material"]
 
-MATERIALS = {cls.name: cls for cls in (LinearElastic, NeoHookean, DruckerPrager,
+MATERIALS = {cls.name: cls for cls in (LinearElastic, NeoHookean, DruckerPrager, MohrCoulomb,
                                        WeaklyCompressibleFluid, JFluid, Hypoelastic1D)}
 
 

@@ -180,6 +180,8 @@ PROBLEM_TABLES = ("problem", "output")
 MATERIAL_PARAMETERS = {
     "E": ("Pa", "Young's modulus"), "nu": ("", "Poisson's ratio"),
     "density": ("kg/m^3", "mass density"), "friction_angle": ("degrees", "friction angle"),
+    "cohesion": ("Pa", "cohesion c"), "dilation_angle": ("degrees", "dilation angle psi"),
+    "tensile_strength": ("Pa", "tension cut-off (default: the apex, c cot phi)"),
     "bulk_modulus": ("Pa", "bulk modulus"), "gamma": ("", "Tait exponent"),
     "viscosity": ("Pa s", "dynamic viscosity"), "tension": ("", "the fluid carries tension"),
     "study": ("", "the study's stress update"), "exact": ("", "integrated exactly over a step"),

@@ -1,0 +1,150 @@
+"""Mohr-Coulomb soil (materials/mohr_coulomb.py): the element tests against the surface's
+closed form, the return mapping's own properties, its use in 2D and 3D scenes, and clear
+errors on bad parameters."""
+import math
+
+import numpy as np
+import pytest
+import taichi as ti
+
+from timpm.materials import MohrCoulomb
+from timpm.materials.mohr_coulomb import principal_return
+from timpm.studies.element_test import run_element_test
+
+#: the yield surface is written in Kirchhoff stress, the peak read as Cauchy stress:
+#: they differ by J = V / V0, 1 - J of the order of the elastic volume strain q / E
+#: (about 2e-3 for these samples); the closed form holds to that
+KIRCHHOFF_CAUCHY = 3e-3
+
+
+@pytest.mark.parametrize("test, phi, c, p", [
+    ("biaxial-mc", 20.0, 0.0, 100.0), ("biaxial-mc", 35.0, 15.0, 50.0),
+    ("biaxial-mc", 30.0, 20.0, 0.0), ("triaxial-mc", 30.0, 10.0, 100.0),
+    ("triaxial-mc", 25.0, 0.0, 200.0), ("triaxial-mc", 0.0, 40.0, 100.0)])
+def test_the_peak_deviator_is_the_closed_form(test, phi, c, p):
+    r = run_element_test(test, friction_angle=phi, cohesion=c, confinement=p, increments=200)
+    s = math.sin(math.radians(phi))
+    exact = (2 * c * math.cos(math.radians(phi)) + 2 * p * s) / (1 - s)
+    assert r["exact_peak_deviator"] == pytest.approx(exact, rel=1e-14)
+    assert abs(r["peak_deviator"] - exact) <= KIRCHHOFF_CAUCHY * exact
+    # perfect plasticity: the deviator stays at the peak after it (no softening)
+    q = np.asarray(r["series"]["deviator"])
+    assert q[-1] == pytest.approx(r["peak_deviator"], rel=KIRCHHOFF_CAUCHY)
+
+
+@pytest.mark.parametrize("test", ["biaxial-mc", "triaxial-mc"])
+@pytest.mark.parametrize("psi", [0.0, 10.0, 25.0])
+def test_plastic_flow_dilates_at_the_rate_of_the_dilation_angle(test, psi):
+    """Plastic flow goes along the potential's gradient: d(plastic ln J) / d(plastic
+    axial shortening) = 2 sin(psi) / (1 - sin(psi)), on the main plane (biaxial) and on
+    the triaxial-compression edge alike (psi = 0: no plastic volume change); and the
+    sample's total volume follows (dilation beyond the elastic compression)."""
+    r = run_element_test(test, friction_angle=30.0, cohesion=10.0, dilation_angle=psi,
+                         increments=300)
+    ser = {k: np.asarray(v) for k, v in r["series"].items()}
+    flowing = ser["plastic_strain"] > 0.0
+    assert flowing[-1] and not flowing[0]
+    rate = np.polyfit(ser["plastic_axial_strain"][flowing],
+                      ser["plastic_volumetric_strain"][flowing], 1)[0]
+    s = math.sin(math.radians(psi))
+    assert rate == pytest.approx(2 * s / (1 - s), abs=1e-9)
+    if psi > 0.0:
+        assert r["final_volumetric_strain"] > 0.5 * 2 * s / (1 - s) * 0.02
+
+
+@ti.kernel
+def _returned(eps: ti.types.ndarray(dtype=ti.math.vec3), out: ti.types.ndarray(dtype=ti.math.vec3),
+              lam: float, two_mu: float, bulk3: float, sin_phi: float, sin_psi: float,
+              two_c_cos_phi: float, apex: float, tension: float):
+    for i in range(eps.shape[0]):
+        out[i] = principal_return(eps[i], lam, two_mu, bulk3, sin_phi, sin_psi,
+                                  two_c_cos_phi, apex, tension)
+
+
+@pytest.mark.parametrize("phi, psi, c, tension", [(30.0, 0.0, 10.0, None), (30.0, 30.0, 10.0, None),
+                                                  (20.0, 5.0, 30.0, 20.0), (0.0, 0.0, 50.0, None)])
+def test_the_return_lands_on_the_surface_or_stays_elastic(phi, psi, c, tension):
+    """From random trial strains (all regions: elastic, main plane, both edges, apex,
+    tension): inside or on the surface and below the cut-off after the return; an
+    admissible trial unchanged; the returned stresses of the main plane and the edges
+    reached along the potential's gradient (the stress change is -D n_g dgamma, so its
+    deviatoric direction in the pi-plane is fixed by psi)."""
+    m = MohrCoulomb(E=1e5, nu=0.3, density=2000.0, friction_angle=phi, cohesion=c,
+                    dilation_angle=psi, tensile_strength=tension)
+    k = m.constants(1.0)
+    rng = np.random.default_rng(7)
+    eps = rng.normal(scale=3e-3, size=(4000, 3)) - rng.uniform(0, 3e-3, size=(4000, 1))
+    out = np.zeros_like(eps)
+    _returned(eps, out, k["lam"], k["two_mu"], k["bulk3"], k["sin_phi"], k["sin_psi"],
+              k["two_c_cos_phi"], k["apex"], k["tension"])
+
+    def stress(e):
+        return k["lam"] * e.sum(axis=1, keepdims=True) + k["two_mu"] * e
+
+    def yield_fn(t):
+        t = np.sort(t, axis=1)[:, ::-1]
+        return (t[:, 0] - t[:, 2]) + (t[:, 0] + t[:, 2]) * k["sin_phi"] - k["two_c_cos_phi"]
+
+    t_trial, t_new = stress(eps), stress(out)
+    scale = np.abs(t_trial).max(axis=1) + c
+    assert np.all(yield_fn(t_new) <= 1e-9 * scale)
+    assert np.all(t_new.max(axis=1) <= k["tension"] + 1e-9 * scale)
+    admissible = (yield_fn(t_trial) <= 0) & (t_trial.max(axis=1) <= k["tension"])
+    assert admissible.any() and (~admissible).any()
+    np.testing.assert_array_equal(out[admissible], eps[admissible])
+    # the plastic volume change: 2 sin(psi) dgamma per unit of the (main-plane) flow, so
+    # psi = 0 keeps the volume on the main plane and the edges (not at the apex/cut-off)
+    on_surface = np.abs(yield_fn(t_new)) <= 1e-9 * scale
+    interior = on_surface & (t_new.max(axis=1) < k["tension"] - 1e-6 * scale) & (
+        np.ptp(t_new, axis=1) > 1e-6 * scale)
+    if psi == 0.0:
+        dv = (eps - out).sum(axis=1)
+        assert interior.sum() > 100
+        np.testing.assert_allclose(dv[interior], 0.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(friction_angle=90.0), r"friction_angle must lie in \[0, 90\)"),
+    (dict(friction_angle=30.0, dilation_angle=35.0), "must not exceed the friction_angle"),
+    (dict(friction_angle=30.0, cohesion=-1.0), "cohesion must be >= 0"),
+    (dict(friction_angle=0.0, cohesion=0.0), "neither friction nor cohesion"),
+    (dict(friction_angle=30.0, cohesion=10.0, tensile_strength=100.0), "the apex"),
+    (dict(friction_angle="steep"), "friction_angle must be a number of degrees"),
+])
+def test_bad_parameters_are_refused_by_name(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        MohrCoulomb(E=1e5, nu=0.3, density=2000.0, **kwargs)
+
+
+def test_element_tests_refuse_unknown_parameters():
+    with pytest.raises(ValueError, match="biaxial-mc has no parameter phi"):
+        run_element_test("biaxial-mc", phi=30)
+    with pytest.raises(ValueError, match="confinement must be a pressure >= 0"):
+        run_element_test("biaxial-mc", confinement=-5.0)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_cohesive_block_stands_and_a_frictional_one_spreads(dim):
+    """A 1 m block on a rough floor under gravity: with c = 50 kPa (rho g H = 20 kPa) it
+    stays elastic, no plastic strain; cohesionless with phi = 10 degrees it yields and
+    spreads."""
+    from timpm import Body, Box, World
+    from timpm.solver import Solver
+
+    spread = {}
+    for c, phi in ((50e3, 30.0), (0.0, 10.0)):
+        soil = MohrCoulomb(E=2e7, nu=0.3, density=2000.0, friction_angle=phi, cohesion=c)
+        size = (3.0,) * dim
+        lo, hi = (1.0,) + (1.0,) * (dim - 2) + (0.0,), (2.0,) + (2.0,) * (dim - 2) + (1.0,)
+        lo, hi = lo[:dim - 1] + (0.0,), hi[:dim - 1] + (1.0,)
+        world = World(domain=size, cells=12, bodies=[Body(Box(lo, hi), soil)],
+                      gravity=(0.0,) * (dim - 1) + (-9.81,), walls="sticky",
+                      basis="uniform-bspline2", transfer="mls-mpm")
+        s = Solver(world, energies=False)
+        x0 = s.positions().copy()
+        s.run(t_end=0.3)
+        plastic = s.read("plastic")
+        spread[c] = (s.positions()[:, 0].max() - x0[:, 0].max(), float(plastic.max()))
+        s.release()
+    assert spread[50e3][1] == 0.0 and abs(spread[50e3][0]) < 0.01
+    assert spread[0.0][1] > 0.01 and spread[0.0][0] > 0.05

@@ -1,0 +1,232 @@
+"""Mohr-Coulomb soil: cohesion, friction, dilatancy and a tension cut-off, at large strains."""
+import math
+
+import taichi as ti
+
+from .base import SolidMaterial
+
+__all__ = ["MohrCoulomb", "principal_return"]
+
+#: where the strength has no apex (phi = 0: Tresca) or no tension cut-off: a stress no
+#: soil reaches
+UNBOUNDED = 1e300
+
+
+def _angle(name, value, low, high, low_open=False):
+    try:
+        angle = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"mohr-coulomb: {name} must be a number of degrees, got {value!r}") from None
+    if not ((low < angle if low_open else low <= angle) and angle < high):
+        raise ValueError(f"mohr-coulomb: {name} must lie in {'(' if low_open else '['}{low:g}, "
+                         f"{high:g}) degrees, got {value!r}")
+    return angle
+
+
+class MohrCoulomb(SolidMaterial):
+    """Mohr-Coulomb perfect plasticity with Hencky elasticity (de Souza Neto, Peric and
+    Owen 2008, 8.2.2 and 14: the return mapping in principal stresses, at large strains
+    through the exponential map of the elastic left stretch).
+
+    Yield surface (tension positive, principal Kirchhoff stresses t1 >= t2 >= t3):
+    ``f = (t1 - t3) + (t1 + t3) sin(phi) - 2 c cos(phi)``; flow along the plastic potential
+    with the dilation angle psi in place of phi (non-associated for psi < phi; psi = 0:
+    no volume change in plastic flow).  The return goes to the surface's main plane, to
+    one of its two edges (triaxial compression t1 = t2, extension t2 = t3), or to the
+    apex t = c cot(phi); a tension cut-off (``tensile_strength``) then returns the
+    principal stresses above it (Rankine planes, one to three).  The Kirchhoff stress is
+    isotropic linear in the principal logarithmic elastic strains, so the small-strain
+    algorithm applies to them unchanged; Cauchy stress = Kirchhoff stress V0 / V.
+
+    ``F`` holds the elastic deformation gradient; in 2D (plane strain) ``ezz`` the
+    out-of-plane elastic logarithmic strain (the total out-of-plane stretch stays 1, its
+    plastic part moves where sigma_zz is the major or minor stress); ``plastic`` the
+    accumulated norm of the deviatoric plastic strain increments.
+    """
+
+    name = "mohr-coulomb"
+    needs = frozenset({"F", "plastic", "ezz"})
+    CONSTANTS = SolidMaterial.CONSTANTS + ("sin_phi", "sin_psi", "two_c_cos_phi", "apex",
+                                           "tension", "bulk3")
+    dims = (2, 3)
+    free_expansion = True  # beyond the tension cut-off a particle expands stress-free
+
+    def __init__(self, E, nu, density, friction_angle, cohesion=0.0, dilation_angle=0.0,
+                 tensile_strength=None):
+        super().__init__(E, nu, density)
+        phi = _angle("friction_angle", friction_angle, 0.0, 90.0)
+        psi = _angle("dilation_angle", dilation_angle, 0.0, 90.0)
+        if psi > phi:
+            raise ValueError(f"mohr-coulomb: dilation_angle {psi:g} must not exceed the "
+                             f"friction_angle {phi:g} (a soil dilates at most as it rubs)")
+        try:
+            c = float(cohesion)
+        except (TypeError, ValueError):
+            raise ValueError(f"mohr-coulomb: cohesion must be a number (Pa), got "
+                             f"{cohesion!r}") from None
+        if not (0.0 <= c < math.inf):
+            raise ValueError(f"mohr-coulomb: cohesion must be >= 0 and finite (Pa), got "
+                             f"{cohesion!r}")
+        if phi == 0.0 and c == 0.0:
+            raise ValueError("mohr-coulomb: a soil with neither friction nor cohesion has no "
+                             "strength: give friction_angle > 0 or cohesion > 0")
+        self.friction_angle, self.dilation_angle, self.cohesion = phi, psi, c
+        sin_phi = math.sin(math.radians(phi))
+        # the apex of the surface, t1 = t2 = t3 = c cot(phi): the most tension it carries
+        self.apex = c * math.cos(math.radians(phi)) / sin_phi if phi > 0.0 else UNBOUNDED
+        if tensile_strength is None:
+            self.tensile_strength = None
+        else:
+            try:
+                st = float(tensile_strength)
+            except (TypeError, ValueError):
+                raise ValueError(f"mohr-coulomb: tensile_strength must be a number (Pa) or "
+                                 f"None, got {tensile_strength!r}") from None
+            if not (0.0 <= st <= self.apex):
+                raise ValueError(f"mohr-coulomb: tensile_strength must lie in [0, c cot(phi) "
+                                 f"= {self.apex:g}] Pa (the apex of the surface), got "
+                                 f"{tensile_strength!r}")
+            self.tensile_strength = st
+
+    def parameters(self) -> dict:
+        out = {**super().parameters(), "friction_angle": self.friction_angle,
+               "cohesion": self.cohesion, "dilation_angle": self.dilation_angle}
+        if self.tensile_strength is not None:
+            out["tensile_strength"] = self.tensile_strength
+        return out
+
+    def constants(self, dt: float) -> dict:
+        phi, psi = math.radians(self.friction_angle), math.radians(self.dilation_angle)
+        tension = self.apex if self.tensile_strength is None else self.tensile_strength
+        return {**super().constants(dt), "sin_phi": math.sin(phi), "sin_psi": math.sin(psi),
+                "two_c_cos_phi": 2.0 * self.cohesion * math.cos(phi), "apex": self.apex,
+                "tension": tension, "bulk3": 3.0 * self.lam + 2.0 * self.mu}
+
+    def peak_deviator(self, confinement: float) -> float:
+        """The deviator sigma_1 - sigma_3 at failure in compression under the confining
+        pressure ``confinement`` (> 0, compression): the closed form of the surface,
+        (2 c cos(phi) + 2 p sin(phi)) / (1 - sin(phi)).  Biaxial (plane strain, sigma_zz
+        the intermediate stress) and triaxial compression alike."""
+        s = math.sin(math.radians(self.friction_angle))
+        return (2.0 * self.cohesion * math.cos(math.radians(self.friction_angle))
+                + 2.0 * confinement * s) / (1.0 - s)
+
+    @ti.func
+    def update(self, s: ti.template(), p, grad_du, sigma_old):
+        d = ti.static(s.dim)
+        F = self._trial_F(s, p, grad_du)
+        U, S, V = ti.svd(F)
+        eps = ti.Vector.zero(float, 3)  # principal elastic log strains; [2]: zz in 2D
+        for k in ti.static(range(d)):
+            eps[k] = ti.log(ti.max(ti.abs(S[k, k]), 1e-12))
+        if ti.static(d == 2):
+            eps[2] = s.ezz[p]
+        eps_new = principal_return(eps, self.c.lam(), self.c.two_mu(), self.c.bulk3(),
+                                   self.c.sin_phi(), self.c.sin_psi(),
+                                   self.c.two_c_cos_phi(), self.c.apex(), self.c.tension())
+        plastic = eps - eps_new
+        dev = plastic - plastic.sum() / 3.0
+        s.accumulate(s.plastic[p], dev.norm())
+        Se = ti.Matrix.zero(float, d, d)
+        T = ti.Matrix.zero(float, d, d)
+        tr = eps_new.sum()
+        for k in ti.static(range(d)):
+            Se[k, k] = ti.exp(eps_new[k])
+            T[k, k] = self.c.two_mu() * eps_new[k] + self.c.lam() * tr
+        s.F[p] = U @ Se @ V.transpose()
+        if ti.static(d == 2):
+            s.ezz[p] = eps_new[2]
+        # Kirchhoff stress U diag(tau) U^T; Cauchy stress = tau V0 / V
+        return U @ T @ U.transpose() * self._initial_over_current_volume(s, p)
+
+
+@ti.func
+def _swap(i: ti.template(), j: ti.template()):
+    """The permutation matrix exchanging entries i and j of a 3-vector."""
+    P = ti.Matrix.identity(float, 3)
+    P[i, i] = 0.0
+    P[j, j] = 0.0
+    P[i, j] = 1.0
+    P[j, i] = 1.0
+    return P
+
+
+@ti.func
+def principal_return(eps, lam, two_mu, bulk3, sin_phi, sin_psi, two_c_cos_phi, apex,
+                     tension):
+    """The elastic principal log strains after the Mohr-Coulomb return and the tension
+    cut-off, from the trial ones (any order; returned in the same order)."""
+    # principal Kirchhoff stresses t = lam tr(eps) + 2 mu eps, sorted t1 >= t2 >= t3 by a
+    # permutation P (sorted = P unsorted)
+    P = ti.Matrix.identity(float, 3)
+    e = eps
+    t = lam * e.sum() + two_mu * e
+    for i, j in ti.static(((0, 1), (1, 2), (0, 1))):
+        if t[i] < t[j]:
+            Q = _swap(i, j)
+            P = Q @ P
+            e = Q @ e
+            t = Q @ t
+    # the elastic matrix in principal axes: D = lam 1 1^T + 2 mu I
+    D = lam * ti.Matrix([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0], [1.0, 1.0, 1.0]]) \
+        + two_mu * ti.Matrix.identity(float, 3)
+    # the main plane (1, 3): gradient of f and of the potential g (psi for phi)
+    nf_a = ti.Vector([1.0 + sin_phi, 0.0, -(1.0 - sin_phi)])
+    ng_a = ti.Vector([1.0 + sin_psi, 0.0, -(1.0 - sin_psi)])
+    f_a = (t[0] - t[2]) + (t[0] + t[2]) * sin_phi - two_c_cos_phi
+    if f_a > 0.0:
+        done = False
+        # 1. the main plane: t - dg D n_g with f = 0
+        dg = f_a / nf_a.dot(D @ ng_a)
+        t_new = t - dg * (D @ ng_a)
+        if t_new[0] >= t_new[1] and t_new[1] >= t_new[2]:
+            e -= dg * ng_a
+            done = True
+        if not done:
+            # 2. an edge: t1 = t2 (planes (1, 3) and (2, 3): triaxial compression, the
+            # two larger stresses equal) where the main-plane return overshot t1 < t2,
+            # else t2 = t3 (planes (1, 3) and (1, 2): triaxial extension)
+            nf_b = ti.Vector([0.0, 1.0 + sin_phi, -(1.0 - sin_phi)])
+            ng_b = ti.Vector([0.0, 1.0 + sin_psi, -(1.0 - sin_psi)])
+            f_b = (t[1] - t[2]) + (t[1] + t[2]) * sin_phi - two_c_cos_phi
+            if t_new[1] <= t_new[2]:
+                nf_b = ti.Vector([1.0 + sin_phi, -(1.0 - sin_phi), 0.0])
+                ng_b = ti.Vector([1.0 + sin_psi, -(1.0 - sin_psi), 0.0])
+                f_b = (t[0] - t[1]) + (t[0] + t[1]) * sin_phi - two_c_cos_phi
+            a11, a12 = nf_a.dot(D @ ng_a), nf_a.dot(D @ ng_b)
+            a21, a22 = nf_b.dot(D @ ng_a), nf_b.dot(D @ ng_b)
+            det = a11 * a22 - a12 * a21
+            dga = (a22 * f_a - a12 * f_b) / det
+            dgb = (a11 * f_b - a21 * f_a) / det
+            t_new = t - D @ (dga * ng_a + dgb * ng_b)
+            # (valid up to round-off: on a trial with two equal stresses, a symmetric
+            # return, the edge is the answer, not the apex)
+            slack = 1e-10 * (ti.abs(t[0]) + ti.abs(t[2]) + two_c_cos_phi)
+            dg_slack = -1e-10 * ti.max(ti.abs(dga), ti.abs(dgb))
+            if dga >= dg_slack and dgb >= dg_slack and t_new[0] + slack >= t_new[1] \
+                    and t_new[1] + slack >= t_new[2]:
+                e -= dga * ng_a + dgb * ng_b
+                done = True
+        if not done:
+            # 3. the apex: t1 = t2 = t3 = c cot(phi), the elastic strain all volumetric
+            e = ti.Vector([1.0, 1.0, 1.0]) * (apex / bulk3)
+    # the tension cut-off (Rankine planes t_i = tension, i = 1..k), after the shear
+    # return: it lowers f too, so both hold
+    t = lam * e.sum() + two_mu * e
+    if t[0] > tension:
+        a, b = lam + two_mu, lam
+        if t[2] > tension:
+            e = ti.Vector([1.0, 1.0, 1.0]) * (tension / bulk3)
+        else:
+            d1 = (t[0] - tension) / a
+            if t[1] - b * d1 > tension:  # two planes: [[a, b], [b, a]] d = t - tension
+                r1, r2 = t[0] - tension, t[1] - tension
+                d1 = (a * r1 - b * r2) / (a * a - b * b)
+                d2 = (a * r2 - b * r1) / (a * a - b * b)
+                e[0] -= d1
+                e[1] -= d2
+                if lam * e.sum() + two_mu * e[2] > tension:  # all three: the cut-off's apex
+                    e = ti.Vector([1.0, 1.0, 1.0]) * (tension / bulk3)
+            else:
+                e[0] -= d1
+    return P.transpose() @ e

@@ -1,0 +1,326 @@
+"""Element tests of a soil law: one material point under a homogeneous deformation.
+
+The geotechnical laboratory's tests, run on the compiled law itself (its ``update`` as
+the engine calls it, on a particle state of one point):
+
+- ``biaxial-mc``: drained plane-strain biaxial compression (2D): the sample first under
+  the confining pressure p all round (sigma_zz included), then shortened along y at a
+  constant rate while sigma_xx = -p is held (the lateral strain solved for in every
+  increment) and the out-of-plane strain stays zero;
+- ``triaxial-mc``: drained triaxial compression (3D), sigma_xx = sigma_zz = -p held.
+
+Mohr-Coulomb fails both at the deviator q = sigma_1 - sigma_3 = (2 c cos(phi) + 2 p
+sin(phi)) / (1 - sin(phi)) (compression positive; :meth:`MohrCoulomb.peak_deviator`),
+which the record holds as ``exact_peak_deviator`` beside the ``peak_deviator`` found.
+The record also holds the stress path (mean stress, deviator) and the volumetric strain
+against the axial strain: dilatancy where the dilation angle is not zero.
+"""
+import argparse
+import math
+import sys
+import time
+
+import numpy as np
+import taichi as ti
+
+__all__ = ["ELEMENT_TESTS", "ElementTest", "run_element_test", "main"]
+
+#: test name -> dimension
+ELEMENT_TESTS = {"biaxial-mc": 2, "triaxial-mc": 3}
+
+#: the default sample: a dense sand with some cohesion (kPa and m)
+DEFAULTS = dict(E=1e5, nu=0.3, density=2000.0, friction_angle=30.0, cohesion=10.0,
+                dilation_angle=0.0, confinement=100.0, axial_strain=0.03, increments=600)
+
+
+@ti.data_oriented
+class ElementTest:
+    """A material point of one law in ``dim`` dimensions (the particle state the law's
+    ``update`` reads: ``F``, ``plastic``, ``ezz``, ``m``, ``vol``), driven by velocity
+    gradients.  ``trial(grad)`` applies one increment to the committed state and returns
+    the Cauchy stress; ``commit()`` keeps it."""
+
+    def __init__(self, material, dim):
+        from ..engine.params import ParamBlock
+
+        if dim not in material.dims:
+            raise ValueError(f"{material.name} is written for {material.dims}-D, not {dim}-D")
+        self.material, self.dim = material, dim
+        self.update_volume = True
+        d, real = dim, float
+        fb = ti.FieldsBuilder()
+        block = ParamBlock({"m0": {name: "real" for name in material.CONSTANTS}}, real, fb)
+        block.set("m0", material.constants(1.0))
+        unit = type(material).unit(material.flags(), block.groups["m0"])
+        # entry 0: the committed state; entry 1: an increment tried from it
+        self.F, self.F_total = ti.Matrix.field(d, d, real), ti.Matrix.field(d, d, real)
+        self.sigma = ti.Matrix.field(d, d, real)
+        self.m, self.vol, self.plastic = ti.field(real), ti.field(real), ti.field(real)
+        self.ezz = ti.field(real)
+        fb.dense(ti.i, 2).place(self.F, self.F_total, self.sigma, self.m, self.vol,
+                                self.plastic, self.ezz)
+        self._tree = fb.finalize()
+        block.upload()
+        self.needs = material.needs
+        s = self
+
+        @ti.kernel
+        def trial(grad: ti.types.matrix(d, d, real)):
+            for _ in range(1):
+                s.F[1] = s.F[0]
+                s.plastic[1] = s.plastic[0]
+                s.ezz[1] = s.ezz[0]
+                s.F_total[1] = (ti.Matrix.identity(real, d) + grad) @ s.F_total[0]
+                s.vol[1] = s.m[1] / unit.c.density() * s.F_total[1].determinant()
+                s.sigma[1] = unit.update(s, 1, grad, s.sigma[0])
+
+        @ti.kernel
+        def commit():
+            for _ in range(1):
+                s.F[0] = s.F[1]
+                s.F_total[0] = s.F_total[1]
+                s.plastic[0] = s.plastic[1]
+                s.ezz[0] = s.ezz[1]
+                s.vol[0] = s.vol[1]
+                s.sigma[0] = s.sigma[1]
+
+        self._trial, self._commit = trial, commit
+
+    @ti.func
+    def accumulate(self, ref: ti.template(), value):
+        ref += value
+
+    def start(self, confinement):
+        """The sample under the pressure ``confinement`` all round, the reference
+        configuration (F_total = I, V = V0): the elastic strain -p / (3 lambda + 2 mu) along
+        every axis (out of plane too)."""
+        mat, d = self.material, self.dim
+        e = -confinement / (3.0 * mat.lam + 2.0 * mat.mu)
+        self.F.from_numpy(np.broadcast_to(np.eye(d) * math.exp(e), (2, d, d)).copy())
+        self.F_total.from_numpy(np.broadcast_to(np.eye(d), (2, d, d)).copy())
+        self.sigma.from_numpy(np.broadcast_to(-confinement * np.eye(d), (2, d, d)).copy())
+        self.m.from_numpy(np.full(2, mat.density))
+        self.vol.from_numpy(np.ones(2))
+        self.plastic.from_numpy(np.zeros(2))
+        self.ezz.from_numpy(np.full(2, e))
+
+    def trial(self, grad):
+        self._trial(np.asarray(grad, dtype=float))
+        return self.sigma.to_numpy()[1]
+
+    def commit(self):
+        self._commit()
+
+    def state(self):
+        return {"F_total": self.F_total.to_numpy()[0], "plastic": float(self.plastic.to_numpy()[0])}
+
+
+def run_element_test(test="biaxial-mc", progress=None, **params):
+    """Run an element test (``ELEMENT_TESTS``) of a Mohr-Coulomb sample, ``params``
+    overriding ``DEFAULTS``; returns the record (numbers and the stress path)."""
+    from ..materials import MohrCoulomb
+
+    if test not in ELEMENT_TESTS:
+        raise ValueError(f"unknown element test {test!r}: choose one of "
+                         f"{', '.join(ELEMENT_TESTS)}")
+    unknown = set(params) - set(DEFAULTS)
+    if unknown:
+        raise ValueError(f"{test} has no parameter {', '.join(sorted(unknown))}; its "
+                         f"parameters are {', '.join(DEFAULTS)}")
+    p = {**DEFAULTS, **params}
+    confinement, axial, n = float(p["confinement"]), float(p["axial_strain"]), p["increments"]
+    if not (confinement >= 0.0 and math.isfinite(confinement)):
+        raise ValueError(f"{test}: confinement must be a pressure >= 0, got {p['confinement']!r}")
+    if not (0.0 < axial < 0.5):
+        raise ValueError(f"{test}: axial_strain must lie in (0, 0.5), got {p['axial_strain']!r}")
+    if isinstance(n, float) and n.is_integer():
+        n = int(n)
+    if isinstance(n, bool) or not isinstance(n, int) or not (10 <= n <= 1_000_000):
+        raise ValueError(f"{test}: increments must be a whole number in [10, 1e6], got {n!r}")
+    material = MohrCoulomb(E=p["E"], nu=p["nu"], density=p["density"],
+                           friction_angle=p["friction_angle"], cohesion=p["cohesion"],
+                           dilation_angle=p["dilation_angle"])
+    dim = ELEMENT_TESTS[test]
+    t0 = time.perf_counter()
+    point = ElementTest(material, dim)
+    point.start(confinement)
+    lateral = [0] if dim == 2 else [0, 2]  # the axes held at -confinement; y is axial
+    stretch = math.exp(-axial / n) - 1.0  # the axial log strain in equal steps
+    stiff = material.lam + 2.0 * material.mu
+    a = -material.nu / (1.0 - material.nu) * stretch if dim == 2 else -material.nu * stretch
+    eps_a, q, mean, vol, plastic = [0.0], [0.0], [confinement], [0.0], [0.0]
+    # the plastic parts of the axial shortening and of ln J: the total less the change of
+    # the elastic log strains (coaxial: F_e stays diagonal)
+    e0 = _elastic_log_strains(point)
+    plastic_axial, plastic_volume = [0.0], [0.0]
+    tol = 1e-10 * max(confinement, material.cohesion, 1.0)
+    for k in range(n):
+        def residual(x):  # sigma_xx + p after the increment with lateral stretch x
+            return point.trial(_increment(dim, stretch, lateral, x))[0, 0] + confinement
+
+        # the lateral stretch that holds sigma_xx = -p (the residual rises with it,
+        # piecewise smooth): bracketed from a step of the elastic stiffness, then the
+        # Illinois false position
+        a = _root(residual, a, stiff, tol, f"{test}: increment {k}")
+        sig = point.trial(_increment(dim, stretch, lateral, a))
+        point.commit()
+        state = point.state()
+        J = float(np.linalg.det(state["F_total"]))
+        eps_a.append(-math.log(state["F_total"][1, 1]))
+        q.append(float(sig[0, 0] - sig[1, 1]))  # sigma_1 - sigma_3 (compression positive)
+        e = _elastic_log_strains(point)
+        plastic_axial.append(eps_a[-1] + (e[1] - e0[1]))
+        plastic_volume.append(math.log(J) - (e.sum() - e0.sum()))
+        total = float(np.trace(sig))
+        if dim == 2:  # and sigma_zz, from the elastic strains
+            total += float((material.lam * e.sum() + 2.0 * material.mu * e[2]) / J)
+        mean.append(-total / 3.0)
+        vol.append(math.log(J))
+        plastic.append(state["plastic"])
+        if progress is not None and (k + 1) % max(1, n // 10) == 0:
+            progress(k + 1, n)
+    q_arr = np.array(q)
+    peak = float(q_arr.max())
+    exact = material.peak_deviator(confinement)
+    return {
+        "problem": test, "dim": dim, "material": "mohr-coulomb",
+        "params": {k: (float(v) if k != "increments" else n) for k, v in p.items()},
+        "peak_deviator": peak, "exact_peak_deviator": exact,
+        "peak_relative_error": abs(peak - exact) / exact if exact > 0 else None,
+        "axial_strain_at_peak": float(eps_a[int(q_arr.argmax())]),
+        "final_volumetric_strain": vol[-1], "final_plastic_strain": plastic[-1],
+        "wall_seconds": time.perf_counter() - t0,
+        "series": {"axial_strain": eps_a, "deviator": q, "mean_stress": mean,
+                   "volumetric_strain": vol, "plastic_strain": plastic,
+                   "plastic_axial_strain": plastic_axial,
+                   "plastic_volumetric_strain": plastic_volume},
+    }
+
+
+def _root(fn, x0, slope, tol, where):
+    """A root of the increasing function ``fn`` near ``x0``: a bracket grown from a Newton
+    step of ``slope``, then the Illinois false position."""
+    r0 = fn(x0)
+    if abs(r0) <= tol:
+        return x0
+    x1 = x0 - r0 / slope
+    r1 = fn(x1)
+    for _ in range(80):  # grow the bracket
+        if r0 * r1 <= 0.0:
+            break
+        x0, r0, x1 = x1, r1, x1 + 2.0 * (x1 - x0)
+        r1 = fn(x1)
+    else:
+        raise RuntimeError(f"{where}: no lateral strain holds the confining pressure")
+    side = 0
+    for _ in range(200):
+        x = x1 - r1 * (x1 - x0) / (r1 - r0)
+        r = fn(x)
+        if abs(r) <= tol:
+            return x
+        if r * r1 < 0.0:
+            x0, r0 = x1, r1
+            side = 0
+        else:
+            r0 = r0 / 2.0 if side == 1 else r0  # Illinois: halve the stale end
+            side = 1
+        x1, r1 = x, r
+    raise RuntimeError(f"{where}: the lateral stress did not settle")
+
+
+def _increment(dim, axial, lateral, x):
+    """The velocity gradient times dt of an increment: ``axial`` along y, ``x`` along the
+    lateral axes."""
+    grad = np.zeros((dim, dim))
+    grad[1, 1] = axial
+    for i in lateral:
+        grad[i, i] = x
+    return grad
+
+
+def _elastic_log_strains(point):
+    """The committed elastic log strains along x, y, z (coaxial loading: F_e diagonal; in
+    2D the out-of-plane one from ``ezz``)."""
+    F = point.F.to_numpy()[0]
+    e = [math.log(F[k, k]) for k in range(point.dim)]
+    if point.dim == 2:
+        e.append(float(point.ezz.to_numpy()[0]))
+    return np.array(e)
+
+
+def plot_element_test(record, path):
+    """The deviator and the volumetric strain against the axial strain, the closed-form
+    peak drawn across."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    s = record["series"]
+    ea = 100.0 * np.asarray(s["axial_strain"])
+    fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(13, 4))
+    ax1.plot(ea, s["deviator"], label="timpm (Mohr-Coulomb, Hencky)")
+    ax1.axhline(record["exact_peak_deviator"], color="k", ls="--",
+                label="closed form (2c cos phi + 2p sin phi) / (1 - sin phi)")
+    ax1.set(xlabel="axial strain [%]", ylabel="deviator sigma_1 - sigma_3 [kPa]")
+    ax1.legend(fontsize=8)
+    ax2.plot(ea, 100.0 * np.asarray(s["volumetric_strain"]))
+    ax2.set(xlabel="axial strain [%]", ylabel="volumetric strain ln J [%] (dilation > 0)")
+    ax3.plot(s["mean_stress"], s["deviator"])
+    ax3.set(xlabel="mean stress p' [kPa]", ylabel="deviator q [kPa]")
+    prm = record["params"]
+    fig.suptitle(f"{record['problem']}: phi = {prm['friction_angle']:g} deg, c = "
+                 f"{prm['cohesion']:g}, psi = {prm['dilation_angle']:g} deg, confinement "
+                 f"{prm['confinement']:g}; peak {record['peak_deviator']:.4g} against "
+                 f"{record['exact_peak_deviator']:.4g}")
+    fig.tight_layout()
+    from ..files import replacing
+    with replacing(path, f"{path}.tmp.png") as tmp:
+        fig.savefig(tmp, dpi=100)
+    plt.close(fig)
+
+
+def main(argv):
+    """``timpm run biaxial-mc|triaxial-mc [--param NAME=VALUE ...] [--json F] [--plot P]``."""
+    from .. import runtime
+    from ..argtypes import param
+    from ..files import write_json
+
+    ap = argparse.ArgumentParser(prog=f"timpm run {argv[0] if argv else 'biaxial-mc'}",
+                                 description="an element test of the Mohr-Coulomb law: "
+                                 "drained compression under a confining pressure")
+    ap.add_argument("test", choices=list(ELEMENT_TESTS))
+    ap.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
+                    help=f"one of {', '.join(f'{k} (default {v:g})' for k, v in DEFAULTS.items())}")
+    ap.add_argument("--json", metavar="FILE", help="write the record as JSON")
+    ap.add_argument("--plot", metavar="FILE.png", help="draw the deviator and the volume")
+    ap.add_argument("--quiet", action="store_true")
+    args = ap.parse_args(argv)
+    for path, option in ((args.json, "--json"), (args.plot, "--plot")):
+        if path is not None and not path:
+            print(f"timpm: error: {option} needs a file name", file=sys.stderr)
+            return 2
+    if args.plot and not args.plot.lower().endswith(".png"):
+        print(f"timpm: error: --plot {args.plot}: the plot is written as PNG (FILE.png)",
+              file=sys.stderr)
+        return 2
+    try:
+        runtime.init(precision="f64")
+        record = run_element_test(args.test, **dict(args.param))
+    except (ValueError, RuntimeError) as exc:
+        print(f"timpm: error: {exc}", file=sys.stderr)
+        return 2
+    if not args.quiet:
+        print(f"{args.test}: peak deviator {record['peak_deviator']:.6g}, closed form "
+              f"{record['exact_peak_deviator']:.6g} (relative error "
+              f"{record['peak_relative_error']:.2e}) at axial strain "
+              f"{100 * record['axial_strain_at_peak']:.3g}%; volumetric strain at the end "
+              f"{100 * record['final_volumetric_strain']:.3g}%")
+    try:
+        if args.json:
+            write_json(args.json, {"command": "run", "problem": args.test, "runs": [record]})
+        if args.plot:
+            plot_element_test(record, args.plot)
+    except OSError as exc:
+        print(f"timpm: error: could not write {exc.filename}: {exc.strerror}", file=sys.stderr)
+        return 2
+    return 0
