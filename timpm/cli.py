@@ -265,6 +265,14 @@ def _listing() -> str:
         if higher != linear:  # a scheme of its own beyond the linear basis (mms-1d, 2d)
             lines.append(f"  {'':16s} scheme: {', '.join(higher)} beyond the linear basis, "
                          f"{', '.join(linear)} with it (mass, projection, integrator)")
+    from .studies.element_test import DEFAULTS, ELEMENT_TESTS
+
+    lines.append("element tests of the Mohr-Coulomb law (timpm run TEST --param NAME=VALUE "
+                 "--json F --plot P.png):")
+    for name, dim in ELEMENT_TESTS.items():
+        lines.append(f"  {name:16s} drained {'plane-strain biaxial' if dim == 2 else 'triaxial'}"
+                     f" compression ({dim}D)")
+    lines.append(f"  {'':16s} parameters: " + ", ".join(f"{k}={v:g}" for k, v in DEFAULTS.items()))
     lines.append("bases (--basis): " + ", ".join(BASES) + f"; bsplineN and uniform-bsplineN "
                  f"for degree N = 1 to {MAX_BSPLINE_DEGREE} (clamped, padded uniform)")
     lines.append("demos (timpm demo NAME --out FILE.gif --param NAME=VALUE):")
