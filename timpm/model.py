@@ -158,7 +158,11 @@ class Model:
     undeformed state; ``positions`` and ``volume`` are then the reference X and V0.
     ``particle_force`` an (n, dim) array of forces on the particles (the surface tractions
     a World spreads over a face's particles), times the time function
-    ``particle_force_time`` (default Constant).
+    ``particle_force_time`` (default Constant).  ``initial_stress`` an (n, 3, 3) array of
+    Cauchy stresses the particles start from (2D and 3D; in 2D entry [2, 2] is the
+    out-of-plane stress of plane strain): each material sets its elastic strain from it
+    (``Material.elastic_state``: Drucker-Prager and Mohr-Coulomb), e.g. the geostatic
+    stress of :mod:`timpm.geostatic`.
     """
 
     basis: str
@@ -188,6 +192,7 @@ class Model:
     fixed_time: object = None
     particle_force: object = None
     particle_force_time: object = None
+    initial_stress: object = None
     name: str = "model"
 
     def __post_init__(self):
@@ -212,6 +217,7 @@ class Model:
         check_size(f"the model {self.name!r}", len(self.positions),
                    np.prod([float(n) for n in self.nodes]), dim)
         self._check_materials(dim)
+        self._check_initial_stress(dim)
         self._check_scheme(dim, basis)
         self._check_boundaries(dim, basis)
         self._check_integrator(basis)
@@ -329,6 +335,54 @@ class Model:
         density = np.array([m.density for m in mats])[index]
         mass = density * self.volume
         for key, arr in (("material_index", index), ("body_index", bodies), ("_mass", mass)):
+            arr.setflags(write=False)
+            set_(key, arr)
+
+    def _check_initial_stress(self, dim):
+        """The initial stresses (n, 3, 3), finite and symmetric, and the elastic state each
+        material takes from them (``initial_F``, ``initial_ezz``)."""
+        set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731
+        if self.initial_stress is None:
+            set_("initial_F", None)
+            set_("initial_ezz", None)
+            set_("initial_work", None)
+            return
+        n = len(self.positions)
+        if dim == 1:
+            raise ValueError("an initial stress is set in 2D and 3D models (its elastic state "
+                             "is a Hencky law's); the 1D laws start from their own stress")
+        if self.initial_displacement is not None:
+            raise ValueError("a model starts from an initial displacement or from an initial "
+                             "stress, not both")
+        try:
+            sig = np.array(self.initial_stress, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError("initial_stress must be an (n, 3, 3) array of numbers") from None
+        if sig.shape != (n, 3, 3):
+            raise ValueError(f"initial_stress must be an (n, 3, 3) array of Cauchy stresses "
+                             f"for the {n} particles (in 2D [2, 2] is sigma_zz), got shape "
+                             f"{sig.shape}")
+        bad = np.flatnonzero(~np.all(np.isfinite(sig), axis=(1, 2)))
+        if len(bad):
+            raise ValueError(f"initial_stress of particle {int(bad[0])} is not finite")
+        asym = np.abs(sig - sig.transpose(0, 2, 1)).max(axis=(1, 2))
+        bad = np.flatnonzero(asym > 1e-12 * (np.abs(sig).max(axis=(1, 2)) + 1e-300))
+        if len(bad):
+            raise ValueError(f"initial_stress of particle {int(bad[0])} is not symmetric")
+        F = np.empty((n, dim, dim))
+        ezz = np.zeros(n)
+        for k, mat in enumerate(self.materials):
+            rows = np.flatnonzero(self.material_index == k)
+            if len(rows):
+                F[rows], ezz[rows] = mat.elastic_state(sig[rows], dim)
+        # the energy stored in it, 1/2 sigma : eps V0 with eps = ln F_e (and zz in plane
+        # strain): the strain energy the records start from
+        w, Q = np.linalg.eigh(F)
+        eps = np.einsum("nij,nj,nkj->nik", Q, np.log(w), Q)
+        work = 0.5 * self.volume * (np.einsum("nij,nij->n", sig[:, :dim, :dim], eps)
+                                    + (sig[:, 2, 2] * ezz if dim == 2 else 0.0))
+        for key, arr in (("initial_stress", sig), ("initial_F", F), ("initial_ezz", ezz),
+                         ("initial_work", work)):
             arr.setflags(write=False)
             set_(key, arr)
 

@@ -21,12 +21,14 @@ import numpy as np
 
 from .basis import get_basis
 from .checks import check_size, positive as _positive, positive_int, vector as _vector
+from .geometry import Polygon, Prism
+from .geostatic import K0, geostatic_stress, jaky_k0
 from .loads import field_function
 from .materials import MATERIALS, Material, get_material
 from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Wall, check_scheme,
                     walls_from)
 
-__all__ = ["Box", "Ball", "Points", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WALL_KINDS",
+__all__ = ["Box", "Ball", "Points", "Polygon", "Prism", "K0", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WALL_KINDS",
            "SIDES", "PRESETS"]
 
 
@@ -174,7 +176,8 @@ class Body:
             raise ValueError(f"body material must be a timpm material or a preset name, got {mat!r}")
         object.__setattr__(self, "material", mat)
         if not hasattr(self.shape, "contains"):
-            raise ValueError(f"body shape must be a Box, a Ball or Points, got {self.shape!r}")
+            raise ValueError(f"body shape must be a Box, a Ball, a Polygon, a Prism or Points, "
+                             f"got {self.shape!r}")
         positive_int("ppc (particles per cell and axis)", self.ppc)
         if self.displacement is not None and not callable(self.displacement):
             raise ValueError("body displacement must be a function u0(X) of the body's (n, "
@@ -219,6 +222,9 @@ class World:
     (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``
     above the limit is refused unless ``allow_unstable_dt``.  ``integrator``: the time
     integration (``timpm.model.INTEGRATORS``; rk4 takes roller and sticky walls only).
+    ``initial_stress``: :class:`~timpm.geostatic.K0` (the K0 procedure: the weight of the
+    bodies above each particle, sigma_h = K0 sigma_v), an (n, 3, 3) array of Cauchy
+    stresses, or None (stress-free).
     """
 
     domain: tuple
@@ -239,6 +245,7 @@ class World:
     tractions: tuple = ()
     name: str = "world"
     integrator: str = "euler-cromer"
+    initial_stress: object = None
     _particles: dict = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -293,9 +300,33 @@ class World:
                       integrator=self.integrator,
                       displacement=(_BodyDisplacements(self.bodies, part["body_index"])
                                     if any(b.displacement is not None for b in self.bodies)
-                                    else None))
+                                    else None),
+                      initial_stress=self._initial_stress(dim, g, domain))
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "fixed_nodes", model.fixed_nodes)
+
+    def _initial_stress(self, dim, g, domain):
+        """The particles' initial stresses: a :class:`~timpm.geostatic.K0` procedure's
+        geostatic stress, or the (n, 3, 3) array given (None: stress-free)."""
+        spec = self.initial_stress
+        if not isinstance(spec, K0):
+            return spec
+        if dim == 1:
+            raise ValueError("the K0 procedure sets the stresses of 2D and 3D ground")
+        if not (g[1] < 0.0 and np.all(g[np.arange(dim) != 1] == 0.0)):
+            raise ValueError(f"the K0 procedure weighs the ground along -y: gravity must point "
+                             f"down y, got {tuple(float(v) for v in g)}")
+        for k, b in enumerate(self.bodies):
+            if isinstance(b.shape, Points):
+                raise ValueError(f"the K0 procedure integrates the weight through the bodies' "
+                                 f"shapes: body {k} is Points (give its stresses as an array)")
+        part = self._particles
+        mats = part["materials"]
+        k0 = (np.full(len(part["positions"]), spec.k0) if spec.k0 is not None else
+              np.array([jaky_k0(m) for m in mats])[part["material_index"]])
+        return geostatic_stress(part["positions"],
+                                [(b.shape, b.material.density) for b in self.bodies],
+                                -float(g[1]), float(domain[1]), k0)
 
     # ---- derived geometry ----------------------------------------------------------------
     @property

@@ -141,6 +141,36 @@ class SolidMaterial(Material):
         return {"density": self.density, "mu": self.mu, "lam": self.lam,
                 "two_mu": 2.0 * self.mu}
 
+    def elastic_state(self, stress, dim):
+        """The elastic deformation gradients (m, dim, dim) and out-of-plane elastic log
+        strains (m,) (plane strain; zeros in 3D) that give the Cauchy ``stress`` (m, 3, 3)
+        in the reference configuration (V = V0): how a scene starts from an initial stress.
+        Laws with a Hencky elastic part give it; the others refuse."""
+        raise ValueError(f"{self.name}: an initial stress is set through the elastic strain "
+                         "of a Hencky law (drucker-prager, mohr-coulomb); this law has none")
+
+    def _hencky_state(self, stress, dim, plane_trace=False):
+        """Hencky's inverse, eps = (tau - lam tr(eps) I) / (2 mu), tau = sigma (V = V0), as
+        F_e = Q exp(eps) Q^T; ``plane_trace``: a 2D law whose trace is the in-plane one."""
+        import numpy as np
+
+        stress = np.asarray(stress, dtype=np.float64)
+        if dim == 2 and np.any(stress[:, :2, 2] != 0.0):
+            raise ValueError(f"{self.name}: an initial stress in plane strain has no xz or "
+                             "yz shear")
+        if dim == 2 and plane_trace:
+            tau = stress[:, :2, :2]
+            trace_eps = np.trace(tau, axis1=1, axis2=2) / (2.0 * self.lam + 2.0 * self.mu)
+        else:
+            tau = stress  # 3x3: in 2D with sigma_zz, the plane-strain law's ezz
+            trace_eps = np.trace(stress, axis1=1, axis2=2) / (3.0 * self.lam + 2.0 * self.mu)
+        eye = np.eye(tau.shape[1])
+        eps = (tau - self.lam * trace_eps[:, None, None] * eye) / (2.0 * self.mu)
+        w, Q = np.linalg.eigh(eps[:, :dim, :dim])
+        F = np.einsum("nij,nj,nkj->nik", Q, np.exp(w), Q)
+        ezz = eps[:, 2, 2] if dim == 2 and not plane_trace else np.zeros(len(eps))
+        return F, ezz
+
     @ti.func
     def _trial_F(self, s: ti.template(), p, grad_du):
         """F_trial = (I + grad du) F_p: the deformation gradient advanced by the step."""

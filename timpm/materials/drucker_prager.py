@@ -46,6 +46,10 @@ class DruckerPrager(SolidMaterial):
                 "cone_2d": (2.0 * self.lam + 2.0 * self.mu) / (2.0 * self.mu),
                 "cone_3d": (3 * self.lam + 2.0 * self.mu) / (2.0 * self.mu)}
 
+    def elastic_state(self, stress, dim):
+        # the 2D law's Hencky strain is the in-plane one (its trace over x and y)
+        return self._hencky_state(stress, dim, plane_trace=True)
+
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         F = self._trial_F(s, p, grad_du)

@@ -1,6 +1,7 @@
 """Mohr-Coulomb soil: cohesion, friction, dilatancy and a tension cut-off, at large strains."""
 import math
 
+import numpy as np
 import taichi as ti
 
 from .base import SolidMaterial
@@ -110,6 +111,30 @@ class MohrCoulomb(SolidMaterial):
         s = math.sin(math.radians(self.friction_angle))
         return (2.0 * self.cohesion * math.cos(math.radians(self.friction_angle))
                 + 2.0 * confinement * s) / (1.0 - s)
+
+    def yield_function(self, stress):
+        """f of the Cauchy stresses (m, 3, 3) (<= 0: inside the surface), in Pa."""
+        t = np.linalg.eigvalsh(np.asarray(stress, dtype=np.float64))  # ascending
+        s = math.sin(math.radians(self.friction_angle))
+        c2 = 2.0 * self.cohesion * math.cos(math.radians(self.friction_angle))
+        return (t[:, 2] - t[:, 0]) + (t[:, 2] + t[:, 0]) * s - c2
+
+    def elastic_state(self, stress, dim):
+        f = self.yield_function(stress)
+        scale = np.abs(np.asarray(stress)).max(axis=(1, 2)) + self.cohesion
+        outside = np.flatnonzero(f > 1e-9 * scale)
+        if len(outside):
+            raise ValueError(f"{self.name}: the initial stress of {len(outside)} particle(s) "
+                             f"lies outside the Mohr-Coulomb surface (the first, entry "
+                             f"{int(outside[0])}: f = {f[outside[0]]:.4g} Pa > 0): raise K0 "
+                             "toward 1 or the soil's strength")
+        tension = self.apex if self.tensile_strength is None else self.tensile_strength
+        top = np.linalg.eigvalsh(np.asarray(stress, dtype=np.float64))[:, 2]
+        over = np.flatnonzero(top > tension * (1 + 1e-12) + 1e-12)
+        if len(over):
+            raise ValueError(f"{self.name}: the initial stress of {len(over)} particle(s) "
+                             f"exceeds the tension cut-off {tension:g} Pa")
+        return self._hencky_state(stress, dim)
 
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):

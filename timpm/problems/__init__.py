@@ -1,5 +1,6 @@
 """The study's benchmark problems, each a scene builder with its exact solution."""
 from .base import Problem
+from .k0_layer import K0Layer
 from .mms import MMS1D, MMS2D, MMS3D, ManufacturedSolution
 from .oedometer import Oedometer
 from .soil_column import LargeColumn, SoilColumn, SoilColumn2D
@@ -7,10 +8,10 @@ from .vibrating_bar import VibratingBar
 from .vibrating_string import VibratingString
 
 PROBLEMS = {cls.name: cls for cls in (VibratingString, SoilColumn, VibratingBar, Oedometer,
-                                      LargeColumn, SoilColumn2D, MMS1D, MMS2D, MMS3D)}
+                                      LargeColumn, SoilColumn2D, MMS1D, MMS2D, MMS3D, K0Layer)}
 
 __all__ = ["Problem", "VibratingString", "SoilColumn", "LargeColumn", "VibratingBar",
-           "SoilColumn2D", "Oedometer", "ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D",
+           "SoilColumn2D", "K0Layer", "Oedometer", "ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D",
            "PROBLEMS",
            "get_problem"]
 

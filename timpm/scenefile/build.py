@@ -9,11 +9,12 @@ from ..loads import Ramp, SurfaceTraction
 from ..materials import MATERIALS, get_material
 from ..model import SIDES
 from ..problems import PROBLEMS
-from ..world import PRESETS, Ball, Body, Box, Wall, World
+from ..geostatic import K0
+from ..world import PRESETS, Ball, Body, Box, Polygon, Prism, Wall, World
 from .keypaths import key_lines, parse_path
 from .reader import Reader, apply_overrides, describe, read_toml, suggest
-from .schema import (BODY, DOMAIN, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM, PROBLEM_OUTPUT,
-                     PROBLEM_TABLES, SHAPE_KEYS, SIMULATION, TRACTION, WALL, WORLD_TABLES,
+from .schema import (BODY, DOMAIN, INITIAL_STRESS, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
+                     PROBLEM_OUTPUT, PROBLEM_TABLES, SHAPE_KEYS, SIMULATION, TRACTION, WALL, WORLD_TABLES,
                      material_schema)
 
 
@@ -161,7 +162,8 @@ def _bodies(reader, data, materials, dim):
         where = ("body", k)
         shape = table.get("shape")
         keys = SHAPE_KEYS.get(shape, ())
-        others = [n for n in (*SHAPE_KEYS["box"], *SHAPE_KEYS["ball"]) if n not in keys]
+        others = [n for n in dict.fromkeys(k for ks in SHAPE_KEYS.values() for k in ks)
+                  if n not in keys]
         b = reader.table(where, table, BODY, dim, skip=others)
         for name in others:
             if name in table:
@@ -178,8 +180,13 @@ def _bodies(reader, data, materials, dim):
                                f"{suggest(name, known)}: define [material.{name}] or use "
                                f"one of {', '.join(known)}")
         try:
+            if shape in ("polygon", "prism") and dim != (2 if shape == "polygon" else 3):
+                raise ValueError(f"a {shape} is a {'2D' if shape == 'polygon' else '3D'} "
+                                 f"shape, the domain is {dim}D")
             geometry = (Box(b["lo"], b["hi"]) if shape == "box"
-                        else Ball(b["center"], b["radius"]))
+                        else Ball(b["center"], b["radius"]) if shape == "ball"
+                        else Polygon(b["vertices"]) if shape == "polygon"
+                        else Prism(b["vertices"], b["z"]))
             bodies.append(Body(geometry, material, velocity=b.get("velocity"),
                                ppc=b.get("ppc", 2), name=b.get("name", "")))
         except ValueError as err:
@@ -214,7 +221,9 @@ _WORLD_ERRORS = ((r"bodies \d+ and (\d+) overlap", "body"), (r"body (\d+)\b", "b
                  (r"domain", "domain"), (r"the \S+ transfer|the mls-mpm", "simulation.transfer"),
                  (r"damping|local damping", "simulation.damping"),
                  (r"pic_fraction", "simulation.pic_fraction"),
-                 (r"integrator|mode='parallel'|mode='team'", "simulation.integrator"))
+                 (r"integrator|mode='parallel'|mode='team'", "simulation.integrator"),
+                 (r"the K0 procedure|mohr-coulomb: the initial stress|\S+: an initial stress",
+                  "initial_stress"))
 
 
 def _world_error_key(message):
@@ -243,6 +252,15 @@ def _world_scene(reader, data, path) -> SceneFile:
     bodies = _bodies(reader, data, materials, dim)
     tractions = _tractions(reader, data.get("loads", {}).get("traction", []), bodies, dim)
     output = _output(reader, data, tuple(OUTPUT))
+    initial = None
+    if "initial_stress" in data:
+        spec = reader.table(("initial_stress",), data["initial_stress"], INITIAL_STRESS)
+        if "kind" not in spec:
+            raise reader.error(("initial_stress",), "missing required key 'kind' (k0)")
+        try:
+            initial = K0(spec.get("k0"))
+        except ValueError as err:
+            raise reader.error(("initial_stress", "k0"), str(err)) from None
     if output["gif"] is not None and dim == 1:
         raise reader.error(("output", "gif"), "a 1D world draws no GIF")
     name = sim.get("name", path.stem)
@@ -255,7 +273,8 @@ def _world_scene(reader, data, path) -> SceneFile:
                       allow_unstable_dt=sim.get("allow_unstable_dt", False),
                       damping=sim.get("damping", 0.0),
                       pic_fraction=sim.get("pic_fraction", 0.0), tractions=tractions, name=name,
-                      integrator=sim.get("integrator", "euler-cromer"))
+                      integrator=sim.get("integrator", "euler-cromer"),
+                      initial_stress=initial)
     except ValueError as err:
         key = _world_error_key(str(err))
         raise (reader.error(key, str(err)) if key else ValueError(f"{path}: {err}")) from None

@@ -34,6 +34,10 @@ TYPES = {
     "vector": ("an array of numbers, one per axis",
                lambda v: isinstance(v, list) and all(_is_number(c) for c in v)),
     "table": ("a table", lambda v: isinstance(v, dict)),
+    "points": ("an array of [x, y] pairs of numbers",
+               lambda v: isinstance(v, list) and all(
+                   isinstance(p, list) and len(p) == 2 and all(_is_number(c) for c in p)
+                   for p in v)),
     "range": ("two increasing numbers [low, high]",
               lambda v: isinstance(v, list) and len(v) == 2 and all(_is_number(c) for c in v)
               and v[0] < v[1]),
@@ -104,16 +108,28 @@ BODY = {
     "name": Key("string", "", doc="name of the body (reports)"),
     "material": Key("string", doc="a [material.NAME] of the file or a preset: "
                     + ", ".join(PRESETS)),
-    "shape": Key("string", doc="box: lo and hi; ball: center and radius",
-                 choices=("box", "ball")),
+    "shape": Key("string", doc="box: lo and hi; ball: center and radius; polygon (2D): "
+                 "vertices; prism (3D): vertices (x, y) and z", choices=("box", "ball",
+                                                                         "polygon", "prism")),
     "lo": Key("vector", REQUIRED, "m", "lower corner of a box"),
     "hi": Key("vector", REQUIRED, "m", "upper corner of a box"),
     "center": Key("vector", REQUIRED, "m", "centre of a ball (a disk in 2D)"),
     "radius": Key("positive", REQUIRED, "m", "radius of a ball"),
+    "vertices": Key("points", REQUIRED, "m", "outline of a polygon, or of a prism's cross-"
+                    "section in x-y, as [x, y] pairs (the last joined to the first)"),
+    "z": Key("range", REQUIRED, "m", "extent of a prism along z [z0, z1]"),
     "ppc": Key("count", 2, doc="particles per cell and axis"),
     "velocity": Key("vector", "zero", "m/s", "initial velocity"),
 }
-SHAPE_KEYS = {"box": ("lo", "hi"), "ball": ("center", "radius")}
+SHAPE_KEYS = {"box": ("lo", "hi"), "ball": ("center", "radius"), "polygon": ("vertices",),
+              "prism": ("vertices", "z")}
+
+INITIAL_STRESS = {
+    "kind": Key("string", doc="k0: the K0 procedure (sigma_v the weight above, sigma_h = "
+                "K0 sigma_v)", choices=("k0",)),
+    "k0": Key("positive", None, doc="sigma_h / sigma_v (default: each material's Jaky 1 - "
+              "sin phi, nu / (1 - nu) without friction)"),
+}
 
 LOADS = {
     "gravity": Key("vector", "9.81 down y (down x in 1D)", "m/s^2", "acceleration of gravity"),
@@ -173,7 +189,8 @@ PROBLEM = {
 }
 
 #: the top-level tables of each form
-WORLD_TABLES = ("simulation", "domain", "material", "body", "loads", "output")
+WORLD_TABLES = ("simulation", "domain", "material", "body", "loads", "initial_stress",
+                "output")
 PROBLEM_TABLES = ("problem", "output")
 
 #: units and meanings of the materials' parameters (their classes' arguments)
