@@ -126,8 +126,9 @@ def test_k0_refusals_name_the_cause():
     with pytest.raises(ValueError, match="outside the Mohr-Coulomb surface"):
         World(domain=(4.0, 4.0), cells=4, initial_stress=K0(0.1),
               bodies=[Body(Box((0, 0), (4, 2)), _soil(cohesion=0.0))])
-    with pytest.raises(ValueError, match="k0 must lie in"):
-        K0(-1.0)
+    for bad in (-1.0, 0.0, 1.5, "wet"):
+        with pytest.raises(ValueError, match="k0 must"):
+            K0(bad)
 
 
 def test_a_scene_file_draws_a_polygon_slope_from_k0(tmp_path):
@@ -170,3 +171,9 @@ k0 = 0.7
     with pytest.raises(ValueError, match=r"bad.toml:\d+: body\[0\]\.vertices: expected an "
                                          r"array of \[x, y\] pairs"):
         load_scene(bad)
+
+
+def test_a_polygon_outside_the_domain_is_refused():
+    with pytest.raises(ValueError, match=r"body 0 \('slope'\): Polygon.*extends outside the domain"):
+        World(domain=(30.0, 25.0), cells=30, basis="linear", transfer="musl",
+              bodies=[Body(Polygon(SLOPE), _soil(), name="slope")])

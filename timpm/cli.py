@@ -20,7 +20,7 @@ from .problems import PROBLEMS, get_problem
 from .runtime import exit_process
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .solver import SimulationError
-from .studies import speed_error, sweep
+from .studies import factor_of_safety, speed_error, sweep
 
 __all__ = ["main", "entry", "demo_script"]
 
@@ -234,9 +234,11 @@ def _parser():
     demo.add_argument("--json", metavar="FILE", help="write times, summary and series as JSON")
     demo.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                       help="progress bar (default: on a terminal, for runs over 2 s)")
-    study = sub.add_parser("study", help="studies over many runs: speed-error")
+    study = sub.add_parser("study", help="studies over many runs: speed-error, "
+                           "factor-of-safety")
     studies = study.add_subparsers(dest="study", required=True)
     speed_error.add_parser(studies).set_defaults(func=_speed_error)
+    factor_of_safety.add_parser(studies).set_defaults(func=factor_of_safety.main)
     for parser in (ap, *sub.choices.values(), *studies.choices.values()):
         numbers_as_values(parser)
     return ap

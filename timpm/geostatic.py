@@ -37,8 +37,9 @@ class K0:
                 k = float(self.k0)
             except (TypeError, ValueError):
                 raise ValueError(f"K0: k0 must be a number or None, got {self.k0!r}") from None
-            if not (0.0 < k < 10.0):
-                raise ValueError(f"K0: k0 must lie in (0, 10), got {self.k0!r}")
+            if not (0.0 < k <= 1.0):
+                raise ValueError(f"K0: k0 must lie in (0, 1] (sigma_h / sigma_v of ground at "
+                                 f"rest, normally consolidated), got {self.k0!r}")
             object.__setattr__(self, "k0", k)
 
 

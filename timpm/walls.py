@@ -63,9 +63,12 @@ def _wall(value, where, open_ok):
 
 def walls_from(spec, dim: int, default="slip", open_ok=False):
     """One wall (or None: no wall, where ``open_ok``) per side of a ``dim``-dimensional
-    box from ``spec``: one wall for every side, or a dict of side name to wall with an
-    optional ``"default"``."""
+    box from ``spec``: one wall for every side, a dict of side name to wall with an
+    optional ``"default"``, or a tuple of one wall per side (what this returns)."""
     sides = SIDES[:2 * dim]
+    if isinstance(spec, tuple) and len(spec) == 2 * dim and all(
+            w is None or isinstance(w, Wall) for w in spec):
+        return tuple(_wall(w, s, open_ok) for w, s in zip(spec, sides))
     if isinstance(spec, dict):
         unknown = set(spec) - set(sides) - {"default"}
         if unknown:

@@ -47,9 +47,9 @@ class K0Layer(Problem):
         if not (self.gravity < 0.0):
             raise ValueError(f"{self.name}: gravity must point down y (< 0), got "
                              f"{self.gravity!r}")
-        if not (0.0 <= self.k0 < 10.0):
-            raise ValueError(f"{self.name}: k0 must lie in [0, 10) (0: Jaky's 1 - sin phi), "
-                             f"got {self.k0!r}")
+        if not (0.0 <= self.k0 <= 1.0):
+            raise ValueError(f"{self.name}: k0 must lie in (0, 1], or be 0 for Jaky's 1 - sin "
+                             f"phi, got {self.k0!r}")
 
     @property
     def dt_rule(self) -> str:

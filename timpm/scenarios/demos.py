@@ -5,6 +5,8 @@
   the 2D experiments of Lube et al. (2005): 1.2 a for small a, 1.9 a^(2/3) for tall columns.
 * ``disks``: two elastic disks colliding head-on (Sulsky et al. 1994): kinetic, strain and
   total energy through the collision.
+* ``slope``: Griffiths & Lane's slope with its strength reduced past its factor of
+  safety: it fails along a band of plastic strain and runs out.
 * ``dam-break``: a water column of width a and height 2a (n^2 = 2) collapsing onto a dry
   floor; the surge front x / a against t sqrt(2 g / a) is Martin & Moyce's (1952) data.
 
@@ -30,7 +32,7 @@ from ..solver import Solver
 from ..world import Ball, Body, Box, Wall, World
 
 __all__ = ["DEMOS", "get_demo", "run_demo", "run_frames", "DemoResult", "ColumnCollapse", "Disks",
-           "DamBreak", "QUANTITIES", "color_range", "lube_runout", "lajeunesse_runout",
+           "DamBreak", "SlopeFailure", "QUANTITIES", "color_range", "lube_runout", "lajeunesse_runout",
            "MARTIN_MOYCE_N2_2"]
 
 #: colour quantities
@@ -321,7 +323,100 @@ class DamBreak(Demo):
                 "mean_difference": float(np.mean(sim - exp_Z[keep]))}
 
 
-DEMOS = {cls.name: cls for cls in (ColumnCollapse, Disks, DamBreak)}
+@dataclass
+class SlopeFailure(Demo):
+    """Griffiths & Lane's (1999) 2:1 slope (H = 10 m, phi' = 20 deg, c' = 10 kPa, unit
+    weight 20 kN/m^3) with its strength divided by ``strength_factor`` (c / F, tan(phi) /
+    F), past its factor of safety (1.4), so that it fails: the soil starts from the K0
+    procedure's stress, a band of plastic strain forms from the toe to the crest and the
+    mass above it slides out over the firm base (Coulomb friction tan(phi'))."""
+
+    name = "slope"
+    color = "plastic"
+    records_energies = True  # the energy dissipated
+    H: float = 10.0
+    strength_factor: float = 2.0
+    cells_per_H: int = 40
+    ppc: int = 2
+    E: float = 1e8
+    nu: float = 0.3
+    unit_weight: float = 20e3
+    friction_angle: float = 20.0
+    cohesion: float = 10e3
+    courant: float = 0.5
+
+    def soil(self):
+        from ..materials import MohrCoulomb
+        from ..studies.factor_of_safety import reduced
+
+        F = _positive("strength_factor", self.strength_factor)
+        return reduced(MohrCoulomb(E=self.E, nu=self.nu, density=self.unit_weight / G,
+                                   friction_angle=self.friction_angle,
+                                   cohesion=self.cohesion), F)
+
+    def world(self) -> World:
+        from ..geometry import Polygon
+        from ..geostatic import K0
+
+        H = _positive("H", self.H)
+        h = H / self.cells_per_H
+        # crest 2H long, the 2:1 face, and 4H of firm base beyond the toe for the run-out
+        nx, ny = 8 * self.cells_per_H, int(math.ceil(1.4 * self.cells_per_H))
+        slope = Polygon([(0.0, 0.0), (4 * H, 0.0), (2 * H, H), (0.0, H)])
+        mu = math.tan(math.radians(self.friction_angle))
+        return World(domain=(nx * h, ny * h), cells=nx, basis=self.basis, transfer=self.transfer,
+                     bodies=[Body(slope, self.soil(), ppc=self.ppc, name="slope")],
+                     walls={"default": "roller", "bottom": Wall("friction", mu), "top": None,
+                            "right": None},
+                     initial_stress=K0(), courant=self.courant, name=self.name)
+
+    def default_t_end(self) -> float:
+        # the slide runs for some 10 times sqrt(H / g)
+        return 10.0 * math.sqrt(self.H / G)
+
+    def title(self) -> str:
+        return f"slope failure, strength / {self.strength_factor:g}"
+
+    def speed_scale(self) -> float:
+        """sqrt(2 g H): a fall from the crest's height."""
+        return math.sqrt(2.0 * G * self.H)
+
+    def stress_scale(self) -> float:
+        return self.unit_weight * self.H
+
+    def strain_scale(self) -> float:
+        """1: the failure surface (strains of tenths and more) against the intact mass."""
+        return 1.0
+
+    def observe(self, solver, t) -> dict:
+        x = solver.positions()
+        cols = np.floor(x[:, 0] / solver.h).astype(int)
+        top = np.zeros(cols.max() + 1)
+        np.maximum.at(top, cols, x[:, 1])
+        thick = np.flatnonzero(top >= 0.02 * self.H)  # the deposit's front: 2% of H thick
+        return {"front": float((thick.max() + 1) * solver.h) if len(thick) else 0.0}
+
+    def summary(self, solver, series) -> dict:
+        """Run-out beyond the toe; energies per metre of slope (plane strain, J/m): the
+        potential energy the slide released, the energy dissipated (released and not
+        moving at the end), of which the work on the soil (plastic, and the elastic
+        change) and the rest (the floor's friction, the transfer's own damping)."""
+        e = solver.energies()
+        total = e["kinetic"] + e["strain"] + e["gravity"]
+        toe = 4.0 * self.H
+        released = float(e["gravity"][0] - e["gravity"][-1])
+        dissipated = released + float(e["kinetic"][0] - e["kinetic"][-1])
+        return {"strength_factor": self.strength_factor,
+                "runout": float(series["front"][-1] - toe),
+                "runout_over_H": float((series["front"][-1] - toe) / self.H),
+                "potential_energy_released": released,
+                "energy_dissipated": dissipated,
+                "work_on_the_soil": float(e["strain"][-1] - e["strain"][0]),
+                "friction_and_transfer_loss": float(total[0] - total[-1]),
+                "kinetic_energy_end": float(e["kinetic"][-1])}
+
+
+DEMOS = {cls.name: cls for cls in (ColumnCollapse, Disks, DamBreak, SlopeFailure)}
 
 
 def get_demo(name: str, **params) -> Demo:

@@ -1,6 +1,7 @@
 """The schema as documentation: the key tables of docs/scene_files.md."""
 from ..materials import MATERIALS
-from .schema import (BODY, DOMAIN, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM, REQUIRED, SIMULATION,
+from .schema import (BODY, DOMAIN, INITIAL_STRESS, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
+                     REQUIRED, SIMULATION,
                      TRACTION, TYPES, WALL, material_schema)
 
 
@@ -36,7 +37,7 @@ def schema_reference() -> str:
     parts = [_markdown(SIMULATION, "[simulation]"), _markdown(DOMAIN, "[domain]"),
              _markdown(WALL, "a wall: a string (the kind) or a table"),
              _markdown(LOADS, "[loads]"), _markdown(TRACTION, "[[loads.traction]]"),
-             _markdown(BODY, "[[body]]")]
+             _markdown(BODY, "[[body]]"), _markdown(INITIAL_STRESS, "[initial_stress]")]
     parts.append(_markdown({"type": MATERIAL_TYPE}, "[material.NAME]"))
     for kind in MATERIALS:
         params = {k: v for k, v in material_schema(kind).items() if k != "type"}

@@ -1,0 +1,213 @@
+"""A slope's factor of safety by strength reduction (Griffiths & Lane 1999).
+
+The strength of every Mohr-Coulomb material is divided by a trial factor F:
+
+    c_F = c / F,   tan(phi_F) = tan(phi) / F,   psi_F = min(psi, phi_F),
+
+and the scene (a scene file's world) runs from its initial state to its ``t_end``.  The
+factor of safety is the F at which the slope stops standing, found by bisection between
+a factor where it stands and one where it fails.
+
+**Failure criterion.**  The slope has failed at F if its particles still move at the end
+of the run: the largest particle displacement grows, over the last quarter of the run, by
+more than ``creep`` times the height of the ground (default 1e-3: 1 cm on a 10 m slope).
+Defence: a slope that stands, started from the K0 stress, settles by an elastic
+displacement of order gamma H^2 / E (2 cm for Griffiths & Lane's slope) and, with the
+local damping of the scene, comes to rest exponentially, so its last quarter adds
+orders of magnitude less; a slope past its factor of safety has a mechanism (a band of
+plastic strain from toe to crest) along which the mass slides on, accelerating, by
+decimetres to metres over the same time.  The factor found is insensitive to ``creep``
+within decades (the test checks a factor of 10), because at F above the factor the motion
+is not small.  A run that stops because material leaves the grid has failed too.  The
+bracket is reported with the factor, which is its midpoint.
+"""
+import argparse
+import math
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+
+__all__ = ["reduced", "trial", "factor_of_safety", "add_parser", "main", "plot_mechanism"]
+
+
+def reduced(material, F):
+    """A Mohr-Coulomb material's strength divided by F (the elastic constants kept)."""
+    from ..materials import MohrCoulomb
+
+    if not isinstance(material, MohrCoulomb):
+        raise ValueError(f"strength reduction divides the strength of Mohr-Coulomb soil; "
+                         f"{material.name} has none to divide (make it mohr-coulomb)")
+    phi = math.degrees(math.atan(math.tan(math.radians(material.friction_angle)) / F))
+    st = material.tensile_strength
+    return MohrCoulomb(E=material.E, nu=material.nu, density=material.density,
+                       friction_angle=phi, cohesion=material.cohesion / F,
+                       dilation_angle=min(material.dilation_angle, phi),
+                       tensile_strength=None if st is None else st / F)
+
+
+def _height(world):
+    y = world.model.positions[:, 1]
+    return float(y.max() - y.min())
+
+
+def trial(world, F, t_end, creep=1e-3, mode="auto"):
+    """Run ``world`` with its soil's strength divided by ``F`` to ``t_end``: whether it
+    failed (see the module), the largest displacement at 3/4 and at the end, the
+    particles' plastic strain and positions at the end."""
+    from ..errors import SimulationError
+    from ..solver import Solver
+
+    bodies = tuple(replace(b, material=reduced(b.material, F)) for b in world.bodies)
+    w = replace(world, bodies=bodies)
+    X = w.model.positions
+    s = Solver(w, energies=True, mode=mode)
+    out = {"F": float(F), "stopped": None}
+    try:
+        s.run(t_end=0.75 * t_end)
+        d1 = float(np.linalg.norm(s.positions() - X, axis=1).max())
+        s.run(t_end=t_end)
+        d2 = float(np.linalg.norm(s.positions() - X, axis=1).max())
+    except SimulationError as err:
+        out["stopped"] = str(err)
+        d1 = d2 = math.inf
+    limit = creep * _height(world)
+    out.update(displacement_three_quarters=d1, displacement_end=d2,
+               creep=d2 - d1 if math.isfinite(d2) else math.inf, creep_limit=limit,
+               failed=bool(out["stopped"]) or (d2 - d1) > limit)
+    if out["stopped"] is None:
+        out["positions"] = s.positions()
+        out["plastic"] = s.read("plastic")
+    s.release()
+    return out
+
+
+def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3,
+                     mode="auto", progress=None):
+    """Bisect on F between ``low`` (the slope must stand) and ``high`` (it must fail) until
+    the bracket is at most ``tolerance`` wide; returns the record (``factor_of_safety``,
+    ``bracket``, every trial) and the last failed trial (its mechanism)."""
+    if not (0.0 < low < high) or not math.isfinite(high):
+        raise ValueError(f"the bracket must satisfy 0 < low < high, got [{low}, {high}]")
+    if not (0.0 < tolerance < high - low):
+        raise ValueError(f"tolerance must lie in (0, high - low), got {tolerance}")
+    t0 = time.perf_counter()
+    trials = []
+
+    def run(F):
+        r = trial(world, F, t_end, creep, mode)
+        trials.append(r)
+        if progress is not None:
+            progress(f"F = {F:.4f}: {'fails' if r['failed'] else 'stands'} (largest "
+                     f"displacement {r['displacement_end']:.3g} m, {r['creep']:.3g} m in the "
+                     f"last quarter; limit {r['creep_limit']:.3g} m)")
+        return r
+
+    for F, should_fail in ((low, False), (high, True)):
+        if run(F)["failed"] != should_fail:
+            raise ValueError(f"the slope {'fails' if not should_fail else 'stands'} at the "
+                             f"bracket's {'low' if not should_fail else 'high'} end F = {F:g}: "
+                             "widen the bracket (--bracket LOW HIGH)")
+    failed = trials[-1]
+    while high - low > tolerance:
+        mid = 0.5 * (low + high)
+        r = run(mid)
+        if r["failed"]:
+            high, failed = mid, r
+        else:
+            low = mid
+    record = {
+        "study": "factor-of-safety", "factor_of_safety": 0.5 * (low + high),
+        "bracket": [low, high], "tolerance": tolerance, "t_end": t_end,
+        "criterion": f"failed where the largest particle displacement grows by more than "
+                     f"{creep:g} x the ground's height over the last quarter of the run",
+        "creep": creep, "height": _height(world), "particles": world.model.n_particles,
+        "h": world.h, "basis": world.basis, "transfer": world.transfer,
+        "wall_seconds": time.perf_counter() - t0,
+        "trials": [{k: v for k, v in r.items() if k not in ("positions", "plastic")}
+                   for r in trials],
+    }
+    return record, failed
+
+
+def plot_mechanism(world, failed, record, path):
+    """The accumulated plastic strain at the smallest factor that failed: the mechanism."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..files import replacing
+
+    X = world.model.positions
+    fig, ax = plt.subplots(figsize=(9, 4.2))
+    sc = ax.scatter(X[:, 0], X[:, 1], c=np.minimum(failed["plastic"], 1.0), s=4, cmap="inferno_r",
+                    vmin=0.0, vmax=max(float(np.percentile(failed["plastic"], 99)), 1e-6))
+    fig.colorbar(sc, ax=ax, label="accumulated plastic strain (at the reference positions)")
+    ax.set_aspect("equal")
+    ax.set(xlabel="x [m]", ylabel="y [m]",
+           title=f"factor of safety {record['factor_of_safety']:.3f} (bracket "
+                 f"{record['bracket'][0]:.3f}-{record['bracket'][1]:.3f}); mechanism at F = "
+                 f"{failed['F']:.3f}")
+    fig.tight_layout()
+    with replacing(path, f"{path}.tmp.png") as tmp:
+        fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+
+
+def add_parser(subparsers):
+    p = subparsers.add_parser(
+        "factor-of-safety", help="a slope's factor of safety by strength reduction",
+        description="Divide c and tan(phi) of every Mohr-Coulomb material by F, run the "
+                    "scene file to its t_end, and bisect on F until the slope fails (its "
+                    "particles still moving over the last quarter of the run).")
+    p.add_argument("scene", metavar="FILE.toml", help="a scene file of the slope (2D or 3D)")
+    p.add_argument("--bracket", type=float, nargs=2, default=(0.5, 4.0), metavar=("LOW", "HIGH"),
+                   help="factors where the slope stands and fails (default 0.5 4)")
+    p.add_argument("--tolerance", type=float, default=0.02,
+                   help="width of the final bracket (default 0.02)")
+    p.add_argument("--creep", type=float, default=1e-3,
+                   help="failure: the largest displacement grows over the last quarter of "
+                        "the run by more than CREEP x the ground's height (default 1e-3)")
+    p.add_argument("--json", metavar="FILE", help="write the factor, bracket and trials")
+    p.add_argument("--plot", metavar="FILE.png", help="draw the failure mechanism")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    return p
+
+
+def main(args) -> int:
+    from .. import runtime
+    from ..errors import SimulationError
+    from ..files import write_json
+    from ..scenefile import load_scene
+
+    if args.plot is not None and not args.plot.lower().endswith(".png"):
+        print(f"timpm: error: --plot {args.plot}: the plot is written as PNG (FILE.png)",
+              file=sys.stderr)
+        return 2
+    try:
+        scene = load_scene(args.scene)
+        if scene.world is None:
+            raise ValueError(f"{args.scene}: the factor of safety takes a world (a slope), "
+                             "not a [problem]")
+        runtime.init(precision=scene.precision)
+        record, failed = factor_of_safety(
+            scene.world, scene.t_end, low=args.bracket[0], high=args.bracket[1],
+            tolerance=args.tolerance, creep=args.creep, mode=scene.mode,
+            progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
+    except (ValueError, SimulationError) as exc:
+        print(f"timpm: error: {exc}", file=sys.stderr)
+        return 2
+    record["scene"] = args.scene
+    print(f"factor of safety {record['factor_of_safety']:.4f} (bracket "
+          f"{record['bracket'][0]:.4f} to {record['bracket'][1]:.4f}, {len(record['trials'])} "
+          f"runs, {record['wall_seconds']:.1f} s)")
+    try:
+        if args.json:
+            write_json(args.json, record)
+        if args.plot:
+            plot_mechanism(scene.world, failed, record, args.plot)
+    except OSError as exc:
+        print(f"timpm: error: could not write {exc.filename}: {exc.strerror}", file=sys.stderr)
+        return 2
+    return 0
