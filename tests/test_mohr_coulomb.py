@@ -148,3 +148,45 @@ def test_a_cohesive_block_stands_and_a_frictional_one_spreads(dim):
         s.release()
     assert spread[50e3][1] == 0.0 and abs(spread[50e3][0]) < 0.01
     assert spread[0.0][1] > 0.01 and spread[0.0][0] > 0.05
+
+
+# ---- Drucker-Prager with cohesion, dilatancy and a cut-off ---------------------------------
+@pytest.mark.parametrize("test, phi, c, psi", [
+    ("biaxial-mc", 30.0, 0.0, 0.0), ("biaxial-mc", 25.0, 20.0, 0.0),
+    ("triaxial-mc", 30.0, 10.0, 0.0), ("triaxial-mc", 35.0, 5.0, 15.0)])
+def test_drucker_prager_peaks_at_its_cone(test, phi, c, psi):
+    """The cone ||dev tau|| + alpha (tr tau - d c cot(phi)) = 0 in closed form: in 3D
+    triaxial compression Klar's outer cone gives Mohr-Coulomb's peak exactly; the 2D law's
+    biaxial peak is its own.  Cohesionless, the law is Klar's as before (to round-off)."""
+    from timpm.materials import DruckerPrager
+
+    r = run_element_test(test, law="drucker-prager", friction_angle=phi, cohesion=c,
+                         dilation_angle=psi, increments=200)
+    dp = DruckerPrager(E=1e5, nu=0.3, density=2000.0, friction_angle=phi, cohesion=c,
+                       dilation_angle=psi)
+    assert dp.general == (c > 0 or psi > 0)
+    assert r["exact_peak_deviator"] == pytest.approx(dp.peak_deviator(100.0, r["dim"]))
+    if test == "triaxial-mc":
+        mc = MohrCoulomb(E=1e5, nu=0.3, density=2000.0, friction_angle=phi, cohesion=c)
+        assert r["exact_peak_deviator"] == pytest.approx(mc.peak_deviator(100.0), rel=1e-12)
+    tol = 1e-8 if c == 0 else KIRCHHOFF_CAUCHY  # no cohesion: the cone scales with J
+    assert r["peak_relative_error"] <= tol
+    if psi > 0:  # the flow n + alpha_psi I: 2 sin(psi) / (1 - sin(psi)) in triaxial compression
+        ser = {k: np.asarray(v) for k, v in r["series"].items()}
+        flowing = ser["plastic_strain"] > 0.0
+        rate = np.polyfit(ser["plastic_axial_strain"][flowing],
+                          ser["plastic_volumetric_strain"][flowing], 1)[0]
+        s = math.sin(math.radians(psi))
+        assert rate == pytest.approx(2 * s / (1 - s), abs=1e-9)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(cohesion=-1.0), "cohesion must be >= 0"),
+    (dict(dilation_angle=40.0), r"dilation_angle must lie in \[0, friction_angle"),
+    (dict(cohesion=10.0, tensile_strength=1e6), "the apex of the cone"),
+])
+def test_drucker_prager_refuses_bad_strength(kwargs, message):
+    from timpm.materials import DruckerPrager
+
+    with pytest.raises(ValueError, match=message):
+        DruckerPrager(E=1e5, nu=0.3, density=2000.0, friction_angle=30.0, **kwargs)

@@ -1,4 +1,5 @@
-"""Cohesionless Drucker-Prager sand."""
+"""Drucker-Prager soil: sand (Klar et al. 2016), with cohesion, dilatancy and a tension
+cut-off where given."""
 import math
 
 import taichi as ti
@@ -8,9 +9,24 @@ from .base import SolidMaterial
 __all__ = ["DruckerPrager"]
 
 
+def _cone(angle):
+    """The cone coefficient of Klar et al. (2016), Eq. 27, of a friction (or dilation)
+    angle in degrees."""
+    s = math.sin(math.radians(angle))
+    return math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
+
+
 class DruckerPrager(SolidMaterial):
-    """Cohesionless Drucker-Prager sand (Klar et al. 2016): Hencky elasticity with a
-    return mapping of the principal logarithmic strains onto the cone, tension cut off.
+    """Drucker-Prager soil (Klar et al. 2016): Hencky elasticity with a return mapping of
+    the principal logarithmic strains onto the cone ||dev tau|| + alpha (tr tau - d p_a) <=
+    0 (d: the law's dimension, 2 in plane strain), alpha from the friction angle.
+
+    Cohesionless (the default) the apex is at p_a = 0 and tension is cut off there: the
+    law of Klar et al. as it was.  With ``cohesion`` c the apex moves to the hydrostatic
+    tension p_a = c cot(phi) (where Mohr-Coulomb's is); ``tensile_strength`` cuts the
+    mean stress off below it; ``dilation_angle`` psi <= phi makes the flow non-associated:
+    the plastic strain d gamma (n + alpha_psi I), alpha_psi the cone coefficient of psi.
+    A return past the cone's apex goes to the apex (on the cut-off, zero deviator).
 
     ``F`` holds the elastic deformation gradient, ``plastic`` the accumulated plastic
     strain |d gamma| (for colouring and post-processing).
@@ -18,11 +34,13 @@ class DruckerPrager(SolidMaterial):
 
     name = "drucker-prager"
     needs = frozenset({"F", "plastic"})
-    free_expansion = True  # no tension: a particle expands stress-free
-    CONSTANTS = SolidMaterial.CONSTANTS + ("alpha", "cone_2d", "cone_3d")
+    free_expansion = True  # beyond the cut-off a particle expands stress-free
+    CONSTANTS = SolidMaterial.CONSTANTS + ("alpha", "cone_2d", "cone_3d", "alpha_psi",
+                                           "apex_2d", "apex_3d", "cut_2d", "cut_3d")
     dims = (2, 3)  # the return mapping of principal strains: 2D spectral form, 3D SVD
 
-    def __init__(self, E, nu, density, friction_angle):
+    def __init__(self, E, nu, density, friction_angle, cohesion=0.0, dilation_angle=0.0,
+                 tensile_strength=None):
         super().__init__(E, nu, density)
         try:
             phi = float(friction_angle)
@@ -32,19 +50,74 @@ class DruckerPrager(SolidMaterial):
         if not (0.0 < phi < 90.0):
             raise ValueError(f"{self.name}: friction angle must lie in (0, 90) degrees, got "
                              f"{friction_angle!r}")
-        self.friction_angle = phi
-        sin_phi = math.sin(math.radians(phi))
-        # cone coefficient of Klar et al. (2016), Eq. 27
-        self.alpha = math.sqrt(2.0 / 3.0) * 2.0 * sin_phi / (3.0 - sin_phi)
+        try:
+            psi, c = float(dilation_angle), float(cohesion)
+        except (TypeError, ValueError):
+            raise ValueError(f"{self.name}: dilation_angle (degrees) and cohesion (Pa) must be "
+                             f"numbers, got {dilation_angle!r} and {cohesion!r}") from None
+        if not (0.0 <= psi <= phi):
+            raise ValueError(f"{self.name}: dilation_angle must lie in [0, friction_angle = "
+                             f"{phi:g}] degrees, got {dilation_angle!r}")
+        if not (0.0 <= c < math.inf):
+            raise ValueError(f"{self.name}: cohesion must be >= 0 and finite (Pa), got "
+                             f"{cohesion!r}")
+        self.friction_angle, self.dilation_angle, self.cohesion = phi, psi, c
+        self.alpha = _cone(phi)
+        # the apex: the hydrostatic tension c cot(phi)
+        self.apex = c / math.tan(math.radians(phi))
+        if tensile_strength is None:
+            self.tensile_strength = None
+        else:
+            try:
+                st = float(tensile_strength)
+            except (TypeError, ValueError):
+                raise ValueError(f"{self.name}: tensile_strength must be a number (Pa) or "
+                                 f"None, got {tensile_strength!r}") from None
+            if not (0.0 <= st <= self.apex):
+                raise ValueError(f"{self.name}: tensile_strength must lie in [0, c cot(phi) = "
+                                 f"{self.apex:g}] Pa (the apex of the cone), got "
+                                 f"{tensile_strength!r}")
+            self.tensile_strength = st
+        # Klar et al.'s law exactly (compiled as before) unless one of these is given
+        self.general = bool(c > 0.0 or psi > 0.0 or tensile_strength is not None)
 
     def parameters(self) -> dict:
-        return {**super().parameters(), "friction_angle": self.friction_angle}
+        out = {**super().parameters(), "friction_angle": self.friction_angle}
+        if self.general:
+            out.update(cohesion=self.cohesion, dilation_angle=self.dilation_angle)
+            if self.tensile_strength is not None:
+                out["tensile_strength"] = self.tensile_strength
+        return out
+
+    def flags(self) -> tuple:
+        return ("general",) if self.general else ()  # () as before: old checkpoints fit
+
+    def set_flags(self, flags: tuple):
+        self.general = "general" in flags
 
     def constants(self, dt: float) -> dict:
-        # (d lambda + 2 mu) / (2 mu): the trace's share of the return to the cone in d dims
-        return {**super().constants(dt), "alpha": self.alpha,
-                "cone_2d": (2.0 * self.lam + 2.0 * self.mu) / (2.0 * self.mu),
-                "cone_3d": (3 * self.lam + 2.0 * self.mu) / (2.0 * self.mu)}
+        # (d lambda + 2 mu) / (2 mu): the trace's share of the return to the cone in d dims;
+        # the apex and the cut-off as traces of the elastic log strain in d dims
+        out = {**super().constants(dt), "alpha": self.alpha,
+               "cone_2d": (2.0 * self.lam + 2.0 * self.mu) / (2.0 * self.mu),
+               "cone_3d": (3 * self.lam + 2.0 * self.mu) / (2.0 * self.mu),
+               "alpha_psi": _cone(self.dilation_angle) if self.dilation_angle > 0 else 0.0}
+        cut = self.apex if self.tensile_strength is None else self.tensile_strength
+        for d in (2, 3):
+            k = d * self.lam + 2.0 * self.mu
+            out[f"apex_{d}d"] = d * self.apex / k
+            out[f"cut_{d}d"] = d * cut / k
+        return out
+
+    def peak_deviator(self, confinement: float, dim: int = 3) -> float:
+        """The deviator q at failure in compression under the confining pressure
+        ``confinement`` (compression positive): in 3D triaxial compression 3 alpha (p +
+        p_a) / (sqrt(2/3) - alpha), equal to Mohr-Coulomb's (Klar's alpha is the outer
+        cone); in the 2D law's biaxial compression 2 alpha (p + p_a) / (sqrt(1/2) - alpha)."""
+        p = confinement + self.apex
+        if dim == 3:
+            return 3.0 * self.alpha * p / (math.sqrt(2.0 / 3.0) - self.alpha)
+        return 2.0 * self.alpha * p / (math.sqrt(0.5) - self.alpha)
 
     def elastic_state(self, stress, dim):
         # the 2D law's Hencky strain is the in-plane one (its trace over x and y)
@@ -54,11 +127,59 @@ class DruckerPrager(SolidMaterial):
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         F = self._trial_F(s, p, grad_du)
         sig = ti.Matrix.zero(float, s.dim, s.dim)
-        if ti.static(s.dim == 2):
+        if ti.static(self.general):
+            sig = self._update_general(s, p, F)
+        elif ti.static(s.dim == 2):
             sig = self._update_2d(s, p, F)
         else:
             sig = self._update_svd(s, p, F)
         return sig
+
+    @ti.func
+    def _return_general(self, eps):
+        """The principal elastic log strains (d of them) after the return to the cone
+        with cohesion, dilatancy and the cut-off (see the class)."""
+        d = ti.static(eps.n)
+        cone = self.c.cone_2d() if ti.static(d == 2) else self.c.cone_3d()
+        apex = self.c.apex_2d() if ti.static(d == 2) else self.c.apex_3d()
+        cut = self.c.cut_2d() if ti.static(d == 2) else self.c.cut_3d()
+        tr = eps.sum()
+        dev = eps - tr / d
+        dev_norm = dev.norm()
+        out = eps
+        if tr >= cut:  # past the cut-off: its apex, no deviator
+            out = ti.Vector.zero(float, d) + cut / d
+        else:
+            f = dev_norm + cone * self.c.alpha() * (tr - apex)
+            if f > 0.0:
+                dg = f / (1.0 + self.c.alpha() * self.c.alpha_psi() * d * cone)
+                if dg >= dev_norm:  # past the cone's apex: to it, on the cut-off
+                    out = ti.Vector.zero(float, d) + ti.min(apex, cut) / d
+                else:
+                    out = eps - dg * dev / dev_norm - dg * self.c.alpha_psi()
+                    tr_new = out.sum()
+                    if tr_new > cut:  # the dilation crossed the cut-off: back onto it
+                        out -= (tr_new - cut) / d
+        return out
+
+    @ti.func
+    def _update_general(self, s: ti.template(), p, F):
+        d = ti.static(s.dim)
+        U, S, V = ti.svd(F)
+        eps = ti.Vector.zero(float, d)
+        for k in ti.static(range(d)):
+            eps[k] = ti.log(ti.max(ti.abs(S[k, k]), 1e-12))
+        eps_new = self._return_general(eps)
+        change = eps - eps_new
+        s.accumulate(s.plastic[p], (change - change.sum() / d).norm())
+        Se = ti.Matrix.zero(float, d, d)
+        T = ti.Matrix.zero(float, d, d)
+        tr = eps_new.sum()
+        for k in ti.static(range(d)):
+            Se[k, k] = ti.exp(eps_new[k])
+            T[k, k] = self.c.two_mu() * eps_new[k] + self.c.lam() * tr
+        s.F[p] = U @ Se @ V.transpose()
+        return U @ T @ U.transpose() * self._initial_over_current_volume(s, p)
 
     @ti.func
     def _update_2d(self, s: ti.template(), p, F):

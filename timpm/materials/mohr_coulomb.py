@@ -103,7 +103,7 @@ class MohrCoulomb(SolidMaterial):
                 "two_c_cos_phi": 2.0 * self.cohesion * math.cos(phi), "apex": self.apex,
                 "tension": tension, "bulk3": 3.0 * self.lam + 2.0 * self.mu}
 
-    def peak_deviator(self, confinement: float) -> float:
+    def peak_deviator(self, confinement: float, dim: int = 3) -> float:
         """The deviator sigma_1 - sigma_3 at failure in compression under the confining
         pressure ``confinement`` (> 0, compression): the closed form of the surface,
         (2 c cos(phi) + 2 p sin(phi)) / (1 - sin(phi)).  Biaxial (plane strain, sigma_zz

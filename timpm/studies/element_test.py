@@ -115,10 +115,17 @@ class ElementTest:
         return {"F_total": self.F_total.to_numpy()[0], "plastic": float(self.plastic.to_numpy()[0])}
 
 
-def run_element_test(test="biaxial-mc", progress=None, **params):
-    """Run an element test (``ELEMENT_TESTS``) of a Mohr-Coulomb sample, ``params``
+#: the laws an element test takes (their classes take the DEFAULTS' material names)
+LAWS = ("mohr-coulomb", "drucker-prager")
+
+
+def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **params):
+    """Run an element test (``ELEMENT_TESTS``) of a sample of ``law`` (``LAWS``), ``params``
     overriding ``DEFAULTS``; returns the record (numbers and the stress path)."""
-    from ..materials import MohrCoulomb
+    from ..materials import DruckerPrager, MohrCoulomb
+
+    if law not in LAWS:
+        raise ValueError(f"unknown law {law!r}: an element test takes {', '.join(LAWS)}")
 
     if test not in ELEMENT_TESTS:
         raise ValueError(f"unknown element test {test!r}: choose one of "
@@ -137,9 +144,10 @@ def run_element_test(test="biaxial-mc", progress=None, **params):
         n = int(n)
     if isinstance(n, bool) or not isinstance(n, int) or not (10 <= n <= 1_000_000):
         raise ValueError(f"{test}: increments must be a whole number in [10, 1e6], got {n!r}")
-    material = MohrCoulomb(E=p["E"], nu=p["nu"], density=p["density"],
-                           friction_angle=p["friction_angle"], cohesion=p["cohesion"],
-                           dilation_angle=p["dilation_angle"])
+    cls = MohrCoulomb if law == "mohr-coulomb" else DruckerPrager
+    material = cls(E=p["E"], nu=p["nu"], density=p["density"],
+                   friction_angle=p["friction_angle"], cohesion=p["cohesion"],
+                   dilation_angle=p["dilation_angle"])
     dim = ELEMENT_TESTS[test]
     t0 = time.perf_counter()
     point = ElementTest(material, dim)
@@ -181,9 +189,9 @@ def run_element_test(test="biaxial-mc", progress=None, **params):
             progress(k + 1, n)
     q_arr = np.array(q)
     peak = float(q_arr.max())
-    exact = material.peak_deviator(confinement)
+    exact = material.peak_deviator(confinement, dim)
     return {
-        "problem": test, "dim": dim, "material": "mohr-coulomb",
+        "problem": test, "dim": dim, "material": law,
         "params": {k: (float(v) if k != "increments" else n) for k, v in p.items()},
         "peak_deviator": peak, "exact_peak_deviator": exact,
         "peak_relative_error": abs(peak - exact) / exact if exact > 0 else None,
@@ -258,9 +266,9 @@ def plot_element_test(record, path):
     s = record["series"]
     ea = 100.0 * np.asarray(s["axial_strain"])
     fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(13, 4))
-    ax1.plot(ea, s["deviator"], label="timpm (Mohr-Coulomb, Hencky)")
+    ax1.plot(ea, s["deviator"], label=f"timpm ({record['material']}, Hencky)")
     ax1.axhline(record["exact_peak_deviator"], color="k", ls="--",
-                label="closed form (2c cos phi + 2p sin phi) / (1 - sin phi)")
+                label="closed form of the surface")
     ax1.set(xlabel="axial strain [%]", ylabel="deviator sigma_1 - sigma_3 [kPa]")
     ax1.legend(fontsize=8)
     ax2.plot(ea, 100.0 * np.asarray(s["volumetric_strain"]))
@@ -286,11 +294,14 @@ def main(argv):
     from ..files import write_json
 
     ap = argparse.ArgumentParser(prog=f"timpm run {argv[0] if argv else 'biaxial-mc'}",
-                                 description="an element test of the Mohr-Coulomb law: "
-                                 "drained compression under a confining pressure")
+                                 description="an element test of a soil law (Mohr-Coulomb, "
+                                 "Drucker-Prager): drained compression under a confining "
+                                 "pressure")
     ap.add_argument("test", choices=list(ELEMENT_TESTS))
     ap.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
                     help=f"one of {', '.join(f'{k} (default {v:g})' for k, v in DEFAULTS.items())}")
+    ap.add_argument("--law", default="mohr-coulomb", choices=LAWS,
+                    help="the soil law (default mohr-coulomb)")
     ap.add_argument("--json", metavar="FILE", help="write the record as JSON")
     ap.add_argument("--plot", metavar="FILE.png", help="draw the deviator and the volume")
     ap.add_argument("--quiet", action="store_true")
@@ -305,7 +316,7 @@ def main(argv):
         return 2
     try:
         runtime.init(precision="f64")
-        record = run_element_test(args.test, **dict(args.param))
+        record = run_element_test(args.test, law=args.law, **dict(args.param))
     except (ValueError, RuntimeError) as exc:
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
