@@ -441,7 +441,8 @@ def test_a_failing_plot_loses_neither_the_result_nor_a_whole_file(tmp_path, caps
     code = main(["convergence", "vibrating-string", "--elements", "4", "8", "--quiet",
                  "--json", str(out), "--plot", str(png)])
     assert code == 2
-    assert capsys.readouterr().err == "timpm: error: [Errno 28] No space left on device\n"
+    # the message names the file it could not write (issue 35: it named none)
+    assert capsys.readouterr().err == f"timpm: error: could not write {png}: No space left on device\n"
     assert [r["elements"] for r in json.loads(out.read_text())["runs"]] == [4, 8]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.json"]  # no half PNG
 

@@ -25,6 +25,7 @@ TINY = {
     "dam_break.toml": {"domain.cells": 25, "simulation.t_end": 0.01},
     "cube_drop_3d.toml": {"domain.cells": 8, "simulation.t_end": 0.02},
     "vibrating_string.toml": {"problem.t_end": 0.002},
+    "slope_griffiths_lane.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
 }
 
 

@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 
-from . import __version__
+from . import __version__, interrupt
 from .argtypes import (add_runtime_arguments, numbers_as_values, param, positive_float,
                        positive_int, setting)
 from .basis import BASES, basis_argument, get_basis
@@ -125,13 +125,26 @@ def _time_series(result) -> dict:
     return out
 
 
-def _check_output_files(args):
-    """--json, --csv, --plot: a writable file in an existing directory, before any work."""
-    from .output.fields import check_output_file
+def _check_output_files(args, inputs=None):
+    """--json, --csv, --plot, --out, --checkpoint: each writable (its directory probed, the
+    plot's format known), no two naming one file or an input (``inputs``: what -> path),
+    before any work."""
+    from .files import PLOT_FORMATS, check_distinct, check_output
 
+    outputs = {}
     for flag in ("json", "csv", "plot", "out", "checkpoint"):
-        if getattr(args, flag, None):
-            check_output_file(getattr(args, flag), f"--{flag}")
+        value = getattr(args, flag, None)
+        if value is not None:
+            check_output(value, f"--{flag}", PLOT_FORMATS if flag == "plot" else None)
+            outputs[f"--{flag}"] = value
+    for flag in ("vtk", "npz", "png_dir"):
+        value = getattr(args, flag, None)
+        if value is not None and not value:
+            raise ValueError(f"--{flag.replace('_', '-')} needs a directory name, got an "
+                             "empty one")
+        if value:
+            outputs[f"--{flag.replace('_', '-')}"] = value
+    check_distinct(outputs, inputs)
 
 
 def _refuse_early(problem, elements, ppc, dt=None, t_end=None, allow_many_steps=False):
@@ -238,7 +251,7 @@ def _parser():
                            "factor-of-safety")
     studies = study.add_subparsers(dest="study", required=True)
     speed_error.add_parser(studies).set_defaults(func=_speed_error)
-    factor_of_safety.add_parser(studies).set_defaults(func=factor_of_safety.main)
+    factor_of_safety.add_parser(studies).set_defaults(func=_factor_of_safety)
     for parser in (ap, *sub.choices.values(), *studies.choices.values()):
         numbers_as_values(parser)
     return ap
@@ -308,7 +321,6 @@ def _run(args, start):
     """``timpm run`` / ``timpm resume``: ``start(**outputs)`` runs; print the table, write the
     outputs; returns the JSON document, or None when Ctrl-C stopped the run (then the
     checkpoint and the partial record are written and one line says where)."""
-    from . import interrupt
     from .output.viz import plot_series
 
     try:
@@ -322,7 +334,7 @@ def _run(args, start):
             _write_json(args.json, doc)
         where = (f"; saved to {stop.checkpoint} (timpm resume {stop.checkpoint} --t-end T)"
                  if stop.checkpoint else "")
-        print(f"timpm: interrupted at step {stop.step} (t = {stop.t:g} s){where}"
+        print(f"timpm: {stop}{where}"
               + (f"; partial record {args.json}" if doc and args.json else ""),
               file=sys.stderr)
         return None
@@ -463,6 +475,44 @@ def _speed_error(args) -> int:
     return 0
 
 
+def _factor_of_safety(args) -> int:
+    """``timpm study factor-of-safety FILE.toml``: the bisection, its record and plot."""
+    from . import runtime
+    from .scenefile import load_scene
+
+    if args.plot is not None and not args.plot.lower().endswith(".png"):
+        print(f"timpm: error: --plot {args.plot}: the plot is written as PNG (FILE.png)",
+              file=sys.stderr)
+        return 2
+    try:
+        _check_output_files(args, {"the scene file": args.scene})
+        scene = load_scene(args.scene)
+        if scene.world is None:
+            raise ValueError(f"{args.scene}: the factor of safety takes a world (a slope), "
+                             "not a [problem]")
+        runtime.init(precision=scene.precision)
+        record, failed = factor_of_safety.factor_of_safety(
+            scene.world, scene.t_end, low=args.bracket[0], high=args.bracket[1],
+            tolerance=args.tolerance, creep=args.creep, mode=scene.mode,
+            progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
+    except (ValueError, SimulationError) as exc:
+        print(f"timpm: error: {exc}", file=sys.stderr)
+        return 2
+    record["scene"] = args.scene
+    print(f"factor of safety {record['factor_of_safety']:.4f} (bracket "
+          f"{record['bracket'][0]:.4f} to {record['bracket'][1]:.4f}, {len(record['trials'])} "
+          f"runs, {record['wall_seconds']:.1f} s)")
+    try:
+        if args.json:
+            _write_json(args.json, record)
+        if args.plot:
+            factor_of_safety.plot_mechanism(scene.world, failed, record, args.plot)
+    except OSError as exc:
+        print(f"timpm: error: could not write {exc.filename}: {exc.strerror}", file=sys.stderr)
+        return 2
+    return 0
+
+
 def entry():
     """The ``timpm`` command (console script and ``python -m timpm``): :func:`main`, then
     the process ends without the interpreter's teardown (:func:`timpm.runtime.exit_process`;
@@ -515,7 +565,7 @@ def _main(argv=None):
             from .checkpoint import load_checkpoint
             from .studies.study import resume_problem
 
-            _check_output_files(args)
+            _check_output_files(args, {"the checkpoint resumed": args.saved})
             saved = load_checkpoint(args.saved)
             if (saved["run"] or {}).get("scene_file") is not None:  # a world's scene file
                 from .scenefile.command import resume
@@ -526,7 +576,7 @@ def _main(argv=None):
             doc = _run(args, lambda **out: resume_problem(
                 args.saved, args.t_end, saved=saved, allow_many_steps=args.allow_many_steps,
                 **mode, **out))
-            return 130 if doc is None else 0
+            return interrupt.exit_code() if doc is None else 0
         problem = get_problem(args.problem, **dict(args.param))
         meshes = args.elements if args.command == "convergence" else [args.elements]
         _refuse_early(problem, meshes, args.ppc, args.dt, args.t_end, args.allow_many_steps)
@@ -537,7 +587,7 @@ def _main(argv=None):
             doc = _run(args, lambda **out: run_problem(args.problem, elements=args.elements,
                                                        **opts, **out))
             if doc is None:
-                return 130
+                return interrupt.exit_code()
         else:
             doc = convergence(args.problem, elements=args.elements, workers=args.workers,
                               dask=args.dask, **opts)

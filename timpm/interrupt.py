@@ -1,22 +1,29 @@
-"""Ctrl-C (SIGINT) as a request to stop at the next step boundary.
+"""Ctrl-C (SIGINT), and a scheduler's SIGTERM or a closed terminal's SIGHUP, as a request
+to stop at the next step boundary.
 
-Inside ``with deferred_sigint():`` the first SIGINT only sets a flag, which a run loop
-reads between its launches (:func:`requested`): the run stops with its state whole, so
-that it can be saved.  A second SIGINT raises ``KeyboardInterrupt`` at once, as Python
-does by default.  Outside the block, or off the main thread, or where the program has
-installed its own SIGINT handler, nothing changes.
+Inside ``with deferred_sigint():`` the first of these signals only sets a flag, which a run
+loop reads between its launches (:func:`requested`): the run stops with its state whole,
+so that it can be saved, and the command exits with 128 + the signal's number (130 for
+Ctrl-C, 143 for SIGTERM, 129 for SIGHUP; :func:`exit_code`).  A second signal raises
+``KeyboardInterrupt`` at once, as Python does by default for SIGINT.  Outside the block,
+or off the main thread, or for a signal whose handler the program has replaced, nothing
+changes.
 """
 import contextlib
 import signal
 import threading
 
-__all__ = ["deferred_sigint", "requested", "active", "RunInterrupted",
-           "INTERRUPTED_CHECKPOINT"]
+__all__ = ["deferred_sigint", "requested", "active", "RunInterrupted", "exit_code",
+           "INTERRUPTED_CHECKPOINT", "SIGNALS"]
+
+#: the signals a run stops on at a step boundary (those this platform has)
+SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
+                if hasattr(signal, name))
 
 #: where the command line saves a run that Ctrl-C stopped, given no --checkpoint
 INTERRUPTED_CHECKPOINT = "timpm-interrupted.npz"
 
-_state = {"active": False, "requested": False}
+_state = {"active": False, "requested": False, "signal": signal.SIGINT}
 
 
 class RunInterrupted(Exception):
@@ -25,10 +32,17 @@ class RunInterrupted(Exception):
     partial record, the file the state was saved to)."""
 
     def __init__(self, step, t):
-        super().__init__(f"interrupted at step {step} (t = {t:g} s)")
+        self.signal = _state["signal"]
+        by = "" if self.signal == signal.SIGINT else f" by {signal.Signals(self.signal).name}"
+        super().__init__(f"interrupted{by} at step {step} (t = {t:g} s)")
         self.step, self.t = step, t
         self.result = None
         self.checkpoint = None
+
+    @property
+    def exit_code(self) -> int:
+        """128 + the signal's number: 130 for Ctrl-C, 143 for SIGTERM, 129 for SIGHUP."""
+        return 128 + int(self.signal)
 
 
 def active() -> bool:
@@ -41,24 +55,32 @@ def requested() -> bool:
     return _state["requested"]
 
 
+def exit_code() -> int:
+    """128 + the number of the last signal that stopped a run (130: Ctrl-C)."""
+    return 128 + int(_state["signal"])
+
+
 def _handler(signum, frame):
     if _state["requested"]:
-        raise KeyboardInterrupt  # the second Ctrl-C: at once
-    _state["requested"] = True
+        raise KeyboardInterrupt  # the second signal: at once
+    _state.update(requested=True, signal=signum)
 
 
 @contextlib.contextmanager
 def deferred_sigint():
-    """Defer SIGINT to the next step boundary for the duration of the block."""
-    usable = (threading.current_thread() is threading.main_thread()
-              and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
-    if not usable or _state["active"]:
+    """Defer SIGINT, SIGTERM and SIGHUP to the next step boundary for the duration of the
+    block (each whose handler is still Python's default)."""
+    defaults = {signal.SIGINT: signal.default_int_handler}
+    usable = threading.current_thread() is threading.main_thread() and not _state["active"]
+    taken = [s for s in SIGNALS if usable and signal.getsignal(s) is defaults.get(s, signal.SIG_DFL)]
+    if signal.SIGINT not in taken:
         yield
         return
-    previous = signal.signal(signal.SIGINT, _handler)
-    _state.update(active=True, requested=False)
+    previous = {s: signal.signal(s, _handler) for s in taken}
+    _state.update(active=True, requested=False, signal=signal.SIGINT)
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
         _state.update(active=False, requested=False)

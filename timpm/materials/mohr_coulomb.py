@@ -103,6 +103,21 @@ class MohrCoulomb(SolidMaterial):
                 "two_c_cos_phi": 2.0 * self.cohesion * math.cos(phi), "apex": self.apex,
                 "tension": tension, "bulk3": 3.0 * self.lam + 2.0 * self.mu}
 
+    def reduced(self, F: float) -> "MohrCoulomb":
+        """This soil with its strength divided by ``F`` (strength reduction): c / F, tan(phi)
+        / F, psi at most the reduced phi, the tension cut-off / F; the elastic constants
+        kept."""
+        F = float(F)
+        if not (F > 0.0 and math.isfinite(F)):
+            raise ValueError(f"{self.name}: a strength reduction factor must be positive, "
+                             f"got {F!r}")
+        phi = math.degrees(math.atan(math.tan(math.radians(self.friction_angle)) / F))
+        st = self.tensile_strength
+        return MohrCoulomb(E=self.E, nu=self.nu, density=self.density, friction_angle=phi,
+                           cohesion=self.cohesion / F,
+                           dilation_angle=min(self.dilation_angle, phi),
+                           tensile_strength=None if st is None else st / F)
+
     def peak_deviator(self, confinement: float, dim: int = 3) -> float:
         """The deviator sigma_1 - sigma_3 at failure in compression under the confining
         pressure ``confinement`` (> 0, compression): the closed form of the surface,

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files import replacing
+from ..files import check_output, check_output_dir, replacing
 
 __all__ = ["FORMATS", "FieldWriter", "particle_fields", "grid_fields",
            "check_output_directory", "check_output_file"]
@@ -35,36 +35,14 @@ AXES = "xyz"
 
 def check_output_directory(directory, what="output directory") -> Path:
     """``directory`` as a Path, created if missing (its parent must exist), refused when
-    it is a file or not writable: before any work."""
-    path = Path(directory)
-    if path.exists() and not path.is_dir():
-        raise ValueError(f"{what} {str(path)!r} is a file, not a directory")
-    if not path.exists():
-        parent = path.parent if str(path.parent) else Path(".")
-        if not parent.is_dir():
-            raise ValueError(f"{what} {str(path)!r}: its parent directory {str(parent)!r} "
-                             "does not exist")
-        try:
-            path.mkdir()
-        except OSError as err:
-            raise ValueError(f"{what} {str(path)!r} cannot be created: {err}") from None
-    if not os.access(path, os.W_OK | os.X_OK):
-        raise ValueError(f"{what} {str(path)!r} is not writable")
-    return path
+    it is a file or no file can be written in it: before any work."""
+    return Path(check_output_dir(directory, what))
 
 
-def check_output_file(path, what="output file") -> Path:
-    """``path`` refused before any work when it is a directory, its directory is missing
-    or not writable."""
-    path = Path(path)
-    if path.is_dir():
-        raise ValueError(f"{what} {str(path)!r} is a directory")
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise ValueError(f"{what} {str(path)!r}: the directory {str(parent)!r} does not exist")
-    if not os.access(parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise ValueError(f"{what} {str(path)!r} is not writable")
-    return path
+def check_output_file(path, what="output file", formats=None) -> Path:
+    """``path`` refused before any work when it cannot be written (see
+    :func:`timpm.files.check_output`)."""
+    return Path(check_output(path, what, formats))
 
 
 def particle_fields(solver) -> dict:
@@ -122,12 +100,25 @@ class FieldWriter:
             raise ValueError(f"prefix must be a plain file name, got {prefix!r}")
         self.directory = check_output_directory(directory)
         self.format, self.prefix, self.grid = format, prefix, bool(grid)
+        self._remove_stale_frames()
         self.frames = []  # (file name, simulated time)
         self.grid_frames = []
         if format == "vtk":
             import importlib
 
             importlib.import_module("pyevtk.hl")  # a missing package fails here, not later
+
+    def _remove_stale_frames(self):
+        """Frames of an earlier series in the directory (this writer's names: PREFIX_NNNNN
+        and grid_NNNNN, their .pvd) go first: a shorter new series must not end in the old
+        one's frames."""
+        import re
+
+        pattern = re.compile(rf"({re.escape(self.prefix)}|grid)_\d{{5}}\.(npz|vtu|vti)$")
+        for entry in self.directory.iterdir():
+            if entry.is_file() and (pattern.match(entry.name) or entry.name in (
+                    f"{self.prefix}.pvd", "grid.pvd")):
+                entry.unlink()
 
     @property
     def series(self) -> Path:
@@ -149,18 +140,18 @@ class FieldWriter:
         if self.format == "npz":
             path = self.directory / f"{name}.npz"
             extra = {f"grid_{k}": v for k, v in grid.items()} if grid else {}
-            with replacing(path, self.directory / f".{name}.tmp.npz") as tmp:
+            with replacing(path, ".npz") as tmp:
                 np.savez(tmp, t=solver.t, step=solver.step, **fields, **extra)
         else:
             path = self.directory / f"{name}.vtu"
-            with replacing(path, self.directory / f".{name}.tmp.vtu") as tmp:
+            with replacing(path, ".vtu") as tmp:
                 _write_vtu(tmp[:-len(".vtu")], fields)
         self.frames.append((path.name, float(solver.t)))
         if self.format == "vtk":
             _write_series(self.directory, self.frames, self.series)
             if grid is not None:
                 image = self.directory / f"grid_{index:05d}.vti"
-                with replacing(image, self.directory / f".grid_{index:05d}.tmp.vti") as tmp:
+                with replacing(image, ".vti") as tmp:
                     _write_vti(tmp[:-len(".vti")], grid)
                 self.grid_frames.append((image.name, float(solver.t)))
                 _write_series(self.directory, self.grid_frames, self.grid_series)
@@ -171,7 +162,7 @@ def _write_series(directory, frames, series):
     """The ``.pvd`` collection of ``frames`` ((file name, time), ...) at ``series``."""
     from pyevtk.vtk import VtkGroup
 
-    with replacing(series, directory / f".{series.stem}.tmp.pvd") as tmp:
+    with replacing(series, ".pvd") as tmp:
         group = VtkGroup(tmp[:-len(".pvd")])
         for name, t in frames:
             group.addFile(str(directory / name), sim_time=t)

@@ -352,7 +352,7 @@ class GifWriter:
         t0 = time.perf_counter()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         first, *rest = self._frames
-        with replacing(self.path, self.path.with_name(f".{self.path.name}.tmp")) as tmp:
+        with replacing(self.path, ".gif") as tmp:
             first.save(tmp, format="GIF", save_all=True, append_images=rest, loop=0,
                        duration=max(1, int(round(1000.0 / self.fps))), optimize=False)
         self._frames = []

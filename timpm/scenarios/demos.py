@@ -347,12 +347,11 @@ class SlopeFailure(Demo):
 
     def soil(self):
         from ..materials import MohrCoulomb
-        from ..studies.factor_of_safety import reduced
 
         F = _positive("strength_factor", self.strength_factor)
-        return reduced(MohrCoulomb(E=self.E, nu=self.nu, density=self.unit_weight / G,
-                                   friction_angle=self.friction_angle,
-                                   cohesion=self.cohesion), F)
+        return MohrCoulomb(E=self.E, nu=self.nu, density=self.unit_weight / G,
+                           friction_angle=self.friction_angle,
+                           cohesion=self.cohesion).reduced(F)
 
     def world(self) -> World:
         from ..geometry import Polygon

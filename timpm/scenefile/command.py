@@ -16,11 +16,12 @@ from .toml import tomllib
 
 
 def is_scene_argument(argv) -> bool:
-    """Whether ``timpm run`` arguments ``argv`` (after ``run``) name a scene file: an
-    argument ending in ``.toml``, or a first argument that names an existing file."""
-    if any(a.endswith(".toml") and not a.startswith("-") for a in argv):
-        return True
-    return bool(argv) and argv[0] not in PROBLEMS and os.path.isfile(argv[0])
+    """Whether ``timpm run`` arguments ``argv`` (after ``run``) name a scene file: the first
+    argument, the run's subject, ends in ``.toml`` or names an existing file that is not a
+    problem's name (an option's value ending in ``.toml``, ``--json out.toml``, does not)."""
+    if not argv or argv[0].startswith("-"):
+        return False
+    return argv[0].endswith(".toml") or (argv[0] not in PROBLEMS and os.path.isfile(argv[0]))
 
 
 def _setting(text):
@@ -57,6 +58,8 @@ def _parser():
     p.add_argument("--checkpoint", metavar="FILE", help="save the whole state and how to "
                    "rebuild the scene (the file's path, these options) to FILE (.npz) at "
                    "the end and on Ctrl-C; continue with: timpm resume FILE --t-end T")
+    p.add_argument("--allow-many-steps", action="store_true",
+                   help="run more than 1e8 steps (refused by default)")
     p.add_argument("--set", type=_setting, action="append", default=[], metavar="KEY=VALUE",
                    dest="settings", help="set any key, e.g. domain.cells=64, body[0].ppc=3, "
                    "simulation.transfer=musl; KEY= removes it")
@@ -98,18 +101,21 @@ def main(argv) -> int:
         scene = load_scene(args.file, overrides, document)
         if args.checkpoint:
             check_output_file(args.checkpoint, "--checkpoint")
+            if os.path.realpath(args.checkpoint) == os.path.realpath(args.file):
+                raise ValueError(f"--checkpoint {args.checkpoint} names the scene file: give "
+                                 "the checkpoint its own file")
         runtime.init(threads=args.threads, arch=args.arch,
                      precision=scene.precision or "f64")
         with deferred_sigint():
             result = run_scene(scene, progress=args.progress, checkpoint=args.checkpoint,
-                               overrides=overrides)
+                               overrides=overrides, allow_many_steps=args.allow_many_steps)
     except RunInterrupted as stop:
         saved = f"; state saved to {stop.checkpoint}" if stop.checkpoint else ""
         record = scene.output.get("json")
-        print(f"timpm: interrupted at step {stop.step} (t = {stop.t:g} s){saved}"
+        print(f"timpm: {stop}{saved}"
               + (f"; partial record {record}" if record else ""), file=sys.stderr)
-        return 130
-    except (ValueError, SimulationError, runtime.BackendUnavailable) as exc:
+        return stop.exit_code
+    except (ValueError, SimulationError, runtime.BackendUnavailable, OSError) as exc:
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
     if not args.quiet:
@@ -120,7 +126,7 @@ def main(argv) -> int:
 def resume(args, saved, fields) -> int:
     """``timpm resume FILE --t-end T`` of a scene file's world run (``saved``: the loaded
     checkpoint, ``fields``: the --vtk / --npz writer): the summary, --json the run's
-    document; Ctrl-C saves again and returns 130."""
+    document; Ctrl-C (SIGTERM, SIGHUP) saves again and returns 128 + the signal."""
     from .. import runtime
     from ..files import write_json
     from .runner import resume_scene
@@ -143,9 +149,8 @@ def resume(args, saved, fields) -> int:
     except RunInterrupted as stop:
         if args.json and stop.result is not None:
             write_json(args.json, stop.result.document())
-        print(f"timpm: interrupted at step {stop.step} (t = {stop.t:g} s); state saved to "
-              f"{stop.checkpoint}", file=sys.stderr)
-        return 130
+        print(f"timpm: {stop}; state saved to {stop.checkpoint}", file=sys.stderr)
+        return stop.exit_code
     if args.json:
         write_json(args.json, result.document())
     if not args.quiet:

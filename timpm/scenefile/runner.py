@@ -58,11 +58,26 @@ class SceneResult:
         return doc
 
 
-def _writers(scene):
-    """The field writer and the movie of the scene's output (checked before any work)."""
+def _writers(scene, checkpoint=None):
+    """The field writer and the movie of the scene's output, every output checked before
+    any work: writable, and no two naming one file or the scene file."""
+    from ..files import check_distinct
     from ..output.fields import FieldWriter, check_output_file
 
     out = scene.output
+    for key in ("json", "gif"):
+        if out.get(key) is not None:
+            try:
+                check_output_file(out[key], f"output.{key}")
+            except ValueError as err:
+                raise scene.error(("output", key), str(err)) from None
+    fields = {f"output.{fmt}": out.get(fmt) for fmt in ("vtk", "npz")}
+    try:
+        check_distinct({"output.json": out.get("json"), "output.gif": out.get("gif"),
+                        **fields, "--checkpoint": checkpoint},
+                       {"the scene file": getattr(scene, "path", None)})
+    except ValueError as err:
+        raise ValueError(f"{scene.path}: {err}") from None
     fields_writer = movie = None
     for fmt in ("vtk", "npz"):
         if out.get(fmt) is not None:
@@ -70,12 +85,6 @@ def _writers(scene):
                 fields_writer = FieldWriter(out[fmt], fmt)
             except ValueError as err:
                 raise scene.error(("output", fmt), str(err)) from None
-    for key in ("json", "gif"):
-        if out.get(key) is not None:
-            try:
-                check_output_file(out[key], f"output file {key}")
-            except ValueError as err:
-                raise scene.error(("output", key), str(err)) from None
     if out.get("gif") is not None:
         from ..output.render import Movie
 
@@ -93,7 +102,8 @@ def _files(fields_writer, movie):
     return files
 
 
-def run_scene(scene, progress=None, checkpoint=None, overrides=None) -> SceneResult:
+def run_scene(scene, progress=None, checkpoint=None, overrides=None,
+              allow_many_steps=False) -> SceneResult:
     """Run ``scene`` (a :class:`SceneFile` or a path), writing its outputs; returns the
     :class:`SceneResult` (its JSON document is written when ``output.json`` is set).
     ``checkpoint``: a file that gets the whole state at the end and at Ctrl-C, with the
@@ -107,13 +117,13 @@ def run_scene(scene, progress=None, checkpoint=None, overrides=None) -> SceneRes
         raise scene.error(("simulation", "precision"), f"the scene runs in {scene.precision} "
                           f"but Taichi was started in {runtime.precision()}: call "
                           f"timpm.init(precision={scene.precision!r}) first")
-    fields_writer, movie = _writers(scene)
+    fields_writer, movie = _writers(scene, checkpoint)
     try:
-        result = (_run_problem(scene, fields_writer, progress, checkpoint)
+        result = (_run_problem(scene, fields_writer, progress, checkpoint, allow_many_steps)
                   if scene.problem is not None else
                   _run_world(scene, fields_writer, movie, progress, checkpoint,
                              {"scene_file": os.path.abspath(scene.path),
-                              "overrides": dict(overrides or {})}))
+                              "overrides": dict(overrides or {})}, allow_many_steps))
     except RunInterrupted as stop:  # Ctrl-C: the partial record, then on to the caller
         if stop.result is not None and scene.output.get("json") is not None:
             write_json(scene.output["json"], stop.result.document())
@@ -125,13 +135,14 @@ def run_scene(scene, progress=None, checkpoint=None, overrides=None) -> SceneRes
     return result
 
 
-def _run_problem(scene, fields_writer, progress, checkpoint) -> SceneResult:
+def _run_problem(scene, fields_writer, progress, checkpoint, allow_many_steps=False
+                 ) -> SceneResult:
     from ..studies.study import run_problem
 
     try:
         run = run_problem(**scene.problem, fields=fields_writer,
                           frames=scene.output["frames"], progress=progress,
-                          checkpoint=checkpoint,
+                          checkpoint=checkpoint, allow_many_steps=allow_many_steps,
                           interrupted_to=checkpoint or INTERRUPTED_CHECKPOINT)
     except RunInterrupted as stop:
         stop.result = _problem_result(scene, stop.result)
@@ -190,12 +201,23 @@ def _color_range(world, color, output):
     return value_range, label, unit
 
 
-def _run_world(scene, fields_writer, movie, progress, checkpoint, run) -> SceneResult:
+def _run_world(scene, fields_writer, movie, progress, checkpoint, run,
+               allow_many_steps=False) -> SceneResult:
     from ..scenarios.demos import quantity
     from ..solver import Solver
 
+    from ..checks import step_count
+
     world, frames, t_end = scene.world, scene.output["frames"], scene.t_end
     color = scene.output["color"]
+    # the step count before anything is compiled or launched: 0 steps or too many refused
+    try:
+        steps = step_count(t_end, world.dt, allow_many_steps)
+    except ValueError as err:
+        raise scene.error(("simulation", "t_end"), str(err)) from None
+    if steps == 0:
+        raise scene.error(("simulation", "t_end"), f"t_end = {t_end:g} s is shorter than half "
+                          f"a step (dt = {world.dt:g} s): the run would take no step")
     run = {**run, "mode": scene.mode,
            "record_every": max(1, int(round(t_end / world.dt / 200)))}
     solver = Solver(world, mode=scene.mode, energies=True, record_every=run["record_every"])

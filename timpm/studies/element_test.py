@@ -282,7 +282,7 @@ def plot_element_test(record, path):
                  f"{record['exact_peak_deviator']:.4g}")
     fig.tight_layout()
     from ..files import replacing
-    with replacing(path, f"{path}.tmp.png") as tmp:
+    with replacing(path, ".png") as tmp:
         fig.savefig(tmp, dpi=100)
     plt.close(fig)
 

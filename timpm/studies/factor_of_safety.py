@@ -29,22 +29,17 @@ from dataclasses import replace
 
 import numpy as np
 
-__all__ = ["reduced", "trial", "factor_of_safety", "add_parser", "main", "plot_mechanism"]
+__all__ = ["reduced", "trial", "factor_of_safety", "add_parser", "plot_mechanism"]
 
 
 def reduced(material, F):
-    """A Mohr-Coulomb material's strength divided by F (the elastic constants kept)."""
+    """A Mohr-Coulomb material's strength divided by F (:meth:`MohrCoulomb.reduced`)."""
     from ..materials import MohrCoulomb
 
     if not isinstance(material, MohrCoulomb):
         raise ValueError(f"strength reduction divides the strength of Mohr-Coulomb soil; "
                          f"{material.name} has none to divide (make it mohr-coulomb)")
-    phi = math.degrees(math.atan(math.tan(math.radians(material.friction_angle)) / F))
-    st = material.tensile_strength
-    return MohrCoulomb(E=material.E, nu=material.nu, density=material.density,
-                       friction_angle=phi, cohesion=material.cohesion / F,
-                       dilation_angle=min(material.dilation_angle, phi),
-                       tensile_strength=None if st is None else st / F)
+    return material.reduced(F)
 
 
 def _height(world):
@@ -150,7 +145,7 @@ def plot_mechanism(world, failed, record, path):
                  f"{record['bracket'][0]:.3f}-{record['bracket'][1]:.3f}); mechanism at F = "
                  f"{failed['F']:.3f}")
     fig.tight_layout()
-    with replacing(path, f"{path}.tmp.png") as tmp:
+    with replacing(path, ".png") as tmp:
         fig.savefig(tmp, dpi=110)
     plt.close(fig)
 
@@ -173,41 +168,3 @@ def add_parser(subparsers):
     p.add_argument("--plot", metavar="FILE.png", help="draw the failure mechanism")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     return p
-
-
-def main(args) -> int:
-    from .. import runtime
-    from ..errors import SimulationError
-    from ..files import write_json
-    from ..scenefile import load_scene
-
-    if args.plot is not None and not args.plot.lower().endswith(".png"):
-        print(f"timpm: error: --plot {args.plot}: the plot is written as PNG (FILE.png)",
-              file=sys.stderr)
-        return 2
-    try:
-        scene = load_scene(args.scene)
-        if scene.world is None:
-            raise ValueError(f"{args.scene}: the factor of safety takes a world (a slope), "
-                             "not a [problem]")
-        runtime.init(precision=scene.precision)
-        record, failed = factor_of_safety(
-            scene.world, scene.t_end, low=args.bracket[0], high=args.bracket[1],
-            tolerance=args.tolerance, creep=args.creep, mode=scene.mode,
-            progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
-    except (ValueError, SimulationError) as exc:
-        print(f"timpm: error: {exc}", file=sys.stderr)
-        return 2
-    record["scene"] = args.scene
-    print(f"factor of safety {record['factor_of_safety']:.4f} (bracket "
-          f"{record['bracket'][0]:.4f} to {record['bracket'][1]:.4f}, {len(record['trials'])} "
-          f"runs, {record['wall_seconds']:.1f} s)")
-    try:
-        if args.json:
-            write_json(args.json, record)
-        if args.plot:
-            plot_mechanism(scene.world, failed, record, args.plot)
-    except OSError as exc:
-        print(f"timpm: error: could not write {exc.filename}: {exc.strerror}", file=sys.stderr)
-        return 2
-    return 0

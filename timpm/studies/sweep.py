@@ -195,6 +195,38 @@ def _environment(values):
                 os.environ[k] = v
 
 
+def die_with_parent(parent_pid):
+    """In a worker: end when the process that started it ends, however it ends (SIGKILL
+    too), so that no worker lives on holding its caller's output open.  Linux asks the
+    kernel (PR_SET_PDEATHSIG: SIGKILL at the parent's death); elsewhere a thread watches
+    the parent's pid."""
+    import signal
+    import sys
+    import threading
+
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            PR_SET_PDEATHSIG = 1
+            if libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0:
+                if os.getppid() != parent_pid:  # it died before the request was made
+                    os._exit(1)
+                return
+        except (OSError, AttributeError):
+            pass
+
+    def watch():
+        import time
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="timpm-parent-watch").start()
+
+
 def _in_order(futures, on_result) -> list:
     """The futures' results in order (the first failing one raises)."""
     results = []
@@ -212,7 +244,8 @@ def _on_pool(job, calls, start, workers, on_result) -> list:
     from concurrent.futures.process import BrokenProcessPool
 
     pool = ProcessPoolExecutor(max_workers=workers,
-                               mp_context=multiprocessing.get_context("spawn"))
+                               mp_context=multiprocessing.get_context("spawn"),
+                               initializer=die_with_parent, initargs=(os.getpid(),))
     done = False
     try:
         with _environment(_WORKER_ENV):  # the processes start as the runs are submitted

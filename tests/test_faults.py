@@ -1,0 +1,254 @@
+"""Faults an operator meets (issue 35): outputs that cannot be written or that collide,
+refused before any work; SIGTERM and SIGHUP handled as Ctrl-C; sweep workers that die with
+their parent; step counts checked before any kernel; unique temporary names; stale field
+frames.  The commands are the issue's, as a user types them."""
+import contextlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from timpm.checkpoint import load_checkpoint
+from timpm.cli import main
+from timpm.files import OutputError, check_distinct, check_output, replacing, write_json
+
+ROOT = Path(__file__).resolve().parent.parent
+ENV = dict(os.environ, TIMPM_THREADS="1", ENABLE_TAICHI_HEADER_PRINT="false",
+           TI_LOG_LEVEL="warn")
+
+
+def _cli(*args):
+    return main([str(a) for a in args])
+
+
+def _default_signals():
+    for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(s, signal.SIG_DFL if s != signal.SIGINT else signal.SIG_DFL)
+
+
+@contextlib.contextmanager
+def _killed_at_exit(process):
+    try:
+        yield process
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+
+
+# ---- outputs checked before any work -----------------------------------------------------
+@pytest.mark.parametrize("args, message", [
+    (["run", "vibrating-string", "--csv", "/proc/x.csv"], "--csv /proc/x.csv: no file can be written in /proc"),
+    (["run", "vibrating-string", "--json", "/proc/x.json"], "--json /proc/x.json: no file can be written"),
+    (["run", "vibrating-string", "--checkpoint", "/proc/x.npz"], "--checkpoint /proc/x.npz: no file"),
+    (["run", "vibrating-string", "--plot", "p.xyz"], "--plot p.xyz: the format is chosen by the suffix"),
+    (["run", "vibrating-string", "--json", ""], "--json needs a file name"),
+    (["run", "vibrating-string", "--json", "/nonexistent/dir/r.json"], "the directory /nonexistent/dir does not exist"),
+    (["run", "vibrating-string", "--json", "/tmp"], "--json /tmp: is a directory"),
+    (["run", "vibrating-string", "--vtk", ""], "--vtk needs a directory name"),
+    (["convergence", "vibrating-string", "--plot", "/proc/c.png"], "--plot /proc/c.png: no file"),
+    (["demo", "disks", "--out", "/proc/d.gif"], "--out /proc/d.gif: no file"),
+    (["demo", "disks", "--json", "/proc/d.json"], "--json /proc/d.json: no file"),
+])
+def test_an_output_that_cannot_be_written_is_refused_first(args, message, capsys, tmp_path,
+                                                            monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    started = time.monotonic()
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert time.monotonic() - started < 2.0  # before Taichi compiles anything
+
+
+@pytest.mark.parametrize("args, message", [
+    (["run", "vibrating-string", "--json", "c.npz", "--checkpoint", "c.npz"],
+     "--checkpoint c.npz names the same file as --json"),
+    (["run", "vibrating-string", "--json", "r.out", "--csv", "r.out"], "--csv r.out names the same file as --json"),
+    (["run", "vibrating-string", "--json", "r.png", "--plot", "r.png"], "--plot r.png names the same file as --json"),
+])
+def test_outputs_that_name_one_file_are_refused(args, message, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(args) == 2
+    assert message in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+@pytest.mark.parametrize("option", ["--json", "--checkpoint"])
+def test_a_scene_files_output_may_not_overwrite_it(option, capsys, tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text((ROOT / "examples" / "vibrating_string.toml").read_text())
+    before = scene.read_text()
+    assert _cli("run", scene, option, scene) == 2
+    err = capsys.readouterr().err
+    assert "names the" in err and "scene file" in err
+    assert scene.read_text() == before
+
+
+def test_a_toml_option_value_is_not_a_scene_file(tmp_path, monkeypatch):
+    """`timpm run vibrating-string --elements 4 --json out.toml`: a problem run whose JSON
+    happens to end in .toml (issue 35, 9)."""
+    monkeypatch.chdir(tmp_path)
+    assert _cli("run", "vibrating-string", "--elements", 4, "--json", "out.toml", "--quiet") == 0
+    assert json.loads((tmp_path / "out.toml").read_text())["runs"][0]["elements"] == 4
+
+
+def test_a_resume_may_not_overwrite_its_checkpoint_with_the_record(tmp_path, capsys):
+    saved = tmp_path / "c.npz"
+    assert _cli("run", "vibrating-string", "--quiet", "--checkpoint", saved) == 0
+    assert _cli("resume", saved, "--t-end", 0.2, "--json", saved) == 2
+    assert "the checkpoint resumed" in capsys.readouterr().err
+    assert load_checkpoint(saved)["step"] > 0
+
+
+# ---- the step count before any kernel ----------------------------------------------------
+@pytest.mark.parametrize("key, value, message", [
+    ("simulation.t_end", 1e300, "more than the 1e+08 a run may take"),
+    ("simulation.dt", 1e-300, "more than the 1e+08 a run may take"),
+])
+def test_huge_step_counts_are_refused_before_taichi(key, value, message, capsys):
+    started = time.monotonic()
+    assert _cli("run", ROOT / "examples" / "disks.toml", "--set", f"{key}={value!r}",
+                "--set", "domain.cells=16", "--set", "output.gif=") == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and "set_arg_int" not in err
+    assert "--allow-many-steps" in err
+    assert time.monotonic() - started < 5.0
+
+
+def test_the_scene_file_command_takes_allow_many_steps(capsys):
+    # accepted as an option (the run itself is then refused as zero-length, not parsed away)
+    assert _cli("run", ROOT / "examples" / "disks.toml", "--allow-many-steps", "--t-end",
+                1e-12, "--set", "output.gif=") == 2
+    assert "the run would take no step" in capsys.readouterr().err
+
+
+def test_a_zero_step_world_run_is_refused(capsys):
+    assert _cli("run", ROOT / "examples" / "disks.toml", "--t-end", 1e-12,
+                "--set", "output.gif=") == 2
+    err = capsys.readouterr().err
+    assert "shorter than half a step" in err and "t_end = 1e-12 s" in err
+
+
+# ---- temporary names, stale frames ---------------------------------------------------------
+def test_two_writers_of_one_file_never_leave_it_half_written(tmp_path):
+    """Each writer has its own temporary file: no FileNotFoundError, and a reader always
+    parses a whole document (issue 35, 8)."""
+    target = tmp_path / "r.json"
+    errors = []
+
+    def writer(k):
+        try:
+            for i in range(200):
+                write_json(target, {"writer": k, "i": i, "pad": "x" * 2000})
+        except Exception as exc:  # noqa: BLE001 - any failure is the finding
+            errors.append(exc)
+
+    threads = [threading.Thread(target=writer, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    reads = 0
+    while any(t.is_alive() for t in threads):
+        if target.exists():
+            json.loads(target.read_text())
+            reads += 1
+    for t in threads:
+        t.join()
+    assert not errors and reads > 0
+    assert [p.name for p in tmp_path.iterdir()] == ["r.json"]  # no temporary file left
+
+
+def test_a_failed_write_names_its_file_and_leaves_nothing(tmp_path):
+    target = tmp_path / "out.bin"
+    with pytest.raises(OutputError, match=f"could not write {target}"):
+        with replacing(target) as tmp:
+            raise OSError(28, "No space left on device")
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_new_field_series_replaces_an_older_longer_one(tmp_path):
+    frames = tmp_path / "f"
+    assert _cli("run", "vibrating-string", "--quiet", "--npz", frames, "--frames", 8) == 0
+    assert len(list(frames.glob("particles_*.npz"))) == 9
+    assert _cli("run", "vibrating-string", "--quiet", "--npz", frames, "--frames", 3) == 0
+    assert sorted(p.name for p in frames.iterdir()) == [f"particles_{i:05d}.npz" for i in range(4)]
+
+
+def test_output_checks_directly():
+    with pytest.raises(ValueError, match="--x needs a file name"):
+        check_output("", "--x")
+    with pytest.raises(ValueError, match="--b a.json names the same file as the input"):
+        check_distinct({"--b": "a.json"}, {"the input": "./a.json"})
+
+
+# ---- signals -------------------------------------------------------------------------------
+@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
+def test_sigterm_and_sighup_stop_a_run_like_ctrl_c(tmp_path, sig, code):
+    """A batch scheduler's SIGTERM (or a closed terminal's SIGHUP): the run stops at a step
+    boundary, writes its checkpoint and partial record, exits 128 + the signal, and the
+    checkpoint resumes."""
+    saved, record = tmp_path / "run.npz", tmp_path / "run.json"
+    run = subprocess.Popen(
+        [sys.executable, "-m", "timpm", "run", "vibrating-string", "--t-end", "1e5",
+         "--allow-many-steps", "--checkpoint", str(saved), "--checkpoint-every", "20000",
+         "--json", str(record)],
+        env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=_default_signals)
+    with _killed_at_exit(run):
+        deadline = time.monotonic() + 120
+        while not saved.exists():
+            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+            time.sleep(0.1)
+        run.send_signal(sig)
+        out, err = run.communicate(timeout=60)
+    assert run.returncode == code, err
+    assert "Traceback" not in err and f"interrupted by {signal.Signals(sig).name} at step" in err
+    partial = json.loads(record.read_text())["runs"][0]
+    ckpt = load_checkpoint(saved)
+    assert partial["interrupted"] is True and partial["steps"] == ckpt["step"] > 0
+    assert _cli("resume", saved, "--t-end", ckpt["t"] + 0.01, "--quiet") == 0
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # a zombie has died already (it waits for a parent that is gone or busy)
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
+def test_sweep_workers_die_with_their_parent(sig):
+    """Killing a --workers 2 sweep's main process leaves no worker alive 10 s later (they
+    held the caller's stdout open, so a pipeline hung)."""
+    run = subprocess.Popen(
+        [sys.executable, "-m", "timpm", "convergence", "vibrating-string", "--basis",
+         "bspline2", "--mass", "consistent", "--elements", "32", "64", "128", "256", "512",
+         "--t-end", "8", "--workers", "2"],
+        env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=_default_signals)
+    with _killed_at_exit(run):
+        deadline = time.monotonic() + 120
+        children = []
+        while len(children) < 2:
+            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+            time.sleep(0.2)
+            children = [int(p) for p in Path(f"/proc/{run.pid}/task/{run.pid}/children")
+                        .read_text().split()]
+        time.sleep(1.0)
+        run.send_signal(sig)
+        run.communicate(timeout=60)
+    deadline = time.monotonic() + 10
+    while any(_alive(p) for p in children) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not any(_alive(p) for p in children)
