@@ -252,3 +252,31 @@ def test_sweep_workers_die_with_their_parent(sig):
     while any(_alive(p) for p in children) and time.monotonic() < deadline:
         time.sleep(0.2)
     assert not any(_alive(p) for p in children)
+
+
+# ---- messages that say what to fix -----------------------------------------------------------
+@pytest.mark.parametrize("text, message", [
+    ('[problem]\nname = "vibrating-string"\nparams = { E = "stiff" }\n',
+     'problem.params.E: expected a number, got "stiff" (a string)'),
+    ('[problem]\nname = ""\n', "problem.name: expected a name, got an empty string (one of"),
+    ('[problem]\nname = "vibrating-string"\nparams = { E = ' + "[" * 3000 + "]" * 3000 + " }\n",
+     "nested too deeply"),
+])
+def test_scene_file_messages_say_what_to_fix(tmp_path, capsys, text, message):
+    f = tmp_path / "s.toml"
+    f.write_text(text)
+    assert _cli("run", f) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and "ufunc" not in err
+
+
+def test_a_byte_order_mark_is_read_past(tmp_path):
+    f = tmp_path / "bom.toml"
+    f.write_bytes(b"\xef\xbb\xbf" + (ROOT / "examples" / "vibrating_string.toml").read_bytes())
+    assert _cli("run", f, "--quiet", "--t-end", 0.002) == 0
+
+
+def test_a_demo_png_directory_that_cannot_be_made_is_named(capsys):
+    assert _cli("demo", "disks", "--out", "/tmp/timpm-d.gif", "--png-dir", "/proc/frames") == 2
+    err = capsys.readouterr().err
+    assert "--png-dir /proc/frames" in err and "Traceback" not in err

@@ -129,7 +129,7 @@ def _check_output_files(args, inputs=None):
     """--json, --csv, --plot, --out, --checkpoint: each writable (its directory probed, the
     plot's format known), no two naming one file or an input (``inputs``: what -> path),
     before any work."""
-    from .files import PLOT_FORMATS, check_distinct, check_output
+    from .files import PLOT_FORMATS, check_distinct, check_output, check_output_dir
 
     outputs = {}
     for flag in ("json", "csv", "plot", "out", "checkpoint"):
@@ -144,6 +144,8 @@ def _check_output_files(args, inputs=None):
                              "empty one")
         if value:
             outputs[f"--{flag.replace('_', '-')}"] = value
+    if getattr(args, "png_dir", None):
+        check_output_dir(args.png_dir, "--png-dir")
     check_distinct(outputs, inputs)
 
 

@@ -324,7 +324,9 @@ class GifWriter:
             raise ValueError(f"every frame must have the first one's size {self._size}, got {frame.shape[:2]}")
         image = Image.fromarray(np.ascontiguousarray(frame))
         if self.png_dir is not None:
-            image.save(self.png_dir / f"frame_{len(self._frames):04d}.png")
+            # under a unique temporary name, then renamed: Ctrl-C leaves no half frame
+            with replacing(self.png_dir / f"frame_{len(self._frames):04d}.png", ".png") as tmp:
+                image.save(tmp, format="PNG")
         self._frames.append(self._indexed(image))
         self.seconds += time.perf_counter() - t0
 

@@ -79,11 +79,14 @@ def _problem_scene(reader, data, path) -> SceneFile:
     cls = PROBLEMS[opts.pop("name")]
     params = opts.pop("params", {})
     known = [f.name for f in fields(cls)]
-    for name in params:
+    for name, value in params.items():
         if name not in known:
             raise reader.error(("problem", "params", name),
                                f"{cls.name} has no parameter {name!r}{suggest(name, known)}: "
                                f"its parameters are {', '.join(known)}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise reader.error(("problem", "params", name),
+                               f"expected a number, got {describe(value)}")
     try:
         cls().with_params(**params)
     except (ValueError, TypeError) as err:

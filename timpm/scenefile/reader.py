@@ -49,6 +49,9 @@ class Reader:
         """``value`` of ``key`` checked (type, choices, vector length, ``check``)."""
         expected, test = TYPES.get(key.type, (None, None))
         if test is not None and not test(value):
+            if value == "" and key.type == "string":
+                raise self.error(path, "expected a name, got an empty string"
+                                 + (f" (one of {', '.join(key.choices)})" if key.choices else ""))
             raise self.error(path, f"expected {expected}, got {describe(value)}")
         if key.choices and value not in key.choices and key.check is None:
             raise self.error(path, f"unknown value {value!r}{suggest(value, key.choices)}: "
@@ -139,8 +142,13 @@ def read_toml(path):
         text = path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as err:
         raise ValueError(f"{path}: not UTF-8 text ({err.reason} at byte {err.start})") from None
+    if text.startswith("\ufeff"):  # a byte-order mark (some Windows editors write one)
+        text = text[1:]
     try:
         return text, tomllib.loads(text)
+    except RecursionError:
+        raise ValueError(f"{path}: invalid TOML: arrays or tables nested too deeply (a "
+                         "scene file needs a few levels)") from None
     except tomllib.TOMLDecodeError as err:
         message = str(err)
         m = re.search(r"\s*\(at line (\d+), column (\d+)\)$", message)
