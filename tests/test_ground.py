@@ -8,6 +8,8 @@ import pytest
 from timpm import Body, Box, K0, MohrCoulomb, Polygon, Prism, World
 from timpm.geostatic import geostatic_stress, jaky_k0, vertical_stress
 
+ROOT_EXAMPLES = __import__("pathlib").Path(__file__).resolve().parent.parent / "examples"
+
 SLOPE = [(0.0, 0.0), (40.0, 0.0), (40.0, 10.0), (30.0, 10.0), (10.0, 20.0), (0.0, 20.0)]
 
 
@@ -177,3 +179,78 @@ def test_a_polygon_outside_the_domain_is_refused():
     with pytest.raises(ValueError, match=r"body 0 \('slope'\): Polygon.*extends outside the domain"):
         World(domain=(30.0, 25.0), cells=30, basis="linear", transfer="musl",
               bodies=[Body(Polygon(SLOPE), _soil(), name="slope")])
+
+
+# ---- gravity loading -----------------------------------------------------------------------
+def _layer(initial_stress, **kw):
+    return World(domain=(4.0, 12.0), cells=8, basis="linear", transfer="musl",
+                 bodies=[Body(Box((0.0, 0.0), (4.0, 10.0)), _soil(**kw))],
+                 walls={"default": "roller", "bottom": "sticky", "top": None},
+                 initial_stress=initial_stress)
+
+
+def test_gravity_loading_brings_a_layer_to_rest_under_its_weight():
+    """The damped run under gravity comes to rest; its stresses carry the weight (the
+    integral of sigma_yy over the layer is the weight's first moment, rho g W H^2 / 2, a
+    global balance) and, an elastic confined layer, sigma_h = nu / (1 - nu) sigma_v (not
+    Jaky's K0: gravity loading of an elastic layer gives the elastic ratio)."""
+    from timpm import GravityLoading, gravity_loading
+
+    w = _layer(GravityLoading())
+    loaded, record = gravity_loading(w)
+    assert record["at_rest"] and record["kinetic_ratio"] <= 1e-7
+    assert 0.0 < record["settlement"] < 0.02  # of order rho g H^2 / (2 E) = 0.01 m
+    sig, vol = loaded.model.initial_stress, loaded.model.volume
+    moment = 2000.0 * 9.81 * 4.0 * 10.0 ** 2 / 2
+    assert -(sig[:, 1, 1] * vol).sum() == pytest.approx(moment, rel=0.01)
+    assert np.median(sig[:, 0, 0] / sig[:, 1, 1]) == pytest.approx(0.3 / 0.7, rel=1e-4)
+    assert np.median(sig[:, 2, 2] / sig[:, 1, 1]) == pytest.approx(0.3 / 0.7, rel=1e-4)
+    # the loaded world starts from those stresses at its drawn positions
+    np.testing.assert_array_equal(loaded.model.positions, w.model.positions)
+
+
+def test_a_world_that_asks_for_gravity_loading_is_not_run_stress_free():
+    from timpm import GravityLoading
+    from timpm.solver import Solver
+
+    with pytest.raises(ValueError, match="run it first, world, record = timpm.gravity_loading"):
+        Solver(_layer(GravityLoading()))
+
+
+def test_gravity_loading_that_cannot_rest_is_refused():
+    """A soil without the strength to stand as drawn (a tall vertical cut) keeps moving."""
+    from timpm import GravityLoading, gravity_loading
+
+    w = World(domain=(8.0, 12.0), cells=8, basis="linear", transfer="musl",
+              bodies=[Body(Box((0.0, 0.0), (2.0, 10.0)), _soil(cohesion=0.0))],
+              walls={"default": "roller", "bottom": "sticky", "top": None, "right": None},
+              initial_stress=GravityLoading(t_max=0.5))
+    with pytest.raises(ValueError, match="did not come to rest within t_max = 0.5 s"):
+        gravity_loading(w)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(damping=1.5), "damping must lie in"), (dict(t_max=-1.0), "t_max must be"),
+    (dict(tolerance=0.0), "tolerance must lie in")])
+def test_gravity_loading_settings_are_checked(kwargs, message):
+    from timpm import GravityLoading
+
+    with pytest.raises(ValueError, match=message):
+        GravityLoading(**kwargs)
+
+
+def test_a_scene_file_chooses_gravity_loading(tmp_path):
+    from timpm.scenefile import load_scene, run_scene
+
+    text = (ROOT_EXAMPLES / "slope_griffiths_lane.toml").read_text().replace(
+        '[initial_stress]\nkind = "k0"', '[initial_stress]\nkind = "gravity"\ndamping = 0.7')
+    f = tmp_path / "slope.toml"
+    f.write_text(text)
+    scene = load_scene(f, {"domain.cells": 30, "simulation.t_end": 0.02})
+    assert scene.world.initial_stress.damping == 0.7
+    result = run_scene(scene)
+    assert result.steps > 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("damping = 0.7", "damping = 0.7\nk0 = 0.5"))
+    with pytest.raises(ValueError, match=r"initial_stress\.k0: kind = 'gravity' takes damping"):
+        load_scene(bad)

@@ -25,7 +25,7 @@ LAYERS = (
     ("timpm.scene", "timpm.world", "timpm.basis", "timpm.materials*", "timpm.model*",
      "timpm.walls", "timpm.engine*", "timpm.errors", "timpm.checks", "timpm.loads",
      "timpm.geometry", "timpm.geostatic"),
-    ("timpm.solver", "timpm.batch", "timpm.checkpoint"),
+    ("timpm.solver", "timpm.batch", "timpm.checkpoint", "timpm.loading"),
     ("timpm.problems*", "timpm.scenarios*"),
     ("timpm.studies*",),
     ("timpm.output*",),

@@ -18,7 +18,8 @@ from .materials import (DruckerPrager, LinearElastic, MohrCoulomb, NeoHookean,
 from .solver import SimulationError, Solver
 from .batch import Batch
 from .world import Ball, Body, Box, Points, Polygon, Prism, Wall, World
-from .geostatic import K0
+from .geostatic import K0, GravityLoading
+from .loading import gravity_loading
 from .model import Model
 
 __version__ = "0.1.0"
@@ -28,6 +29,6 @@ __all__ = [
     "Material", "Ramp", "Scene", "Sine", "Traction", "critical_time_step",
     "equidistant_particles",
     "SimulationError", "Solver", "Batch", "__version__", "World", "Body", "Box", "Ball", "Wall",
-    "Points", "Polygon", "Prism", "K0", "Model", "LinearElastic", "NeoHookean", "DruckerPrager", "MohrCoulomb",
+    "Points", "Polygon", "Prism", "K0", "GravityLoading", "gravity_loading", "Model", "LinearElastic", "NeoHookean", "DruckerPrager", "MohrCoulomb",
     "WeaklyCompressibleFluid", "get_material",
 ]

@@ -11,13 +11,12 @@ On a sloping surface this is the K0 procedure of finite-element practice: not in
 equilibrium near the slope (the shear the slope needs is missing), so a slope starts with
 small motions that settle; on level ground it is the exact geostatic state.
 """
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["K0", "geostatic_stress", "jaky_k0", "vertical_stress"]
+__all__ = ["K0", "GravityLoading", "geostatic_stress", "jaky_k0", "vertical_stress"]
 
 #: samples per column of the weight integral (midpoint rule between the top and the
 #: lowest particle); the relative error of a layer's sigma_v is below 1 / SAMPLES
@@ -41,6 +40,30 @@ class K0:
                 raise ValueError(f"K0: k0 must lie in (0, 1] (sigma_h / sigma_v of ground at "
                                  f"rest, normally consolidated), got {self.k0!r}")
             object.__setattr__(self, "k0", k)
+
+
+@dataclass(frozen=True)
+class GravityLoading:
+    """Gravity loading as a scene's initial stress (run by :func:`timpm.loading.gravity_loading`,
+    which a Solver calls for a world that asks for it): ``damping`` the local damping factor
+    of the loading run, ``t_max`` its longest time (None: 40 times the time a P-wave takes
+    across the ground's height), ``tolerance`` the kinetic energy at rest per unit of the
+    weight times the height."""
+
+    damping: float = 0.6
+    t_max: float | None = None
+    tolerance: float = 1e-7
+
+    def __post_init__(self):
+        if not (isinstance(self.damping, (int, float)) and 0.0 < self.damping < 1.0):
+            raise ValueError(f"gravity loading: damping must lie in (0, 1), got {self.damping!r}")
+        if self.t_max is not None and not (isinstance(self.t_max, (int, float))
+                                           and 0.0 < self.t_max < math.inf):
+            raise ValueError(f"gravity loading: t_max must be a positive time, got "
+                             f"{self.t_max!r}")
+        if not (isinstance(self.tolerance, (int, float)) and 0.0 < self.tolerance < 1.0):
+            raise ValueError(f"gravity loading: tolerance must lie in (0, 1), got "
+                             f"{self.tolerance!r}")
 
 
 def jaky_k0(material) -> float:

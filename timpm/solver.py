@@ -23,6 +23,7 @@ from . import interrupt, runtime
 from .checks import (check_steps, index, is_whole, matrices, solver_options, step_count,
                      whole)
 from .engine.failures import energy_balance, recorded_failure
+from .geostatic import GravityLoading
 from .engine.features import SCATTERS, auto_mode, plan
 from .engine.program_cache import program_for, release_state_of
 from .engine.recorder import energy_series, tracked_series
@@ -76,6 +77,10 @@ class Solver:
             history_chunk = whole("history_chunk", history_chunk)
         solver_options(energies, energy_guard, serial_threshold, small_mass)
         runtime.ensure_init()
+        if isinstance(getattr(scene, "initial_stress", None), GravityLoading):
+            raise ValueError("this world starts from its gravity loading: run it first, "
+                             "world, record = timpm.gravity_loading(world) (scene files and "
+                             "the factor-of-safety study do), then Solver(world)")
         self._generation = runtime.generation()  # the Taichi start that holds the fields
         self.check_every = check_every
         self.features, self.layout = plan(

@@ -22,7 +22,7 @@ import numpy as np
 from .basis import get_basis
 from .checks import check_size, positive as _positive, positive_int, vector as _vector
 from .geometry import Polygon, Prism
-from .geostatic import K0, geostatic_stress, jaky_k0
+from .geostatic import K0, GravityLoading, geostatic_stress, jaky_k0
 from .loads import field_function
 from .materials import MATERIALS, Material, get_material
 from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Wall, check_scheme,
@@ -223,8 +223,9 @@ class World:
     above the limit is refused unless ``allow_unstable_dt``.  ``integrator``: the time
     integration (``timpm.model.INTEGRATORS``; rk4 takes roller and sticky walls only).
     ``initial_stress``: :class:`~timpm.geostatic.K0` (the K0 procedure: the weight of the
-    bodies above each particle, sigma_h = K0 sigma_v), an (n, 3, 3) array of Cauchy
-    stresses, or None (stress-free).
+    bodies above each particle, sigma_h = K0 sigma_v), :class:`~timpm.geostatic.
+    GravityLoading` (a damped run under gravity to rest, which the Solver makes first), an
+    (n, 3, 3) array of Cauchy stresses, or None (stress-free).
     """
 
     domain: tuple
@@ -309,6 +310,8 @@ class World:
         """The particles' initial stresses: a :class:`~timpm.geostatic.K0` procedure's
         geostatic stress, or the (n, 3, 3) array given (None: stress-free)."""
         spec = self.initial_stress
+        if isinstance(spec, GravityLoading):
+            return None  # computed by a loading run (timpm.loading), stress-free before it
         if not isinstance(spec, K0):
             return spec
         if dim == 1:

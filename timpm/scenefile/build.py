@@ -9,7 +9,7 @@ from ..loads import Ramp, SurfaceTraction
 from ..materials import MATERIALS, get_material
 from ..model import SIDES
 from ..problems import PROBLEMS
-from ..geostatic import K0
+from ..geostatic import K0, GravityLoading
 from ..world import PRESETS, Ball, Body, Box, Polygon, Prism, Wall, World
 from .keypaths import key_lines, parse_path
 from .reader import Reader, apply_overrides, describe, read_toml, suggest
@@ -260,10 +260,17 @@ def _world_scene(reader, data, path) -> SceneFile:
         spec = reader.table(("initial_stress",), data["initial_stress"], INITIAL_STRESS)
         if "kind" not in spec:
             raise reader.error(("initial_stress",), "missing required key 'kind' (k0)")
+        given = [k for k in ("k0", "damping", "t_max", "tolerance") if k in spec]
+        wrong = [k for k in given if (k == "k0") != (spec["kind"] == "k0")]
+        if wrong:
+            raise reader.error(("initial_stress", wrong[0]), f"kind = {spec['kind']!r} takes "
+                               + ("k0" if spec["kind"] == "k0" else "damping, t_max and "
+                                  "tolerance") + f", not {wrong[0]}")
         try:
-            initial = K0(spec.get("k0"))
+            initial = (K0(spec.get("k0")) if spec["kind"] == "k0" else
+                       GravityLoading(**{k: spec[k] for k in given}))
         except ValueError as err:
-            raise reader.error(("initial_stress", "k0"), str(err)) from None
+            raise reader.error(("initial_stress",), str(err)) from None
     if output["gif"] is not None and dim == 1:
         raise reader.error(("output", "gif"), "a 1D world draws no GIF")
     name = sim.get("name", path.stem)

@@ -218,6 +218,14 @@ def _run_world(scene, fields_writer, movie, progress, checkpoint, run,
     if steps == 0:
         raise scene.error(("simulation", "t_end"), f"t_end = {t_end:g} s is shorter than half "
                           f"a step (dt = {world.dt:g} s): the run would take no step")
+    from ..geostatic import GravityLoading
+    from ..loading import gravity_loading
+
+    if isinstance(world.initial_stress, GravityLoading):  # the stresses of a loading run
+        try:
+            world, _ = gravity_loading(world, progress=None)
+        except ValueError as err:
+            raise scene.error(("initial_stress",), str(err)) from None
     run = {**run, "mode": scene.mode,
            "record_every": max(1, int(round(t_end / world.dt / 200)))}
     solver = Solver(world, mode=scene.mode, energies=True, record_every=run["record_every"])

@@ -126,9 +126,15 @@ SHAPE_KEYS = {"box": ("lo", "hi"), "ball": ("center", "radius"), "polygon": ("ve
 
 INITIAL_STRESS = {
     "kind": Key("string", doc="k0: the K0 procedure (sigma_v the weight above, sigma_h = "
-                "K0 sigma_v)", choices=("k0",)),
-    "k0": Key("positive", None, doc="sigma_h / sigma_v (default: each material's Jaky 1 - "
-              "sin phi, nu / (1 - nu) without friction)"),
+                "K0 sigma_v); gravity: a damped run under gravity to rest (MUSL, local "
+                "damping), its stresses kept", choices=("k0", "gravity")),
+    "k0": Key("positive", None, doc="(k0) sigma_h / sigma_v (default: each material's Jaky "
+              "1 - sin phi, nu / (1 - nu) without friction)"),
+    "damping": Key("fraction", 0.6, doc="(gravity) the loading run's local damping factor"),
+    "t_max": Key("positive", None, "s", "(gravity) its longest time (default: 40 P-wave "
+                 "crossings of the ground's height)"),
+    "tolerance": Key("fraction", 1e-7, doc="(gravity) at rest: kinetic energy below this "
+                     "share of the weight times the height"),
 }
 
 LOADS = {

@@ -38,7 +38,7 @@ class ElementTest:
     """A material point of one law in ``dim`` dimensions (the particle state the law's
     ``update`` reads: ``F``, ``plastic``, ``ezz``, ``m``, ``vol``), driven by velocity
     gradients.  ``trial(grad)`` applies one increment to the committed state and returns
-    the Cauchy stress; ``commit()`` keeps it."""
+    sigma_xx; ``commit()`` keeps it and returns the state."""
 
     def __init__(self, material, dim):
         from ..engine.params import ParamBlock
@@ -50,7 +50,7 @@ class ElementTest:
         d, real = dim, float
         fb = ti.FieldsBuilder()
         block = ParamBlock({"m0": {name: "real" for name in material.CONSTANTS}}, real, fb)
-        block.set("m0", material.constants(1.0))
+        self._block = block
         unit = type(material).unit(material.flags(), block.groups["m0"])
         # entry 0: the committed state; entry 1: an increment tried from it
         self.F, self.F_total = ti.Matrix.field(d, d, real), ti.Matrix.field(d, d, real)
@@ -59,13 +59,19 @@ class ElementTest:
         self.ezz = ti.field(real)
         fb.dense(ti.i, 2).place(self.F, self.F_total, self.sigma, self.m, self.vol,
                                 self.plastic, self.ezz)
+        # the committed state packed for one read: sigma, F_total, F (d x d each), plastic,
+        # ezz, V / V0
+        self.pack = ti.field(real)
+        fb.dense(ti.i, 3 * d * d + 3).place(self.pack)
         self._tree = fb.finalize()
-        block.upload()
+        self.set_material(material)
         self.needs = material.needs
         s = self
 
         @ti.kernel
-        def trial(grad: ti.types.matrix(d, d, real)):
+        def trial(grad: ti.types.matrix(d, d, real)) -> real:
+            # the increment from the committed state; returns sigma_xx
+            sxx = 0.0
             for _ in range(1):
                 s.F[1] = s.F[0]
                 s.plastic[1] = s.plastic[0]
@@ -73,9 +79,12 @@ class ElementTest:
                 s.F_total[1] = (ti.Matrix.identity(real, d) + grad) @ s.F_total[0]
                 s.vol[1] = s.m[1] / unit.c.density() * s.F_total[1].determinant()
                 s.sigma[1] = unit.update(s, 1, grad, s.sigma[0])
+                sxx = s.sigma[1][0, 0]
+            return sxx
 
         @ti.kernel
         def commit():
+            # the tried increment kept, and packed for one read
             for _ in range(1):
                 s.F[0] = s.F[1]
                 s.F_total[0] = s.F_total[1]
@@ -83,12 +92,41 @@ class ElementTest:
                 s.ezz[0] = s.ezz[1]
                 s.vol[0] = s.vol[1]
                 s.sigma[0] = s.sigma[1]
+                for i, j in ti.static(ti.ndrange(d, d)):
+                    s.pack[i * d + j] = s.sigma[0][i, j]
+                    s.pack[d * d + i * d + j] = s.F_total[0][i, j]
+                    s.pack[2 * d * d + i * d + j] = s.F[0][i, j]
+                s.pack[3 * d * d] = s.plastic[0]
+                s.pack[3 * d * d + 1] = s.ezz[0]
+                s.pack[3 * d * d + 2] = s.vol[0] * unit.c.density() / s.m[0]
 
         self._trial, self._commit = trial, commit
 
     @ti.func
     def accumulate(self, ref: ti.template(), value):
         ref += value
+
+    #: the points built in this process, by (law, its compile-time flags, dimension): a
+    #: law's constants are run-time values, so one compiled point serves every sample
+    _BUILT = {}
+
+    @classmethod
+    def of(cls, material, dim):
+        """A point of ``material`` in ``dim`` dimensions, compiled once per law and flags."""
+        key = (type(material), material.flags(), dim)
+        point = cls._BUILT.get(key)
+        if point is None or point._generation != _generation():
+            point = cls._BUILT[key] = cls(material, dim)
+        else:
+            point.set_material(material)
+        return point
+
+    def set_material(self, material):
+        """This point's law takes ``material``'s constants (same law and flags)."""
+        self.material = material
+        self._block.set("m0", material.constants(1.0))
+        self._block.upload()
+        self._generation = _generation()
 
     def start(self, confinement):
         """The sample under the pressure ``confinement`` all round, the reference
@@ -104,15 +142,17 @@ class ElementTest:
         self.plastic.from_numpy(np.zeros(2))
         self.ezz.from_numpy(np.full(2, e))
 
-    def trial(self, grad):
-        self._trial(np.asarray(grad, dtype=float))
-        return self.sigma.to_numpy()[1]
+    def trial(self, grad) -> float:
+        """sigma_xx after the increment ``grad`` from the committed state."""
+        return float(self._trial(np.asarray(grad, dtype=float)))
 
-    def commit(self):
+    def commit(self) -> dict:
+        """Keep the tried increment; returns the committed state (one read)."""
         self._commit()
-
-    def state(self):
-        return {"F_total": self.F_total.to_numpy()[0], "plastic": float(self.plastic.to_numpy()[0])}
+        a, d = self.pack.to_numpy(), self.dim
+        return {"sigma": a[:d * d].reshape(d, d), "F_total": a[d * d:2 * d * d].reshape(d, d),
+                "F": a[2 * d * d:3 * d * d].reshape(d, d), "plastic": float(a[3 * d * d]),
+                "ezz": float(a[3 * d * d + 1])}
 
 
 #: the laws an element test takes (their classes take the DEFAULTS' material names)
@@ -150,7 +190,7 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
                    dilation_angle=p["dilation_angle"])
     dim = ELEMENT_TESTS[test]
     t0 = time.perf_counter()
-    point = ElementTest(material, dim)
+    point = ElementTest.of(material, dim)
     point.start(confinement)
     lateral = [0] if dim == 2 else [0, 2]  # the axes held at -confinement; y is axial
     stretch = math.exp(-axial / n) - 1.0  # the axial log strain in equal steps
@@ -159,24 +199,25 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
     eps_a, q, mean, vol, plastic = [0.0], [0.0], [confinement], [0.0], [0.0]
     # the plastic parts of the axial shortening and of ln J: the total less the change of
     # the elastic log strains (coaxial: F_e stays diagonal)
-    e0 = _elastic_log_strains(point)
+    e0 = _elastic_log_strains(point.dim, {"F": point.F.to_numpy()[0],
+                                          "ezz": float(point.ezz.to_numpy()[0])})
     plastic_axial, plastic_volume = [0.0], [0.0]
     tol = 1e-10 * max(confinement, material.cohesion, 1.0)
     for k in range(n):
         def residual(x):  # sigma_xx + p after the increment with lateral stretch x
-            return point.trial(_increment(dim, stretch, lateral, x))[0, 0] + confinement
+            return point.trial(_increment(dim, stretch, lateral, x)) + confinement
 
         # the lateral stretch that holds sigma_xx = -p (the residual rises with it,
         # piecewise smooth): bracketed from a step of the elastic stiffness, then the
         # Illinois false position
         a = _root(residual, a, stiff, tol, f"{test}: increment {k}")
-        sig = point.trial(_increment(dim, stretch, lateral, a))
-        point.commit()
-        state = point.state()
+        point.trial(_increment(dim, stretch, lateral, a))
+        state = point.commit()
+        sig = state["sigma"]
         J = float(np.linalg.det(state["F_total"]))
         eps_a.append(-math.log(state["F_total"][1, 1]))
         q.append(float(sig[0, 0] - sig[1, 1]))  # sigma_1 - sigma_3 (compression positive)
-        e = _elastic_log_strains(point)
+        e = _elastic_log_strains(dim, state)
         plastic_axial.append(eps_a[-1] + (e[1] - e0[1]))
         plastic_volume.append(math.log(J) - (e.sum() - e0.sum()))
         total = float(np.trace(sig))
@@ -236,6 +277,11 @@ def _root(fn, x0, slope, tol, where):
     raise RuntimeError(f"{where}: the lateral stress did not settle")
 
 
+def _generation():
+    from .. import runtime
+    return runtime.generation()
+
+
 def _increment(dim, axial, lateral, x):
     """The velocity gradient times dt of an increment: ``axial`` along y, ``x`` along the
     lateral axes."""
@@ -246,13 +292,13 @@ def _increment(dim, axial, lateral, x):
     return grad
 
 
-def _elastic_log_strains(point):
-    """The committed elastic log strains along x, y, z (coaxial loading: F_e diagonal; in
-    2D the out-of-plane one from ``ezz``)."""
-    F = point.F.to_numpy()[0]
-    e = [math.log(F[k, k]) for k in range(point.dim)]
-    if point.dim == 2:
-        e.append(float(point.ezz.to_numpy()[0]))
+def _elastic_log_strains(dim, state):
+    """The elastic log strains along x, y, z of a committed state (coaxial loading: F_e
+    diagonal; in 2D the out-of-plane one from ``ezz``)."""
+    F = state["F"]
+    e = [math.log(F[k, k]) for k in range(dim)]
+    if dim == 2:
+        e.append(state["ezz"])
     return np.array(e)
 
 

@@ -54,8 +54,18 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     from ..errors import SimulationError
     from ..solver import Solver
 
+    from ..geostatic import GravityLoading
+    from ..loading import gravity_loading
+
     bodies = tuple(replace(b, material=reduced(b.material, F)) for b in world.bodies)
     w = replace(world, bodies=bodies)
+    if isinstance(w.initial_stress, GravityLoading):
+        try:  # the ground loaded under gravity with the reduced strength
+            w, _ = gravity_loading(w)
+        except ValueError as err:  # it did not come to rest: it fails under its weight
+            return {"F": float(F), "stopped": str(err), "failed": True,
+                    "displacement_three_quarters": math.inf, "displacement_end": math.inf,
+                    "creep": math.inf, "creep_limit": creep * _height(world)}
     X = w.model.positions
     s = Solver(w, energies=True, mode=mode)
     out = {"F": float(F), "stopped": None}
