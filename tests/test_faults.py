@@ -280,3 +280,67 @@ def test_a_demo_png_directory_that_cannot_be_made_is_named(capsys):
     assert _cli("demo", "disks", "--out", "/tmp/timpm-d.gif", "--png-dir", "/proc/frames") == 2
     err = capsys.readouterr().err
     assert "--png-dir /proc/frames" in err and "Traceback" not in err
+
+
+def test_a_checkpoint_that_fails_at_the_end_keeps_the_record(tmp_path, capsys, monkeypatch):
+    """The disk fills as the checkpoint is written after the run: the error names the
+    checkpoint, and the JSON record (the result) is written still (issue 35, 1)."""
+    import timpm.checkpoint as ck
+
+    def full(path, *a, **k):
+        raise OutputError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(ck, "save_checkpoint", full)
+    monkeypatch.setattr("timpm.studies.study.save_checkpoint", full, raising=False)
+    record, saved = tmp_path / "r.json", tmp_path / "c.npz"
+    assert _cli("run", "vibrating-string", "--quiet", "--json", record, "--checkpoint", saved) == 2
+    err = capsys.readouterr().err
+    assert f"could not write {saved}: No space left on device; the record is in {record}" in err
+    assert json.loads(record.read_text())["runs"][0]["steps"] > 0
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("output.json", "/proc/x.json", "output.json /proc/x.json: no file can be written"),
+    ("output.gif", "/proc/a.gif", "output.gif /proc/a.gif: no file can be written"),
+    ("output.npz", "/proc/frames", "/proc/frames: cannot be created"),
+    ("output.json", "", "output.json"),
+])
+def test_a_scene_files_unwritable_output_is_named(key, value, message, capsys):
+    started = time.monotonic()
+    code = _cli("run", ROOT / "examples" / "disks.toml", "--set", f"{key}={value!r}" if value
+                else f"{key}=\"\"", "--set", "domain.cells=16")
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and "Traceback" not in err
+    assert time.monotonic() - started < 5.0
+
+
+def test_a_scene_files_checkpoint_on_proc_is_refused(capsys):
+    assert _cli("run", ROOT / "examples" / "disks.toml", "--checkpoint", "/proc/x.npz") == 2
+    assert "--checkpoint /proc/x.npz: no file can be written" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--json", "o.json", "--vtk", "o.json"], "names the same file as --json"),
+    (["--npz", "frames.json", "--json", "frames.json"], "names the same file"),
+])
+def test_a_field_directory_may_not_be_another_output(args, message, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert _cli("run", "vibrating-string", *args) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_a_field_directory_that_is_a_file_is_refused(capsys, tmp_path):
+    f = tmp_path / "f.txt"
+    f.write_text("mine")
+    assert _cli("run", "vibrating-string", "--npz", f) == 2
+    assert "is a file, not a directory" in capsys.readouterr().err
+    assert f.read_text() == "mine"
+
+
+@pytest.mark.parametrize("args", [["--out", "d.gif", "--json", "d.gif"],
+                                  ["--out", "d.png", "--plot", "d.png"]])
+def test_demo_outputs_may_not_collide(args, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert _cli("demo", "disks", *args) == 2
+    assert "names the same file as" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())

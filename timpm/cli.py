@@ -330,6 +330,15 @@ def _run(args, start):
             result = start(fields=_field_writer(args), frames=args.frames,
                            checkpoint=args.checkpoint, checkpoint_every=args.checkpoint_every,
                            interrupted_to=args.checkpoint or interrupt.INTERRUPTED_CHECKPOINT)
+    except OSError as exc:  # an output failed after the run: the record is written still
+        kept = getattr(exc, "result", None)
+        if kept is not None and args.json:
+            _write_json(args.json, {"command": args.command, "problem": kept.record["problem"],
+                                    "runs": [kept.record]})
+            from .files import OutputError
+            raise OutputError(exc.errno, f"{exc.strerror}; the record is in {args.json}",
+                              exc.filename) from None
+        raise
     except interrupt.RunInterrupted as stop:
         doc = {"command": args.command, "runs": [stop.result.record]} if stop.result else None
         if doc and args.json:

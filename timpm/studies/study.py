@@ -132,7 +132,11 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
             stop.result.record["interrupted"] = True
             raise
         if checkpoint is not None:
-            save_checkpoint(checkpoint, solver, description)  # the end
+            try:
+                save_checkpoint(checkpoint, solver, description)  # the end
+            except OSError as err:  # the run's record is not lost with its checkpoint
+                err.result = run.result(solver, build_seconds)
+                raise
         return run.result(solver, build_seconds)
     finally:
         solver.release()
