@@ -80,7 +80,7 @@ def _build(programs, every, n_threads, order, status):
             start = 0
             for k in ti.static(range(len(programs))):
                 prog = programs[k]
-                n = prog.p.n_particles()
+                n = prog.values.n_particles()
                 for p in range(n):
                     u[start + p] = prog.u[p][0]
                 start += n

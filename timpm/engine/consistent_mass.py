@@ -19,11 +19,11 @@ class ConsistentMass:
         # consistent mass (A.1): banded LU without pivoting, in place, on one thread; fixed
         # and empty rows become identity rows (their right-hand sides are zeroed)
         b = ti.static(self.bandwidth)
-        nn = self.p.nodes()[0]
+        nn = self.values.nodes()[0]
         for _ in range(1):
             for i in range(nn):
                 self.inactive[i] = 0
-                if self.is_fixed(i) or self.band[i, b] <= self.p.mass_tol():
+                if self.is_fixed(i) or self.band[i, b] <= self.values.mass_tol():
                     self.inactive[i] = 1
                     for k in ti.static(range(2 * b + 1)):
                         self.band[i, k] = 0.0
@@ -35,7 +35,7 @@ class ConsistentMass:
                     self.band[i, b] = 1.0
             for k in range(nn):
                 pivot = self.band[k, b]
-                if ti.abs(pivot) <= self.p.pivot_tol():
+                if ti.abs(pivot) <= self.values.pivot_tol():
                     self.fail(ErrorCode.SINGULAR_MASS, k)
                     pivot = 1.0
                     self.band[k, b] = 1.0
@@ -53,7 +53,7 @@ class ConsistentMass:
     @ti.func
     def _banded_substitute(self, rhs: ti.template()):
         b = ti.static(self.bandwidth)
-        nn = self.p.nodes()[0]
+        nn = self.values.nodes()[0]
         for _ in range(1):
             for i in range(nn):
                 if self.inactive[i]:

@@ -42,7 +42,7 @@ class ConsistentMassCG:
     @ti.func
     def cg_keep_weights(self):
         # the particles' node bases and weights phi_i(x_p) for the mass products of the step
-        for p in range(self.p.n_particles()):
+        for p in range(self.values.n_particles()):
             base, w, dw, xi, inside = self.stencil(p)
             offsets = ti.static(self._cg_offsets())
             phi = ti.Vector.zero(float, len(offsets))
@@ -78,7 +78,7 @@ class ConsistentMassCG:
     def _precondition(self):
         """z = C M_L^-1 r and the sums r . z per component."""
         rz = ti.Vector.zero(float, self.dim)
-        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+        for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
             z = self._held_by_walls(I, self.lumped_solve(I, self.cg_r[I]))
             self.cg_z[I] = z
             rz += self.cg_r[I] * z
@@ -92,7 +92,7 @@ class ConsistentMassCG:
         for _ in range(1):  # one thread: the sums in a fixed order
             # x0 = C M_L^-1 b, the first direction d = x0 (its product gives r0 = C b - M x0)
             b2 = ti.Vector.zero(float, self.dim)
-            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                 b = self._constrained(I, rhs[I])
                 b2 += b * b
                 self.cg_r[I] = b
@@ -102,9 +102,9 @@ class ConsistentMassCG:
             converged = False
             for it in range(CG_MAX_ITERATIONS + 1):
                 # q = C M d: gather s = m_p sum_j phi_j d_j per particle, scatter phi_i s
-                for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                     self.cg_q[I] = ti.Vector.zero(float, self.dim)
-                for p in range(self.p.n_particles()):
+                for p in range(self.values.n_particles()):
                     base, phi = self.cg_base[p], self.cg_phi[p]
                     s = ti.Vector.zero(float, self.dim)
                     for k in ti.static(range(len(offsets))):
@@ -113,24 +113,24 @@ class ConsistentMassCG:
                     for k in ti.static(range(len(offsets))):
                         self.cg_q[base + ti.Vector(offsets[k])] += phi[k] * s
                 dq = ti.Vector.zero(float, self.dim)
-                for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                     self.cg_q[I] = self._constrained(I, self.cg_q[I])
                     dq += self.cg_d[I] * self.cg_q[I]
                 alpha = ti.Vector.zero(float, self.dim)
                 if it == 0:  # r0 = C b - C M x0
-                    for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k]
+                    for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k]
                                                      for k in range(self.dim)])):
                         self.cg_r[I] -= self.cg_q[I]
                 else:  # alpha = r.z / d.q, x += alpha d, r -= alpha q (per component)
                     for k in ti.static(range(self.dim)):
                         if dq[k] > 0.0:
                             alpha[k] = rz[k] / dq[k]
-                    for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k]
+                    for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k]
                                                      for k in range(self.dim)])):
                         self.cg_x[I] += alpha * self.cg_d[I]
                         self.cg_r[I] -= alpha * self.cg_q[I]
                 r2 = ti.Vector.zero(float, self.dim)
-                for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                     r2 += self.cg_r[I] * self.cg_r[I]
                 if (r2 <= tol * tol * b2).all():
                     converged = True
@@ -143,9 +143,9 @@ class ConsistentMassCG:
                         if rz[k] > 0.0:
                             beta[k] = rz_new[k] / rz[k]
                 rz = rz_new
-                for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+                for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                     self.cg_d[I] = self.cg_z[I] + beta * self.cg_d[I]
             if not converged:
                 self.fail(ErrorCode.MASS_SOLVE, 0)
-            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                 rhs[I] = self.cg_x[I]

@@ -36,7 +36,7 @@ class Drivers:
         if first:
             self.err[None] = code
             if ti.static(self.team):  # where: a particle of the thread's block
-                self.err_step[None] = self.rank_step[where // self.p.scatter_block()]
+                self.err_step[None] = self.rank_step[where // self.values.scatter_block()]
             else:
                 self.err_step[None] = self.step_count[None]
             self.err_where[None] = where
@@ -50,7 +50,7 @@ class Drivers:
         halted = False
         if ti.static(self.team):
             halted = (self.err_count[None] != 0 and
-                      self.err_step[None] < self.rank_step[p // self.p.scatter_block()])
+                      self.err_step[None] < self.rank_step[p // self.values.scatter_block()])
         elif ti.static(self.mode != "serial"):
             halted = self.err_count[None] != 0 and self.err_step[None] < self.step_count[None]
         return halted
@@ -93,10 +93,10 @@ class Drivers:
             if ti.static(self.private_scatter and len(phase.merge) > 0):
                 self._merge_copies(phase.merge)
         elif ti.static(phase.kind == "particles"):
-            for p in range(self.p.n_particles()):
+            for p in range(self.values.n_particles()):
                 phase.particle(self, p)
         elif ti.static(phase.kind == "nodes"):
-            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                 phase.node(self, I)
         else:
             phase.body(self)
@@ -105,7 +105,7 @@ class Drivers:
     def _team_steps(self, n_steps):
         self.team_arrived[None] = 0
         self.team_abort[None] = 0
-        B = self.p.scatter_block()
+        B = self.values.scatter_block()
         for q in range(self.n_copies * B):
             if q % B == 0:  # thread q // B of Taichi's static split runs its whole block
                 self._team_member(q // B, n_steps)
@@ -117,10 +117,10 @@ class Drivers:
         between two phases.  After the first barrier every thread reads the same errors
         (the next is written after the next barrier); after the others, a team that did
         not meet."""
-        n_nodes = self.p.node_count()
-        nodes_per_thread = self.p.nodes_per_thread()
-        B = self.p.scatter_block()
-        first, end = c * B, ti.min((c + 1) * B, self.p.n_particles())
+        n_nodes = self.values.node_count()
+        nodes_per_thread = self.values.nodes_per_thread()
+        B = self.values.scatter_block()
+        first, end = c * B, ti.min((c + 1) * B, self.values.n_particles())
         lo, hi = c * nodes_per_thread, ti.min((c + 1) * nodes_per_thread, n_nodes)
         start = self.step_count[None]  # thread 0 changes it only after the last barrier
         arrivals = 0
@@ -155,7 +155,7 @@ class Drivers:
                 break
             if c == 0:
                 self.step_count[None] = start + s + 1
-                self.time[None] = (start + s + 1) * self.p.dt()
+                self.time[None] = (start + s + 1) * self.values.dt()
 
     @ti.func
     def _team_barrier(self, c, target):
@@ -170,7 +170,7 @@ class Drivers:
                     break
                 if spins > TEAM_SPIN_LIMIT:
                     ti.atomic_add(self.team_abort[None], 1)
-                    self.fail(ErrorCode.TEAM_BARRIER, c * self.p.scatter_block())
+                    self.fail(ErrorCode.TEAM_BARRIER, c * self.values.scatter_block())
                     break
 
     @ti.func
@@ -179,6 +179,6 @@ class Drivers:
         I = ti.Vector.zero(ti.i32, self.dim)
         rest = f
         for k in ti.static(range(self.dim - 1, -1, -1)):
-            I[k] = rest % self.p.nodes()[k]
-            rest = rest // self.p.nodes()[k]
+            I[k] = rest % self.values.nodes()[k]
+            rest = rest // self.values.nodes()[k]
         return I

@@ -25,8 +25,8 @@ class GridOps:
         """v_i f(t) of Dirichlet node I at the step's start (t_n) or end (t_n + dt)."""
         t = self.time[None]
         if ti.static(step_end):
-            t += self.p.dt()
-        return self.fixed_v[I] * self.prescribed_fn.at(t, self.p.prescribed_param())
+            t += self.values.dt()
+        return self.fixed_v[I] * self.prescribed_fn.at(t, self.values.prescribed_param())
 
     @ti.func
     def apply_walls(self, I, v):
@@ -39,16 +39,16 @@ class GridOps:
         for k in ti.static(range(self.dim)):
             for side in ti.static(range(2)):
                 if ti.static(self.walls[2 * k + side] != "open"):
-                    edge = self.p.wall_nodes()[2 * k + side]
+                    edge = self.values.wall_nodes()[2 * k + side]
                     hit = I[k] <= edge if ti.static(side == 0) else I[k] >= edge
                     if hit:
                         vn = v[k] if ti.static(side == 0) else -v[k]  # along the inward normal
                         if ti.static(self.walls[2 * k + side] == "sticky"):
                             v = ti.Vector.zero(float, self.dim)
                         elif ti.static(self.walls[2 * k + side] == "driven"):
-                            speeds = self.p.wall_velocity()
-                            f = self.prescribed_fn.at(self.time[None] + self.p.dt(),
-                                                      self.p.prescribed_param())
+                            speeds = self.values.wall_velocity()
+                            f = self.prescribed_fn.at(self.time[None] + self.values.dt(),
+                                                      self.values.prescribed_param())
                             for j in ti.static(range(self.dim)):
                                 v[j] = speeds[(2 * k + side) * self.dim + j] * f
                         elif ti.static(self.walls[2 * k + side] == "roller"):
@@ -60,7 +60,7 @@ class GridOps:
                                 speed = vt.norm()
                                 scale = 0.0
                                 if speed > 0.0:
-                                    mu = self.p.wall_mu()[2 * k + side]
+                                    mu = self.values.wall_mu()[2 * k + side]
                                     scale = ti.max(0.0, 1.0 - mu * (-vn) / speed)
                                 v = vt * scale
                             else:
@@ -69,24 +69,24 @@ class GridOps:
 
     @ti.func
     def clear_grid(self):
-        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+        for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
             self.gm[I] = 0.0
             self.gp[I] = ti.Vector.zero(float, self.dim)
             if ti.static(not self.affine or self.midpoint):
                 self.gf[I] = ti.Vector.zero(float, self.dim)
         if ti.static(self.consistent and self.dim == 1):
-            for i, k in ti.ndrange(self.p.nodes()[0], 2 * self.bandwidth + 1):
+            for i, k in ti.ndrange(self.values.nodes()[0], 2 * self.bandwidth + 1):
                 self.band[i, k] = 0.0
         if ti.static(self.mls and self.dim > 1):
             self._clear_gauss_nd()
         elif ti.static(self.mls):
-            for e, g in ti.ndrange(self.p.elements()[0], ti.static(len(GAUSS_POINTS))):
+            for e, g in ti.ndrange(self.values.elements()[0], ti.static(len(GAUSS_POINTS))):
                 self.g_mom[e, g] = ti.Vector.zero(float, 2 * self.mls_order + 1)
                 self.g_rho[e, g] = ti.Vector.zero(float, 2)
                 self.g_sig[e, g] = ti.Vector.zero(float, self.mls_order + 1)
             self.body[None] = ti.Vector([1e300, -1e300])
             if ti.static(self.mls_study):
-                for i in range(self.p.nodes()[0]):
+                for i in range(self.values.nodes()[0]):
                     self.n_mom[i] = ti.Vector.zero(float, 3)
                     self.n_vel[i] = ti.Vector.zero(float, 2)
 
@@ -95,7 +95,7 @@ class GridOps:
         """rhs <- M^-1 rhs with Dirichlet nodes held at zero and empty nodes left at zero;
         ``walls``: apply the wall conditions to the result (a velocity)."""
         if ti.static(not self.consistent):
-            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                 self.solve_mass_node(rhs, walls, I)
         elif ti.static(self.dim > 1):
             self._cg_solve(rhs)  # the walls' held components are constraints of the solve
@@ -123,4 +123,4 @@ class GridOps:
     @ti.func
     def _is_free(self, I):
         """Node I carries mass (above ``mass_tol``) and is not a Dirichlet node."""
-        return not (self.is_fixed(I) or self.gm[I] <= self.p.mass_tol())
+        return not (self.is_fixed(I) or self.gm[I] <= self.values.mass_tol())

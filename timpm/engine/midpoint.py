@@ -77,7 +77,7 @@ class Midpoint:
     @ti.func
     def _midpoint_step(self):
         # the state at t_n: v_n and F_n kept; V_p stays V_p^n through the iteration
-        for p in range(self.p.n_particles()):
+        for p in range(self.values.n_particles()):
             self.v_start[p] = self.v[p]
             self.F_start[p] = self.F[p]
         converged = False
@@ -91,7 +91,7 @@ class Midpoint:
             # and F_end (sbar's argument) moved by less than tol of the largest increment
             change = ti.Vector.zero(float, 2)
             largest = ti.Vector.zero(float, 2)
-            for p in range(self.p.n_particles()):
+            for p in range(self.values.n_particles()):
                 c, s = self._midpoint_particle(p, relax)
                 change = ti.max(change, c)
                 largest = ti.max(largest, s)
@@ -105,7 +105,7 @@ class Midpoint:
         if not converged and self.err_count[None] == 0:
             self.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
         if self.err_count[None] == 0:
-            for p in range(self.p.n_particles()):
+            for p in range(self.values.n_particles()):
                 self._midpoint_finish(p)
 
     @ti.func
@@ -122,7 +122,7 @@ class Midpoint:
         a pass (a fast mode near +-i mu), else as it was."""
         out = relax
         if it > 1 and change > 0.5 * previous:
-            out = self.p.midpoint_relaxation()
+            out = self.values.midpoint_relaxation()
         return out
 
     @ti.func
@@ -144,15 +144,15 @@ class Midpoint:
                     v_mid += phi * vi
                     accel += phi * self.gf[base + offset]
                     grad_v += vi.outer_product(grad)
-            v_end = self.v_start[p] + self.p.dt() * accel
+            v_end = self.v_start[p] + self.values.dt() * accel
             F0 = self.F_start[p]
-            F1 = (ti.Matrix.identity(float, self.dim) + self.p.dt() * grad_v) @ F0
+            F1 = (ti.Matrix.identity(float, self.dim) + self.values.dt() * grad_v) @ F0
             v_bar = 0.5 * (self.v_start[p] + v_end)
             self._check_iterate(p, F1, v_bar)
             change = ti.Vector([ti.abs(v_bar - self.v[p]).max(), ti.abs(F1 - self.F[p]).max()])
             size = ti.Vector([ti.abs(v_bar).max(), ti.abs(F1 - F0).max()])
             self.v_end[p] = v_end
-            self.x_end[p] = self.x[p] + self.p.dt() * v_mid
+            self.x_end[p] = self.x[p] + self.values.dt() * v_mid
             self.F[p] = F1
             # the next iterate: vbar relaxed, (1 - r) old + r new; sbar that of F1
             self.v[p] += relax * (v_bar - self.v[p])
@@ -205,11 +205,11 @@ class Midpoint:
         # m_p (phi_i v_p + B_p grad phi_i)); v_i^n = P_i / m_i with the wall conditions
         # (gp), the iterate vbar_i (gv) starts there
         self.clear_grid()
-        for p in range(self.p.n_particles()):
+        for p in range(self.values.n_particles()):
             self.F_start[p] = self.F[p]
             self._affine_momentum(p)
         self.solve_mass(self.gp, True)
-        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+        for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
             self.gv[I] = self.gp[I]
         converged = False
         relax = 1.0
@@ -217,11 +217,11 @@ class Midpoint:
         for it in range(MIDPOINT_MAX_ITERATIONS):
             # particles: F_end = (I + dt grad vbar) F_n, sbar; F_i = sum phi_i f_p - sbar_p
             # V_p^n grad phi_i (MLS-MPM: D^-1 (x_i - x_p) phi_i for grad phi_i)
-            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                 self.gf[I] = ti.Vector.zero(float, self.dim)
             change = ti.Vector.zero(float, 2)
             largest = ti.Vector.zero(float, 2)
-            for p in range(self.p.n_particles()):
+            for p in range(self.values.n_particles()):
                 c, s = self._affine_midpoint_particle(p)
                 change[1] = ti.max(change[1], c)
                 largest[1] = ti.max(largest[1], s)
@@ -230,8 +230,8 @@ class Midpoint:
             # grid: a_i = M^-1 F_i (walls), v_i^(n+1) = v_i^n + dt a_i kept in gf; the
             # residual of vbar_i = (v_i^n + v_i^(n+1)) / 2
             self.solve_mass(self.gf, True)
-            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
-                v_end = self.gp[I] + self.p.dt() * self.gf[I]
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
+                v_end = self.gp[I] + self.values.dt() * self.gf[I]
                 self.gf[I] = v_end
                 v_bar = 0.5 * (self.gp[I] + v_end)
                 change[0] = ti.max(change[0], ti.abs(v_bar - self.gv[I]).max())
@@ -239,22 +239,22 @@ class Midpoint:
             # (the floor of vbar_i: the velocity whose difference over a cell moves F by its
             # floor in a step; APIC's transfers dissipate, and a velocity fallen to the
             # rounding of the forces would otherwise never settle)
-            v_floor = ti.static(F_FLOOR[self.f.precision]) * self.p.h() / self.p.dt()
+            v_floor = ti.static(F_FLOOR[self.f.precision]) * self.values.h() / self.values.dt()
             if it > 0 and self._midpoint_converged(change, largest, v_floor):
                 converged = True  # F_end and x_end from this iterate, v from its forces
                 break
             relax = self._midpoint_relaxation(it, change[0], previous, relax)
             previous = change[0]
-            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                 self.gv[I] += relax * (0.5 * (self.gp[I] + self.gf[I]) - self.gv[I])
         if not converged and self.err_count[None] == 0:
             self.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
         if self.err_count[None] == 0:
             # G2P: v_p = sum phi_i v_i^(n+1), C_p from v_i^(n+1), x_p += dt sum phi_i vbar_i
-            for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                 self.gp[I] = self.gv[I]  # vbar_i
                 self.gv[I] = self.gf[I]  # v_i^(n+1), which affine_gather reads
-            for p in range(self.p.n_particles()):
+            for p in range(self.values.n_particles()):
                 self._affine_midpoint_finish(p)
 
     @ti.func
@@ -266,7 +266,7 @@ class Midpoint:
             mp = self.m[p]
             affine = mp * self.C[p]
             mom = mp * self.v[p] - affine @ self.from_first_node(xi, base)
-            h_affine = self.p.h() * affine
+            h_affine = self.values.h() * affine
             for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.stencil_node(w, dw, r, a)
@@ -286,7 +286,7 @@ class Midpoint:
         if inside:
             _, B, grad_du = self.scheme.affine_gather(self, base, w, dw, xi, not self.mls_mpm)
             if ti.static(self.mls_mpm):
-                grad_du = B * self.p.D_inv() * self.p.dt()
+                grad_du = B * self.values.D_inv() * self.values.dt()
             F0 = self.F_start[p]
             F1 = (ti.Matrix.identity(float, self.dim) + grad_du) @ F0
             self._check_iterate(p, F1, ti.Vector.zero(float, self.dim))
@@ -297,14 +297,14 @@ class Midpoint:
             fp = self.external_force(p)
             A = stress_volume  # MLS-MPM: D^-1 sbar V
             if ti.static(self.mls_mpm):
-                A = self.p.D_inv() * stress_volume
+                A = self.values.D_inv() * stress_volume
             d = self.from_first_node(xi, base)
             for r in range(self.stencil_rows):
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.stencil_node(w, dw, r, a)
                     force = phi * fp
                     if ti.static(self.mls_mpm):
-                        force -= phi * (self.p.h() * self.times_offset(A, r, a) - A @ d)
+                        force -= phi * (self.values.h() * self.times_offset(A, r, a) - A @ d)
                     else:
                         force -= stress_volume @ grad
                     self.gf[base + offset] += force
@@ -321,4 +321,4 @@ class Midpoint:
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.stencil_node(w, dw, r, a)
                     dx += phi * self.gp[base + offset]
-            self._midpoint_end_state(p, self.x[p] + self.p.dt() * dx, v_new)
+            self._midpoint_end_state(p, self.x[p] + self.values.dt() * dx, v_new)

@@ -75,13 +75,13 @@ class MLSProjection:
     def scatter_gauss_moments(self, p):
         # MLS moments at the Gauss points within 1.5 h of the particle, quadratic-spline
         # weight, basis [1, d] with d = (x_p - y) / h
-        xi = (self.x[p][0] - self.p.origin()[0]) * self.p.inv_h()
+        xi = (self.x[p][0] - self.values.origin()[0]) * self.values.inv_h()
         e0 = ti.floor(xi, ti.i32)
         rho = self.m[p] / self.vol[p]
         sig = self.sigma[p][0, 0]
         for k in ti.static(range(-2, 3)):
             e = e0 + k
-            if 0 <= e < self.p.elements()[0]:
+            if 0 <= e < self.values.elements()[0]:
                 for g in ti.static(range(len(GAUSS_POINTS))):
                     y, jw = self._gauss_point(e, g)
                     d = xi - y
@@ -101,9 +101,9 @@ class MLSProjection:
     @ti.func
     def body_extent(self):
         # the body is the union of the particle domains x_p -+ V_p / 2 (element units)
-        for p in range(self.p.n_particles()):
-            xi = (self.x[p][0] - self.p.origin()[0]) * self.p.inv_h()
-            half = 0.5 * self.vol[p] * self.p.inv_h()
+        for p in range(self.values.n_particles()):
+            xi = (self.x[p][0] - self.values.origin()[0]) * self.values.inv_h()
+            half = 0.5 * self.vol[p] * self.values.inv_h()
             if ti.static(self.mode == "serial"):  # one thread: no atomics (see _sum_into)
                 self.body[None][0] = ti.min(self.body[None][0], xi - half)
                 self.body[None][1] = ti.max(self.body[None][1], xi + half)
@@ -116,18 +116,18 @@ class MLSProjection:
         """Gauss point g of element e's part of the body, and its weight times length."""
         a = ti.max(ti.cast(e, float), self.body[None][0])
         b = ti.min(ti.cast(e + 1, float), self.body[None][1])
-        return a + (b - a) * GAUSS_POINTS[g], GAUSS_WEIGHTS[g] * ti.max(b - a, 0.0) * self.p.h()
+        return a + (b - a) * GAUSS_POINTS[g], GAUSS_WEIGHTS[g] * ti.max(b - a, 0.0) * self.values.h()
 
     @ti.func
     def integrate_gauss(self):
         # M_ii = int rho phi_i, F_i = int (rho g phi_i - sigma dphi_i) by Gauss quadrature
         # over each element's part of the body, rho and sigma reconstructed by MLS (4.4);
         # beyond the study's case only F_i = -int sigma dphi_i (mass from the particles)
-        for e in range(self.p.elements()[0]):
+        for e in range(self.values.elements()[0]):
             for g in ti.static(range(len(GAUSS_POINTS))):
                 y, jw = self._gauss_point(e, g)
                 if jw > 0.0:
-                    base, w, dw = self.basis.stencil(y, self.p.elements()[0])
+                    base, w, dw = self.basis.stencil(y, self.values.elements()[0])
                     sig = 0.0
                     if ti.static(self.mls_order == 2):
                         sig = _mls_value_quadratic(self.g_mom[e, g], self.g_sig[e, g])
@@ -138,20 +138,20 @@ class MLSProjection:
                         for a in ti.static(range(self.basis.support)):
                             self.accumulate(self.gm[base + a], jw * rho * w[a])
                             self.accumulate(self.gf[base + a][0], jw * (
-                                rho * self.p.gravity()[0] * w[a] - sig * dw[a] * self.p.inv_h()))
+                                rho * self.values.gravity()[0] * w[a] - sig * dw[a] * self.values.inv_h()))
                     else:
                         for a in ti.static(range(self.basis.support)):
                             self.accumulate(self.gf[base + a][0],
-                                            -jw * sig * dw[a] * self.p.inv_h())
+                                            -jw * sig * dw[a] * self.values.inv_h())
 
     @ti.func
     def scatter_node_moments(self, p, vp):
         # MLS moments at the nodes within 2 h, cubic-spline weight (r = |d| / 2)
-        xi = (self.x[p][0] - self.p.origin()[0]) * self.p.inv_h()
+        xi = (self.x[p][0] - self.values.origin()[0]) * self.values.inv_h()
         i0 = ti.floor(xi, ti.i32)
         for k in ti.static(range(-1, 3)):
             i = i0 + k
-            if 0 <= i < self.p.nodes()[0]:
+            if 0 <= i < self.values.nodes()[0]:
                 d = xi - i
                 w = _cubic_spline(0.5 * ti.abs(d))
                 if w > 0.0:
@@ -161,7 +161,7 @@ class MLSProjection:
     @ti.func
     def mls_nodal_velocity(self):
         # v_i = sum_p Phi_p(x_i) v_p: the MLS reconstruction of the velocity field (4.4)
-        for i in range(self.p.nodes()[0]):
+        for i in range(self.values.nodes()[0]):
             v = 0.0
             if not self.is_fixed(i):
                 v = _mls_value(self.n_mom[i], self.n_vel[i])

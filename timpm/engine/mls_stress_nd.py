@@ -56,7 +56,7 @@ class MLSStressND:
         xi = ti.Vector.zero(float, self.dim)
         lo = ti.Vector.zero(ti.i32, self.dim)
         for k in ti.static(range(self.dim)):
-            xi[k] = (self.x[p][k] - self.p.origin()[k]) * self.p.inv_h()
+            xi[k] = (self.x[p][k] - self.values.origin()[k]) * self.values.inv_h()
             lo[k] = 2 * (ti.floor(xi[k], ti.i32) - 2)
         sig = ti.Vector.zero(float, self.dim * self.dim)
         for j, k in ti.static(ti.ndrange(self.dim, self.dim)):
@@ -73,7 +73,7 @@ class MLSStressND:
                 g += gk << k
                 y = cell[k] + GAUSS_POINTS[0] + gk * (GAUSS_POINTS[1] - GAUSS_POINTS[0])
                 d[k] = xi[k] - y
-                if not (0 <= cell[k] < self.p.elements()[k]):
+                if not (0 <= cell[k] < self.values.elements()[k]):
                     w = 0.0
                 else:
                     w *= quadratic_spline_weight(ti.abs(d[k]))
@@ -134,7 +134,7 @@ class MLSStressND:
         # of the particles' stress at the Gauss point y_g (each cell full: the body fills
         # the grid)
         jw = ti.static(GAUSS_WEIGHTS[0] ** self.dim)
-        for I in ti.grouped(ti.ndrange(*[self.p.elements()[k] for k in range(self.dim)])):
+        for I in ti.grouped(ti.ndrange(*[self.values.elements()[k] for k in range(self.dim)])):
             for g in range(2 ** self.dim):  # a run-time loop: one copy of the fit to compile
                 if self.q_mom[I, g][0, 0] > 0.0:
                     s = self._mls_fit_nd(self.q_mom[I, g], self.q_sig[I, g])
@@ -146,7 +146,7 @@ class MLSStressND:
                         y[k] = I[k] + GAUSS_POINTS[0] + ((g >> k) & 1) * (GAUSS_POINTS[1]
                                                                          - GAUSS_POINTS[0])
                     base, w, dw, _ = self._stencil_at(y)
-                    scale = jw * self.p.h() ** self.dim
+                    scale = jw * self.values.h() ** self.dim
                     for r in range(self.stencil_rows):
                         for a in ti.static(range(self.basis.support)):
                             offset, phi, grad = self.stencil_node(w, dw, r, a)
@@ -155,7 +155,7 @@ class MLSStressND:
     @ti.func
     def _clear_gauss_nd(self):
         n = ti.static(monomial_count(self.dim, self.mls_order))
-        for I in ti.grouped(ti.ndrange(*[self.p.elements()[k] for k in range(self.dim)])):
+        for I in ti.grouped(ti.ndrange(*[self.values.elements()[k] for k in range(self.dim)])):
             for g in ti.static(range(2 ** self.dim)):
                 self.q_mom[I, g] = ti.Matrix.zero(float, n, n)
                 self.q_sig[I, g] = ti.Matrix.zero(float, n, self.dim * self.dim)

@@ -3,7 +3,7 @@
 The kernels of a :class:`~timpm.engine.program.Program` are compiled for a feature set,
 not for a scene: everything that differs between scenes of one feature set (sizes, grid
 spacing, time step, loads, material constants) is a run-time value held here.  Kernel
-code reads ``self.p.dt()``; Python sets the values of a scene and uploads them all at
+code reads ``self.values.dt()``; Python sets the values of a scene and uploads them all at
 once (two copies: the floats and the integers).  Every value that per-scene kernels
 would fold from Python floats (``dt * D_inv``, ``1 / h``, a material's derived
 constants) is computed once in Python and stored, so the kernels see the same numbers.

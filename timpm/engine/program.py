@@ -120,7 +120,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         real = float  # Taichi's default_fp: timpm.init(precision=...)
         block = ParamBlock(_param_spec(self.f, self.scheme), real, fb)
         self.params = block
-        self.p = block.groups["p"]
+        self.values = block.groups["p"]  # the run-time values: self.values.dt()
         # the compiled unit of each material, reading its constants from its group
         self.material_units = [cls.unit(flags, block.groups[f"m{k}"])
                                for k, (cls, flags) in enumerate(self.f.materials)]
@@ -459,19 +459,19 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
                 self._zero_entry(cleared, i)
             # task 2: row i of the particle and node blocks, tracked particle i, the scalars
             for i in range(rows):
-                if i < self.p.n_particles():
+                if i < self.values.n_particles():
                     for k in ti.static(range(len(P))):
                         put(P[k][0], i, particles, i, P[k][1], P[k][2])
                     for k in ti.static(range(len(PI))):
                         put(PI[k][0], i, particle_ints, i, PI[k][1], PI[k][2])
-                if i < self.p.node_count():
+                if i < self.values.node_count():
                     I = self._node_of(i)
                     for k in ti.static(range(len(N))):
                         put(N[k][0], I, nodes, i, N[k][1], N[k][2])
                     for k in ti.static(range(len(NI))):
                         put(NI[k][0], I, node_ints, i, NI[k][1], NI[k][2])
                 if ti.static(tracking):
-                    if i < self.p.n_tracked():
+                    if i < self.values.n_tracked():
                         track[i] = track_ids[i]
                 if i == 0:
                     for k in ti.static(range(len(S))):
@@ -484,12 +484,12 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
                  rows: ti.i32):
             # one task: row i of the particle and node blocks, the scalars
             for i in range(rows):
-                if i < self.p.n_particles():
+                if i < self.values.n_particles():
                     for k in ti.static(range(len(P))):
                         get(P[k][0], i, particles, i, P[k][1], P[k][2], ti.f64)
                     for k in ti.static(range(len(PI))):
                         get(PI[k][0], i, particle_ints, i, PI[k][1], PI[k][2], ti.i32)
-                if i < self.p.node_count():
+                if i < self.values.node_count():
                     I = self._node_of(i)
                     for k in ti.static(range(len(N))):
                         get(N[k][0], I, nodes, i, N[k][1], N[k][2], ti.f64)

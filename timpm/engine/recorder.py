@@ -35,7 +35,7 @@ class Recorder:
         self.h_t[slot] = self.time[None]
         self.h_step[slot] = self.step_count[None]
         if ti.static(self.tracking):
-            for j in range(self.p.n_tracked()):
+            for j in range(self.values.n_tracked()):
                 p = self.track_ids[j]
                 self.h_x[slot, j] = self.x[p]
                 if ti.static(self.has_u):
@@ -44,15 +44,15 @@ class Recorder:
                 self.h_s[slot, j] = self.sigma[p]
         if ti.static(self.record_energies):
             self.h_energy[slot] = ti.Vector.zero(float, 4)
-            for p in range(self.p.n_particles()):
+            for p in range(self.values.n_particles()):
                 # potential of gravity: -m g . u (1D), -m g . x (2D/3D, taken from its start in energies())
                 pot = 0.0
                 for k in ti.static(range(self.dim)):
                     if ti.static(self.f.gravity[k]):
                         if ti.static(self.has_u):
-                            pot -= self.m[p] * self.p.gravity()[k] * self.u[p][k]
+                            pot -= self.m[p] * self.values.gravity()[k] * self.u[p][k]
                         else:
-                            pot -= self.m[p] * self.p.gravity()[k] * self.x[p][k]
+                            pot -= self.m[p] * self.values.gravity()[k] * self.x[p][k]
                 e = ti.Vector([0.5 * self.m[p] * self.v[p].norm_sqr(), self._strain_energy(p),
                                pot, 0.0])
                 self.accumulate(self.h_energy[slot], e)
@@ -127,7 +127,7 @@ class Recorder:
                 for k in ti.static(range(len(R))):
                     copy(R[k][0][r], records, r, 0, R[k][1], R[k][2])
                 if ti.static(len(T) > 0):
-                    for j in range(self.p.n_tracked()):
+                    for j in range(self.values.n_tracked()):
                         for k in ti.static(range(len(T))):
                             copy(T[k][0][r, j], tracked, r, j, T[k][1], T[k][2])
 
@@ -156,7 +156,7 @@ class Recorder:
     @ti.func
     def _project(self):
         # P2G of mass and momentum alone: m_i = sum m_p phi_i, P_i = sum m_p phi_i v_p
-        for p in range(self.p.n_particles()):
+        for p in range(self.values.n_particles()):
             base, w, dw, xi, inside = self.stencil(p)
             if inside:
                 for r in range(self.stencil_rows):

@@ -55,7 +55,7 @@ class RungeKutta:
     @ti.func
     def _rk4_begin(self):
         # y_n kept for the stages
-        for p in range(self.p.n_particles()):
+        for p in range(self.values.n_particles()):
             self.x_start[p] = self.x[p]
             self.v_start[p] = self.v[p]
             self.F_start[p] = self.F[p]
@@ -64,11 +64,11 @@ class RungeKutta:
     def _rk4_stage(self, s):
         if ti.static(self.body_force):
             slot = (s + 1) // 2  # b_p at t_n, t_n + dt/2, t_n + dt/2, t_n + dt
-            for p in range(self.p.n_particles()):
+            for p in range(self.values.n_particles()):
                 for k in ti.static(range(self.dim)):
                     self.b[p][k] = self.b_stages[p][slot, k]
         self._grid_rates()  # the stage's a_i and v_i (transfer.py)
-        for p in range(self.p.n_particles()):
+        for p in range(self.values.n_particles()):
             self._rk4_particle(p, s)
 
     @ti.func
@@ -101,19 +101,19 @@ class RungeKutta:
             if ti.static(self.record_energies and self.body_force):
                 # the body force's work: its power m_p b_p . x' by the same quadrature
                 self.accumulate(self.ext_work[None],
-                                self.p.dt() * weight * self.m[p] * self.b[p].dot(x_rate))
+                                self.values.dt() * weight * self.m[p] * self.b[p].dot(x_rate))
             x_new = self.x_start[p]
             v_new = self.v_start[p]
             F_new = self.F_start[p]
             if s < 3:  # the next stage's state, at A_(s+1) dt
-                c = (0.5 if s < 2 else 1.0) * self.p.dt()
+                c = (0.5 if s < 2 else 1.0) * self.values.dt()
                 x_new += c * x_rate
                 v_new += c * v_rate
                 F_new += c * F_rate
             else:  # the step's end
-                x_new += self.p.dt() * self.x_rate[p]
-                v_new += self.p.dt() * self.v_rate[p]
-                F_new += self.p.dt() * self.F_rate[p]
+                x_new += self.values.dt() * self.x_rate[p]
+                v_new += self.values.dt() * self.v_rate[p]
+                F_new += self.values.dt() * self.F_rate[p]
             self.x[p] = x_new
             self.v[p] = v_new
             self.F[p] = F_new

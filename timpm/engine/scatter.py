@@ -86,7 +86,7 @@ class ScatterOps:
     @ti.func
     def _merge_copies(self, names: ti.template()):
         # private scatter: sum the threads' grid copies into the grid, and clear them
-        for I in ti.grouped(ti.ndrange(*[self.p.nodes()[k] for k in range(self.dim)])):
+        for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
             for name in ti.static(names):
                 grid = ti.static(getattr(self, name))
                 grid[I] = self.merged(name, I)  # a plain store: no other thread writes I
@@ -98,9 +98,9 @@ class ScatterOps:
         if ti.static(self.private_scatter):
             # Taichi's CPU range-for gives thread c the iterations [c B, (c + 1) B) with
             # B = max(ceil(N / threads), 512): iteration p writes the copy of thread p // B
-            B = self.p.scatter_block()
+            B = self.values.scatter_block()
             for p in range(self.n_copies * B):
-                if p < self.p.n_particles():
+                if p < self.values.n_particles():
                     self._scatter_particle(phase, p, p // B)
         elif ti.static(self.run_sums):
             ti.loop_config(serialize=True)
@@ -108,7 +108,7 @@ class ScatterOps:
                 rows = ti.static(phase.rows)
                 first = -1  # first node of the run's stencil
                 sums = ti.Matrix.zero(float, 3, self.basis.support)
-                for p in range(self.p.n_particles()):
+                for p in range(self.values.n_particles()):
                     base, inside, node_values = self._scatter_particle(phase, p, 0)
                     if inside:
                         if base[0] != first:
@@ -119,10 +119,10 @@ class ScatterOps:
                 self._add_sums(rows, first, sums)
         elif ti.static(self.serial_scatter):
             ti.loop_config(serialize=True)  # plain adds instead of contended atomics
-            for p in range(self.p.n_particles()):
+            for p in range(self.values.n_particles()):
                 self._scatter_particle(phase, p, 0)
         else:
-            for p in range(self.p.n_particles()):
+            for p in range(self.values.n_particles()):
                 self._scatter_particle(phase, p, 0)
 
     @ti.func

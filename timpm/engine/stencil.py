@@ -1,7 +1,7 @@
 """The stencil of a particle: its nodes, the basis weights and gradients (any dimension).
 
 Mixed into :class:`~timpm.engine.program.Program`.  Reads ``x`` and the run-time grid
-values (``self.p``); the basis (``self.basis``) is a compile-time class whose ``stencil``
+values (``self.values``); the basis (``self.basis``) is a compile-time class whose ``stencil``
 ``ti.func`` gives the 1D weights, combined here as tensor products.
 
 The phases loop over a particle's stencil nodes row by row: a run-time loop over the
@@ -27,7 +27,7 @@ class StencilOps:
         and whether p is on the grid."""
         xi = ti.Vector.zero(float, self.dim)
         for k in ti.static(range(self.dim)):
-            xi[k] = (self.x[p][k] - self.p.origin()[k]) * self.p.inv_h()
+            xi[k] = (self.x[p][k] - self.values.origin()[k]) * self.values.inv_h()
         base, w, dw, inside = self._stencil_at(xi)
         return base, w, dw, xi, inside
 
@@ -41,15 +41,15 @@ class StencilOps:
         inside = 1
         for k in ti.static(range(self.dim)):
             # NaN fails both comparisons, so it is caught here too
-            if not (xi[k] >= 0.0 and xi[k] <= self.p.elements()[k]):
+            if not (xi[k] >= 0.0 and xi[k] <= self.values.elements()[k]):
                 inside = 0
-            b, wk, dwk = self.basis.stencil(xi[k], self.p.elements()[k])
+            b, wk, dwk = self.basis.stencil(xi[k], self.values.elements()[k])
             base[k] = b
-            if b < 0 or b + self.basis.support > self.p.nodes()[k]:
+            if b < 0 or b + self.basis.support > self.values.nodes()[k]:
                 inside = 0
             for a in ti.static(range(self.basis.support)):
                 w[a, k] = wk[a]
-                dw[a, k] = dwk[a] * self.p.inv_h()
+                dw[a, k] = dwk[a] * self.values.inv_h()
         return base, w, dw, inside
 
     @ti.func
@@ -73,7 +73,7 @@ class StencilOps:
     def from_first_node(self, xi, base):
         """x_p - x of the stencil's first node, so that x_i - x_p = h o - this for the node
         at stencil offset o (the factored affine terms of P2G and G2P)."""
-        return (xi - ti.cast(base, float) + self.node_offset) * self.p.h()
+        return (xi - ti.cast(base, float) + self.node_offset) * self.values.h()
 
     @ti.func
     def _row_offsets(self, r):
@@ -144,5 +144,5 @@ class StencilOps:
         """Element of a point at ``xi`` (element units), clamped to the grid."""
         e = ti.Vector.zero(ti.i32, self.dim)
         for k in ti.static(range(self.dim)):
-            e[k] = ti.min(ti.max(ti.floor(xi[k], ti.i32), 0), self.p.elements()[k] - 1)
+            e[k] = ti.min(ti.max(ti.floor(xi[k], ti.i32), 0), self.values.elements()[k] - 1)
         return e

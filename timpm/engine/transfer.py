@@ -52,9 +52,9 @@ class Transfer:
     @ti.func
     def _ratio_in_range(self, unit: ti.template(), p, vol):
         ratio = vol * unit.c.density() / self.m[p]
-        ok = ratio >= self.p.volume_min()
+        ok = ratio >= self.values.volume_min()
         if ti.static(not unit.free_expansion):
-            ok = ok and ratio <= self.p.volume_max()
+            ok = ok and ratio <= self.values.volume_max()
         return ok
 
     @ti.func
@@ -64,14 +64,14 @@ class Transfer:
         fp = ti.Vector.zero(float, self.dim)
         for k in ti.static(range(self.dim)):
             if ti.static(self.f.gravity[k]):
-                fp[k] += mp * self.p.gravity()[k]
+                fp[k] += mp * self.values.gravity()[k]
         if ti.static(self.has_traction):
-            if p == self.p.traction_particle():
-                fp[0] += self.p.traction_amplitude() * self.traction_fn.at(self.time[None], self.p.traction_param())
+            if p == self.values.traction_particle():
+                fp[0] += self.values.traction_amplitude() * self.traction_fn.at(self.time[None], self.values.traction_param())
         if ti.static(self.body_force):
             fp += mp * self.b[p]
         if ti.static(self.surface_force):
-            fp += self.f_ext[p] * self.surface_fn.at(self.time[None], self.p.surface_param())
+            fp += self.f_ext[p] * self.surface_fn.at(self.time[None], self.values.surface_param())
         return fp
 
     @ti.func
@@ -80,7 +80,7 @@ class Transfer:
         if inside and not self._halted(p):
             # the scheme's G2P of the grid velocity: v_p and grad du = sum_i v_i dt grad phi_i^T
             vp, grad_du = self.scheme.gather(self, p, base, w, dw, xi)
-            du = vp * self.p.dt()
+            du = vp * self.values.dt()
             deps = 0.5 * (grad_du + grad_du.transpose())
             vol_old = self.vol[p]
             sig_old = self.sigma[p]
@@ -98,13 +98,13 @@ class Transfer:
                                0.5 * ((sig_old * vol_old + sig_new * vol_new) * deps).sum())
             if ti.static(self.record_energies):
                 if ti.static(self.has_traction):
-                    if p == self.p.traction_particle():
-                        self.accumulate(self.ext_work[None], self.p.traction_amplitude() *
-                                       self.traction_fn.at(self.time[None], self.p.traction_param()) * du[0])
+                    if p == self.values.traction_particle():
+                        self.accumulate(self.ext_work[None], self.values.traction_amplitude() *
+                                       self.traction_fn.at(self.time[None], self.values.traction_param()) * du[0])
                 if ti.static(self.body_force):
                     self.accumulate(self.ext_work[None], self.m[p] * self.b[p].dot(du))
                 if ti.static(self.surface_force):
-                    f_t = self.surface_fn.at(self.time[None], self.p.surface_param())
+                    f_t = self.surface_fn.at(self.time[None], self.values.surface_param())
                     self.accumulate(self.ext_work[None], f_t * self.f_ext[p].dot(du))
             if ti.static(self.has_u):
                 self.accumulate(self.u[p], du)
@@ -119,8 +119,8 @@ class Transfer:
         xn = ti.Vector.zero(float, self.dim)
         code = 0
         for k in ti.static(range(self.dim)):
-            xn[k] = (x_new[k] - self.p.origin()[k]) * self.p.inv_h()
-            if not (xn[k] >= 0.0 and xn[k] <= self.p.elements()[k]):
+            xn[k] = (x_new[k] - self.values.origin()[k]) * self.values.inv_h()
+            if not (xn[k] >= 0.0 and xn[k] <= self.values.elements()[k]):
                 code = ErrorCode.OFF_GRID
         if ti.static(self.update_volume):
             if not (jac > 0.0):
@@ -194,4 +194,4 @@ class Transfer:
         # the step is done: n += 1, t = n dt (not after a failed step)
         if not self._halted(0):
             self.accumulate(self.step_count[None], 1)
-            self.time[None] = self.step_count[None] * self.p.dt()
+            self.time[None] = self.step_count[None] * self.values.dt()

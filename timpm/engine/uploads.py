@@ -20,7 +20,7 @@ class Uploads:
             @ti.kernel
             def set_body_force(values: ti.types.ndarray(dtype=ti.f64, ndim=3)):
                 # b_p at the step's stage times (rk4.STAGE_TIMES), evaluated in Python
-                for p in range(self.p.n_particles()):
+                for p in range(self.values.n_particles()):
                     for j, k in ti.static(ti.ndrange(len(STAGE_TIMES), self.dim)):
                         self.b_stages[p][j, k] = values[p, j, k]
 
@@ -29,7 +29,7 @@ class Uploads:
             @ti.kernel
             def set_body_force(values: ti.types.ndarray(dtype=ti.f64, ndim=2)):
                 # b_p = b(X_p, t) of this step, evaluated in Python (one call, all particles)
-                for p in range(self.p.n_particles()):
+                for p in range(self.values.n_particles()):
                     for k in ti.static(range(self.dim)):
                         self.b[p][k] = values[p, k]
 
@@ -37,7 +37,7 @@ class Uploads:
 
         @ti.kernel
         def prestrain(grads: ti.types.ndarray(dtype=ti.f64, ndim=3)):
-            for p in range(self.p.n_particles()):
+            for p in range(self.values.n_particles()):
                 grad_u0 = ti.Matrix.zero(float, self.dim, self.dim)
                 for i, k in ti.static(ti.ndrange(self.dim, self.dim)):
                     grad_u0[i, k] = grads[p, i, k]

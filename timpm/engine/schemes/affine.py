@@ -66,14 +66,14 @@ class Affine:
             stress_volume = prog.sigma[p] * prog.vol[p]
             affine = ti.Matrix.zero(float, prog.dim, prog.dim)
             if ti.static(prog.mls_mpm):
-                affine = mp * prog.C[p] - prog.p.dt_D_inv() * stress_volume
+                affine = mp * prog.C[p] - prog.values.dt_D_inv() * stress_volume
             # the affine momentum A (x_i - x_p) with x_i - x_p = h o - d (o: the node's
             # offset in the stencil) is h A o - A d: one vector per particle, then adds
             d = prog.from_first_node(xi, base)
             if ti.static(not prog.mls_mpm and prog.basis.support > 2):
                 affine = mp * prog.C[p]  # APIC: the stress enters through grad phi
-            mom = mp * prog.v[p] + prog.p.dt() * fp - affine @ d
-            h_affine = prog.p.h() * affine
+            mom = mp * prog.v[p] + prog.values.dt() * fp - affine @ d
+            h_affine = prog.values.h() * affine
             for r in range(prog.stencil_rows):
                 for a in ti.static(range(prog.basis.support)):
                     offset, phi, grad = prog.stencil_node(w, dw, r, a)
@@ -91,10 +91,10 @@ class Affine:
                         if ti.static(prog.basis.support > 2):
                             momentum = phi * (mom + prog.times_offset(h_affine, r, a))
                         else:
-                            momentum = (phi * (mp * prog.v[p] + prog.p.dt() * fp)
+                            momentum = (phi * (mp * prog.v[p] + prog.values.dt() * fp)
                                         + mp * (prog.C[p] @ grad))
                         prog.scatter_add("gm", copy, node, mp * phi)
-                        prog.scatter_add("gp", copy, node, momentum - prog.p.dt() * (stress_volume @ grad))
+                        prog.scatter_add("gp", copy, node, momentum - prog.values.dt() * (stress_volume @ grad))
         return base, inside, node_values
 
     @ti.func
@@ -106,7 +106,7 @@ class Affine:
             m = prog.merged("gm", I)
             P = prog.merged("gp", I)
             v = ti.Vector.zero(float, prog.dim)
-            if m > prog.p.mass_tol() and not prog.is_fixed(I):
+            if m > prog.values.mass_tol() and not prog.is_fixed(I):
                 v = P / m
                 if ti.static(prog.has_walls):
                     v = prog.apply_walls(I, v)
@@ -155,11 +155,11 @@ class Affine:
                 vi = prog.gv[base + offset]
                 vp += phi * vi
                 if ti.static(gradient):
-                    grad_du += (vi * prog.p.dt()).outer_product(grad)
+                    grad_du += (vi * prog.values.dt()).outer_product(grad)
                 B += prog.outer_offset(phi * vi, r, a)
         # sum_i phi_i v_i (x_i - x_p)^T = h sum_i phi_i v_i o_i^T - v_p d^T
         d = prog.from_first_node(xi, base)
-        return vp, prog.p.h() * B - vp.outer_product(d), grad_du
+        return vp, prog.values.h() * B - vp.outer_product(d), grad_du
 
     @ti.func
     def affine_of(self, prog: ti.template(), B, base, w, xi):
@@ -169,12 +169,12 @@ class Affine:
         p2g_particle)."""
         C = B
         if ti.static(prog.mls_mpm):
-            C = B * prog.p.D_inv()
+            C = B * prog.values.D_inv()
         elif ti.static(prog.basis.support > 2):
             for k in ti.static(range(prog.dim)):
                 dk = 0.0
                 for a in ti.static(range(prog.basis.support)):
-                    r = (base[k] + a - prog.node_offset - xi[k]) * prog.p.h()
+                    r = (base[k] + a - prog.node_offset - xi[k]) * prog.values.h()
                     dk += w[a, k] * r * r
                 for j in ti.static(range(prog.dim)):
                     C[j, k] /= dk
@@ -192,14 +192,14 @@ class Affine:
             for r in range(prog.stencil_rows):
                 for a in ti.static(range(prog.basis.support)):
                     offset, phi, grad = prog.stencil_node(w, dw, r, a)
-                    grad_du += (prog.gp[base + offset] * prog.p.dt()).outer_product(grad)
+                    grad_du += (prog.gp[base + offset] * prog.values.dt()).outer_product(grad)
         else:
             B = ti.Matrix.zero(float, prog.dim, prog.dim)
             vp, B, grad_du = self.affine_gather(prog, base, w, dw, xi, not prog.mls_mpm)
             prog.v[p] = vp
             prog.C[p] = self.affine_of(prog, B, base, w, xi)
             if ti.static(prog.mls_mpm):
-                grad_du = prog.C[p] * prog.p.dt()
+                grad_du = prog.C[p] * prog.values.dt()
         return vp, grad_du
 
     @ti.func

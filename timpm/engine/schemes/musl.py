@@ -91,7 +91,7 @@ class MUSL:
             stress_volume = prog.sigma[p] * prog.vol[p]
             if ti.static(prog.mls):
                 if ti.static(prog.mls_study):
-                    fp[0] -= mp * prog.p.gravity()[0]  # gravity and mass: from the Gauss points
+                    fp[0] -= mp * prog.values.gravity()[0]  # gravity and mass: from the Gauss points
                 if ti.static(prog.dim == 1):
                     prog.scatter_gauss_moments(p)
                 else:
@@ -136,19 +136,19 @@ class MUSL:
         # F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F; at a wall
         # a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
         if ti.static(prog.damping):
-            prog.gf[I] -= prog.p.damping() * ti.math.sign(prog.gp[I]) * ti.abs(prog.gf[I])
+            prog.gf[I] -= prog.values.damping() * ti.math.sign(prog.gp[I]) * ti.abs(prog.gf[I])
         if ti.static(prog.has_walls and not prog.consistent):
             a = ti.Vector.zero(float, prog.dim)  # Dirichlet and empty nodes: a = 0
-            if prog.gm[I] > prog.p.mass_tol() and not prog.is_fixed(I):
+            if prog.gm[I] > prog.values.mass_tol() and not prog.is_fixed(I):
                 vn = prog.gp[I] / prog.gm[I]
-                a = (prog.apply_walls(I, vn + prog.p.dt() * prog.gf[I] / prog.gm[I]) - vn) / prog.p.dt()
+                a = (prog.apply_walls(I, vn + prog.values.dt() * prog.gf[I] / prog.gm[I]) - vn) / prog.values.dt()
             prog.gf[I] = a
         elif ti.static(not prog.consistent):
             prog.gf[I] = prog.lumped_solve(I, prog.gf[I])  # a = F / m in the same pass
         if ti.static(prog.prescribed):
             if prog.is_fixed(I):  # a Dirichlet node: a = (v(t_n + dt) - v(t_n)) / dt
                 prog.gf[I] = (prog.prescribed_velocity(I, True)
-                              - prog.prescribed_velocity(I, False)) / prog.p.dt()
+                              - prog.prescribed_velocity(I, False)) / prog.values.dt()
         self.after_acceleration(prog, I)
         if ti.static(self.scatters_momentum):
             prog.gp[I] = ti.Vector.zero(float, prog.dim)  # P2G scattered P_i
@@ -174,7 +174,7 @@ class MUSL:
                 for a in ti.static(range(prog.basis.support)):
                     offset, phi, grad = prog.stencil_node(w, dw, r, a)
                     acc += phi * prog.gf[base + offset]
-            vp = self.new_velocity(prog, base, w, dw, prog.v[p] + prog.p.dt() * acc)
+            vp = self.new_velocity(prog, base, w, dw, prog.v[p] + prog.values.dt() * acc)
             prog.v[p] = vp
             if ti.static(prog.mls_study):
                 prog.scatter_node_moments(p, vp[0])
@@ -198,7 +198,7 @@ class MUSL:
         # v_i = P_i / m_i with the walls and the prescribed velocities; u_i += v_i dt (5.2)
         prog.solve_mass_node(prog.gp, True, I)
         if ti.static(prog.grid_displacement):
-            prog.gu[I] += prog.gp[I] * prog.p.dt()
+            prog.gu[I] += prog.gp[I] * prog.values.dt()
 
     @ti.func
     def velocity_solve(self, prog: ti.template()):
@@ -209,7 +209,7 @@ class MUSL:
 
     @ti.func
     def displacement_node(self, prog: ti.template(), I):
-        prog.gu[I] += prog.gp[I] * prog.p.dt()
+        prog.gu[I] += prog.gp[I] * prog.values.dt()
 
     # ---- G2P of the particle state ---------------------------------------------------------
     @ti.func
@@ -222,7 +222,7 @@ class MUSL:
                 offset, phi, grad = prog.stencil_node(w, dw, r, a)
                 vi = prog.gp[base + offset]
                 vp += phi * vi
-                grad_du += (vi * prog.p.dt()).outer_product(grad)
+                grad_du += (vi * prog.values.dt()).outer_product(grad)
         return vp, grad_du
 
     @ti.func

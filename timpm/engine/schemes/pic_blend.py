@@ -18,7 +18,7 @@ __all__ = ["PICBlend"]
 class PICBlend(MUSL):
     """See the module."""
 
-    #: the run-time value it reads (``Program.p.pic_fraction()``, ``Model.pic_fraction``)
+    #: the run-time value it reads (``Program.values.pic_fraction()``, ``Model.pic_fraction``)
     PARAMS = {"pic_fraction": "real"}
 
     @staticmethod
@@ -38,7 +38,7 @@ class PICBlend(MUSL):
     def after_acceleration(self, prog: ti.template(), I):
         # v_i^L = P_i / m_i + dt a_i (a wall's a makes it the wall's velocity; zero at
         # Dirichlet and empty nodes)
-        v_new = prog.lumped_solve(I, prog.gp[I]) + prog.p.dt() * prog.gf[I]
+        v_new = prog.lumped_solve(I, prog.gp[I]) + prog.values.dt() * prog.gf[I]
         if ti.static(prog.prescribed):
             if prog.is_fixed(I):
                 v_new = prog.prescribed_velocity(I, True)
@@ -52,5 +52,5 @@ class PICBlend(MUSL):
             for a in ti.static(range(prog.basis.support)):
                 offset, phi, grad = prog.stencil_node(w, dw, r, a)
                 pic += phi * prog.gv[base + offset]
-        b = prog.p.pic_fraction()
+        b = prog.values.pic_fraction()
         return (1.0 - b) * flip + b * pic
