@@ -110,11 +110,13 @@ def test_a_resume_may_not_overwrite_its_checkpoint_with_the_record(tmp_path, cap
 @pytest.mark.parametrize("key, value, message", [
     ("simulation.t_end", 1e300, "more than the 1e+08 a run may take"),
     ("simulation.dt", 1e-300, "more than the 1e+08 a run may take"),
+    ("material.rubber.E", 1e300, "a run to t_end = 3.5 s at dt = "),
+    ("material.rubber.density", 1e-300, "a run to t_end = 3.5 s at dt = "),
 ])
 def test_huge_step_counts_are_refused_before_taichi(key, value, message, capsys):
     started = time.monotonic()
     assert _cli("run", ROOT / "examples" / "disks.toml", "--set", f"{key}={value!r}",
-                "--set", "domain.cells=16", "--set", "output.gif=") == 2
+                "--set", "domain.cells=16", "--set", "output.gif=") == 2, key
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err and "set_arg_int" not in err
     assert "--allow-many-steps" in err
