@@ -115,7 +115,7 @@ class ElementTest:
         """A point of ``material`` in ``dim`` dimensions, compiled once per law and flags."""
         key = (type(material), material.flags(), dim)
         point = cls._BUILT.get(key)
-        if point is None or point._generation != _generation():
+        if point is None or point.generation != _generation():
             point = cls._BUILT[key] = cls(material, dim)
         else:
             point.set_material(material)
@@ -126,7 +126,7 @@ class ElementTest:
         self.material = material
         self._block.set("m0", material.constants(1.0))
         self._block.upload()
-        self._generation = _generation()
+        self.generation = _generation()  # the Taichi start its fields belong to
 
     def start(self, confinement):
         """The sample under the pressure ``confinement`` all round, the reference
