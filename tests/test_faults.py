@@ -346,3 +346,33 @@ def test_demo_outputs_may_not_collide(args, capsys, tmp_path, monkeypatch):
     assert _cli("demo", "disks", *args) == 2
     assert "names the same file as" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_sigterm_to_a_sweep_stops_its_workers_cleanly():
+    """SIGTERM to a --workers sweep: the command stops its workers itself (no leaked
+    semaphore warning, no worker left), one line, exit 143."""
+    run = subprocess.Popen(
+        [sys.executable, "-m", "timpm", "convergence", "vibrating-string", "--basis",
+         "bspline2", "--mass", "consistent", "--elements", "32", "64", "128", "256", "512",
+         "--t-end", "8", "--workers", "2"],
+        env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=_default_signals)
+    with _killed_at_exit(run):
+        deadline = time.monotonic() + 120
+        children = []
+        while len(children) < 2:
+            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+            time.sleep(0.2)
+            children = [int(p) for p in Path(f"/proc/{run.pid}/task/{run.pid}/children")
+                        .read_text().split()]
+        time.sleep(1.0)
+        run.send_signal(signal.SIGTERM)
+        out, err = run.communicate(timeout=60)
+    assert run.returncode == 143, err
+    assert "leaked semaphore" not in err and "Traceback" not in err
+    assert [line for line in err.splitlines() if line.startswith("timpm")] == ["timpm: interrupted"]
+    deadline = time.monotonic() + 10
+    while any(_alive(p) for p in children) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not any(_alive(p) for p in children)

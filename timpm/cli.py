@@ -533,10 +533,11 @@ def entry():
 
 def main(argv=None):
     try:
-        return _main(argv)
+        with interrupt.termination_as_interrupt():  # SIGTERM, SIGHUP: as Ctrl-C
+            return _main(argv)
     except KeyboardInterrupt:  # outside a run's deferred Ctrl-C (a demo, a study)
         print("timpm: interrupted", file=sys.stderr)
-        return 130
+        return interrupt.exit_code()
 
 
 def _main(argv=None):

@@ -14,7 +14,7 @@ import signal
 import threading
 
 __all__ = ["deferred_sigint", "requested", "active", "RunInterrupted", "exit_code",
-           "INTERRUPTED_CHECKPOINT", "SIGNALS"]
+           "termination_as_interrupt", "INTERRUPTED_CHECKPOINT", "SIGNALS"]
 
 #: the signals a run stops on at a step boundary (those this platform has)
 SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
@@ -72,7 +72,8 @@ def deferred_sigint():
     block (each whose handler is still Python's default)."""
     defaults = {signal.SIGINT: signal.default_int_handler}
     usable = threading.current_thread() is threading.main_thread() and not _state["active"]
-    taken = [s for s in SIGNALS if usable and signal.getsignal(s) is defaults.get(s, signal.SIG_DFL)]
+    taken = [s for s in SIGNALS if usable and signal.getsignal(s) in (
+        defaults.get(s, signal.SIG_DFL), _raise_interrupt)]  # (ours: termination_as_interrupt)
     if signal.SIGINT not in taken:
         yield
         return
@@ -84,3 +85,29 @@ def deferred_sigint():
         for s, handler in previous.items():
             signal.signal(s, handler)
         _state.update(active=False, requested=False)
+
+
+def _raise_interrupt(signum, frame):
+    _state["signal"] = signum
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def termination_as_interrupt():
+    """SIGTERM and SIGHUP raise ``KeyboardInterrupt`` in the block, as Ctrl-C does, so that
+    a command's cleanup runs (a sweep stops its workers and releases their semaphores)
+    instead of the process dying where it stands; :func:`exit_code` then gives 128 + the
+    signal.  Off the main thread, or where a handler is installed already, nothing
+    changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    taken = [s for s in SIGNALS if s != signal.SIGINT
+             and signal.getsignal(s) is signal.SIG_DFL]
+    previous = {s: signal.signal(s, _raise_interrupt) for s in taken}
+    _state["signal"] = signal.SIGINT
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
