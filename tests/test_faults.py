@@ -376,3 +376,42 @@ def test_sigterm_to_a_sweep_stops_its_workers_cleanly():
     while any(_alive(p) for p in children) and time.monotonic() < deadline:
         time.sleep(0.2)
     assert not any(_alive(p) for p in children)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--json", "/dev/null"], "--json /dev/null: is not a regular file"),
+    (["--csv", "/dev/null"], "--csv /dev/null: is not a regular file"),
+    (["--json", "/sys/x.json"], "--json /sys/x.json: no file can be written in /sys"),
+    (["--plot", "plot"], "--plot plot: the format is chosen by the suffix"),
+    (["--json", "f.txt/x.json"], "the directory f.txt does not exist"),
+    (["--checkpoint", "r.csv", "--csv", "r.csv"], "--checkpoint r.csv names the same file as --csv"),
+])
+def test_more_outputs_refused_before_any_work(args, message, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "f.txt").write_text("mine")
+    assert _cli("run", "vibrating-string", *args) == 2
+    assert message in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.txt"]
+    assert Path("/dev/null").is_char_device()  # never replaced by a file
+
+
+def test_a_resume_may_save_back_over_its_checkpoint(tmp_path):
+    saved = tmp_path / "c.npz"
+    assert _cli("run", "vibrating-string", "--quiet", "--checkpoint", saved) == 0
+    step = load_checkpoint(saved)["step"]
+    assert _cli("resume", saved, "--t-end", 0.2, "--quiet", "--checkpoint", saved) == 0
+    assert load_checkpoint(saved)["step"] > step
+
+
+def test_a_scene_files_checkpoint_that_fails_keeps_its_record(tmp_path, capsys, monkeypatch):
+    def full(path, *a, **k):
+        raise OutputError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr("timpm.scenefile.runner.save_checkpoint", full)
+    record, saved = tmp_path / "r.json", tmp_path / "c.npz"
+    assert _cli("run", ROOT / "examples" / "disks.toml", "--set", "domain.cells=16",
+                "--t-end", 0.02, "--set", "output.gif=", "--json", record,
+                "--checkpoint", saved) == 2
+    err = capsys.readouterr().err
+    assert f"could not write {saved}: No space left on device; the record is in {record}" in err
+    assert json.loads(record.read_text())["steps"] > 0

@@ -79,6 +79,10 @@ def check_output(path, option, formats=None):
         if suffix not in formats:
             raise ValueError(f"{option} {text}: the format is chosen by the suffix, one of "
                              f"{', '.join('.' + f for f in formats)}")
+    if os.path.exists(text) and not os.path.isfile(text):
+        # a device, a pipe, a socket: a rename over it would replace it (/dev/null!)
+        raise ValueError(f"{option} {text}: is not a regular file (a device, pipe or socket); "
+                         "outputs are written whole and renamed over the file")
     _probe(folder, option, text)
     if os.path.exists(text) and not os.access(text, os.W_OK):
         raise ValueError(f"{option} {text}: the file exists and is not writable")

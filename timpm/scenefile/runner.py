@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..checkpoint import save_checkpoint
-from ..files import write_json
+from ..files import OutputError, write_json
 from ..interrupt import INTERRUPTED_CHECKPOINT, RunInterrupted
 from .build import SceneFile, load_scene
 
@@ -127,6 +127,14 @@ def run_scene(scene, progress=None, checkpoint=None, overrides=None,
     except RunInterrupted as stop:  # Ctrl-C: the partial record, then on to the caller
         if stop.result is not None and scene.output.get("json") is not None:
             write_json(scene.output["json"], stop.result.document())
+        raise
+    except OSError as err:  # an output failed after the run: the record is written still
+        kept, record = getattr(err, "result", None), scene.output.get("json")
+        if kept is not None and record is not None:
+            kept.files = _files(fields_writer, movie) + [record]
+            write_json(record, kept.document())
+            raise OutputError(err.errno, f"{err.strerror}; the record is in {record}",
+                              err.filename) from None
         raise
     result.files = _files(fields_writer, movie) + ([str(checkpoint)] if checkpoint else [])
     if scene.output.get("json") is not None:
@@ -264,7 +272,11 @@ def _frames_saved(scene, solver, run, checkpoint, movie, t_end, frames, **option
     if movie is not None:
         movie.close()
     if checkpoint:
-        save_checkpoint(checkpoint, solver, run)
+        try:
+            save_checkpoint(checkpoint, solver, run)
+        except OSError as err:  # the run's record is not lost with its checkpoint
+            err.result = _world_result(scene, solver, movie)
+            raise
     return _world_result(scene, solver, movie)
 
 
