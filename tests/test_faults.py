@@ -28,8 +28,10 @@ def _cli(*args):
 
 
 def _default_signals():
+    """In the child: the signals at their defaults, as in a terminal (a test worker may
+    have inherited them ignored)."""
     for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        signal.signal(s, signal.SIG_DFL if s != signal.SIGINT else signal.SIG_DFL)
+        signal.signal(s, signal.SIG_DFL)
 
 
 @contextlib.contextmanager
@@ -216,6 +218,28 @@ def test_sigterm_and_sighup_stop_a_run_like_ctrl_c(tmp_path, sig, code):
     assert _cli("resume", saved, "--t-end", ckpt["t"] + 0.01, "--quiet") == 0
 
 
+SWEEP = [sys.executable, "-m", "timpm", "convergence", "vibrating-string", "--basis",
+         "bspline2", "--mass", "consistent", "--elements", "32", "64", "128", "256", "512",
+         "--t-end", "8", "--workers", "2"]
+
+
+def _sweep_with_workers():
+    """The issue's --workers 2 sweep, started, and its worker pids once both run."""
+    run = subprocess.Popen(SWEEP, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True, preexec_fn=_default_signals)
+    deadline = time.monotonic() + 120
+    children = []
+    while len(children) < 2:
+        if run.poll() is not None or time.monotonic() > deadline:
+            run.kill()
+            pytest.fail(f"the sweep did not start its workers: {run.communicate()}")
+        time.sleep(0.2)
+        children = [int(p) for p in Path(f"/proc/{run.pid}/task/{run.pid}/children")
+                    .read_text().split()]
+    time.sleep(1.0)
+    return run, children
+
+
 def _alive(pid):
     try:
         os.kill(pid, 0)
@@ -233,21 +257,8 @@ def _alive(pid):
 def test_sweep_workers_die_with_their_parent(sig):
     """Killing a --workers 2 sweep's main process leaves no worker alive 10 s later (they
     held the caller's stdout open, so a pipeline hung)."""
-    run = subprocess.Popen(
-        [sys.executable, "-m", "timpm", "convergence", "vibrating-string", "--basis",
-         "bspline2", "--mass", "consistent", "--elements", "32", "64", "128", "256", "512",
-         "--t-end", "8", "--workers", "2"],
-        env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        preexec_fn=_default_signals)
+    run, children = _sweep_with_workers()
     with _killed_at_exit(run):
-        deadline = time.monotonic() + 120
-        children = []
-        while len(children) < 2:
-            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
-            time.sleep(0.2)
-            children = [int(p) for p in Path(f"/proc/{run.pid}/task/{run.pid}/children")
-                        .read_text().split()]
-        time.sleep(1.0)
         run.send_signal(sig)
         run.communicate(timeout=60)
     deadline = time.monotonic() + 10
@@ -352,21 +363,8 @@ def test_demo_outputs_may_not_collide(args, capsys, tmp_path, monkeypatch):
 def test_sigterm_to_a_sweep_stops_its_workers_cleanly():
     """SIGTERM to a --workers sweep: the command stops its workers itself (no leaked
     semaphore warning, no worker left), one line, exit 143."""
-    run = subprocess.Popen(
-        [sys.executable, "-m", "timpm", "convergence", "vibrating-string", "--basis",
-         "bspline2", "--mass", "consistent", "--elements", "32", "64", "128", "256", "512",
-         "--t-end", "8", "--workers", "2"],
-        env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        preexec_fn=_default_signals)
+    run, children = _sweep_with_workers()
     with _killed_at_exit(run):
-        deadline = time.monotonic() + 120
-        children = []
-        while len(children) < 2:
-            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
-            time.sleep(0.2)
-            children = [int(p) for p in Path(f"/proc/{run.pid}/task/{run.pid}/children")
-                        .read_text().split()]
-        time.sleep(1.0)
         run.send_signal(signal.SIGTERM)
         out, err = run.communicate(timeout=60)
     assert run.returncode == 143, err

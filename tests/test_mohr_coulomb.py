@@ -183,7 +183,7 @@ def test_drucker_prager_peaks_at_its_cone(test, phi, c, psi):
 @pytest.mark.parametrize("kwargs, message", [
     (dict(cohesion=-1.0), "cohesion must be >= 0"),
     (dict(dilation_angle=40.0), r"dilation_angle must lie in \[0, friction_angle"),
-    (dict(cohesion=10.0, tensile_strength=1e6), "the apex of the cone"),
+    (dict(cohesion=10.0, tensile_strength=1e6), "the apex of the surface"),
 ])
 def test_drucker_prager_refuses_bad_strength(kwargs, message):
     from timpm.materials import DruckerPrager

@@ -20,20 +20,22 @@ __all__ = ["GravityLoading", "gravity_loading"]
 
 
 def _stress3(solver, world):
-    """The particles' Cauchy stresses as (n, 3, 3); in 2D sigma_zz from the out-of-plane
-    elastic strain of the laws that keep one (Mohr-Coulomb), else zero."""
-    sig = solver.read("sigma")
+    """The particles' Kirchhoff stresses tau = J sigma as (n, 3, 3): the stress the laws
+    hold (their surfaces are written in it), which the loaded scene starts from at V = V0;
+    in 2D tau_zz from the out-of-plane elastic strain of the laws that keep one
+    (Mohr-Coulomb), else zero."""
+    model = world.model
+    J = solver.read("vol") / model.volume  # V / V0
+    sig = solver.read("sigma") * J[:, None, None]
     n, d = sig.shape[0], world.dim
     out = np.zeros((n, 3, 3))
     out[:, :d, :d] = sig
     if d == 2 and "ezz" in solver.program().particle_fields:
         F, ezz = solver.read("F"), solver.read("ezz")
-        model = world.model
         lam = np.array([getattr(m, "lam", 0.0) for m in model.materials])[model.material_index]
         mu = np.array([getattr(m, "mu", 0.0) for m in model.materials])[model.material_index]
         tr = np.log(np.abs(np.linalg.det(F))) + ezz
-        J = solver.read("vol") / model.volume  # V / V0
-        out[:, 2, 2] = (lam * tr + 2.0 * mu * ezz) / J
+        out[:, 2, 2] = lam * tr + 2.0 * mu * ezz
     return out
 
 

@@ -171,6 +171,21 @@ class SolidMaterial(Material):
         ezz = eps[:, 2, 2] if dim == 2 and not plane_trace else np.zeros(len(eps))
         return F, ezz
 
+    def _tensile_strength(self, value, apex):
+        """A soil's tension cut-off: None (at the apex of its surface) or a stress in [0,
+        apex] (Pa), checked."""
+        if value is None:
+            return None
+        try:
+            st = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{self.name}: tensile_strength must be a number (Pa) or None, "
+                             f"got {value!r}") from None
+        if not (0.0 <= st <= apex):
+            raise ValueError(f"{self.name}: tensile_strength must lie in [0, c cot(phi) = "
+                             f"{apex:g}] Pa (the apex of the surface), got {value!r}")
+        return st
+
     @ti.func
     def _trial_F(self, s: ti.template(), p, grad_du):
         """F_trial = (I + grad du) F_p: the deformation gradient advanced by the step."""

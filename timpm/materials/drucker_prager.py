@@ -65,19 +65,7 @@ class DruckerPrager(SolidMaterial):
         self.alpha = _cone(phi)
         # the apex: the hydrostatic tension c cot(phi)
         self.apex = c / math.tan(math.radians(phi))
-        if tensile_strength is None:
-            self.tensile_strength = None
-        else:
-            try:
-                st = float(tensile_strength)
-            except (TypeError, ValueError):
-                raise ValueError(f"{self.name}: tensile_strength must be a number (Pa) or "
-                                 f"None, got {tensile_strength!r}") from None
-            if not (0.0 <= st <= self.apex):
-                raise ValueError(f"{self.name}: tensile_strength must lie in [0, c cot(phi) = "
-                                 f"{self.apex:g}] Pa (the apex of the cone), got "
-                                 f"{tensile_strength!r}")
-            self.tensile_strength = st
+        self.tensile_strength = self._tensile_strength(tensile_strength, self.apex)
         # Klar et al.'s law exactly (compiled as before) unless one of these is given
         self.general = bool(c > 0.0 or psi > 0.0 or tensile_strength is not None)
 

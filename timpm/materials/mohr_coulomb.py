@@ -75,19 +75,7 @@ class MohrCoulomb(SolidMaterial):
         sin_phi = math.sin(math.radians(phi))
         # the apex of the surface, t1 = t2 = t3 = c cot(phi): the most tension it carries
         self.apex = c * math.cos(math.radians(phi)) / sin_phi if phi > 0.0 else UNBOUNDED
-        if tensile_strength is None:
-            self.tensile_strength = None
-        else:
-            try:
-                st = float(tensile_strength)
-            except (TypeError, ValueError):
-                raise ValueError(f"mohr-coulomb: tensile_strength must be a number (Pa) or "
-                                 f"None, got {tensile_strength!r}") from None
-            if not (0.0 <= st <= self.apex):
-                raise ValueError(f"mohr-coulomb: tensile_strength must lie in [0, c cot(phi) "
-                                 f"= {self.apex:g}] Pa (the apex of the surface), got "
-                                 f"{tensile_strength!r}")
-            self.tensile_strength = st
+        self.tensile_strength = self._tensile_strength(tensile_strength, self.apex)
 
     def parameters(self) -> dict:
         out = {**super().parameters(), "friction_angle": self.friction_angle,
