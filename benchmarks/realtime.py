@@ -17,7 +17,10 @@ from pathlib import Path
 
 from harness.cli_run import ROOT, run_cli
 
-DEMOS = ("column-collapse", "disks", "dam-break")
+def _demos():
+    sys.path.insert(0, str(ROOT))
+    from timpm.scenarios.demos import DEMOS
+    return tuple(DEMOS)
 
 
 def run(args):
@@ -35,7 +38,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json", metavar="FILE")
     args = ap.parse_args(argv)
-    commands = [["demo", name] for name in DEMOS]
+    commands = [["demo", name] for name in _demos()]
     commands += [["run", str(p)] for p in sorted((ROOT / "examples").glob("*.toml"))]
     rows = []
     for cmd in commands:

@@ -18,8 +18,10 @@ orders of magnitude less; a slope past its factor of safety has a mechanism (a b
 plastic strain from toe to crest) along which the mass slides on, accelerating, by
 decimetres to metres over the same time.  The factor found is insensitive to ``creep``
 within decades (the test checks a factor of 10), because at F above the factor the motion
-is not small.  A run that stops because material leaves the grid has failed too.  The
-bracket is reported with the factor, which is its midpoint.
+is not small.  A run that stops because material leaves the grid (or is crushed) has
+failed too; one that stops for another reason (the energy guard: an instability) stops
+the study, since no factor can be read from it.  The bracket is reported with the
+factor, which is its midpoint.
 """
 import argparse
 import math
@@ -51,7 +53,7 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     """Run ``world`` with its soil's strength divided by ``F`` to ``t_end``: whether it
     failed (see the module), the largest displacement at 3/4 and at the end, the
     particles' plastic strain and positions at the end."""
-    from ..errors import SimulationError
+    from ..errors import ErrorCode, SimulationError
     from ..solver import Solver
 
     from ..geostatic import GravityLoading
@@ -75,7 +77,11 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
         s.run(t_end=t_end)
         d2 = float(np.linalg.norm(s.positions() - X, axis=1).max())
     except SimulationError as err:
-        out["stopped"] = str(err)
+        if err.code not in (ErrorCode.OFF_GRID, ErrorCode.VOLUME_RANGE, ErrorCode.INVERTED):
+            s.release()  # an instability, not a slope that slid away: no factor from it
+            raise SimulationError(f"the run at F = {F:g} stopped: {err}", err.code, err.step,
+                                  err.particle, err.node) from None
+        out["stopped"] = str(err)  # the mass ran off the grid or crushed: it failed
         d1 = d2 = math.inf
     limit = creep * _height(world)
     out.update(displacement_three_quarters=d1, displacement_end=d2,
