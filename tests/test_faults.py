@@ -413,3 +413,29 @@ def test_a_scene_files_checkpoint_that_fails_keeps_its_record(tmp_path, capsys, 
     err = capsys.readouterr().err
     assert f"could not write {saved}: No space left on device; the record is in {record}" in err
     assert json.loads(record.read_text())["steps"] > 0
+
+
+def test_ctrl_c_during_a_demo_leaves_only_whole_png_frames(tmp_path):
+    """`timpm demo disks --out d.gif --png-dir p`, Ctrl-C while it draws: every PNG in p
+    opens whole and no temporary file stays (issue 35, 7: a truncated PNG was left)."""
+    from PIL import Image
+
+    frames = tmp_path / "p"
+    run = subprocess.Popen(
+        [sys.executable, "-m", "timpm", "demo", "disks", "--out", str(tmp_path / "d.gif"),
+         "--png-dir", str(frames), "--frames", "2000", "--param", "cells=32"],
+        cwd=tmp_path, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=_default_signals)
+    with _killed_at_exit(run):
+        deadline = time.monotonic() + 120
+        while len(list(frames.glob("frame_*.png"))) < 5:
+            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
+            time.sleep(0.05)
+        run.send_signal(signal.SIGINT)
+        out, err = run.communicate(timeout=60)
+    assert run.returncode == 130 and "Traceback" not in err
+    names = sorted(p.name for p in frames.iterdir())
+    assert names and all(n.startswith("frame_") and n.endswith(".png") for n in names)
+    for name in names:
+        with Image.open(frames / name) as im:
+            im.load()  # a truncated file raises here

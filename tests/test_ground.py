@@ -254,3 +254,58 @@ def test_a_scene_file_chooses_gravity_loading(tmp_path):
     bad.write_text(text.replace("damping = 0.7", "damping = 0.7\nk0 = 0.5"))
     with pytest.raises(ValueError, match=r"initial_stress\.k0: kind = 'gravity' takes damping"):
         load_scene(bad)
+
+
+def test_a_3d_prism_slope_from_a_scene_file_starts_from_k0(tmp_path):
+    """The slope's cross-section extruded along z: the K0 stress integrates the weight down
+    each (x, z) column, sigma_zz = sigma_xx = K0 sigma_v."""
+    from timpm.scenefile import load_scene
+
+    f = tmp_path / "prism.toml"
+    f.write_text('''
+[simulation]
+t_end = 0.1
+basis = "linear"
+transfer = "musl"
+
+[domain]
+size = [40.0, 26.0, 4.0]
+cells = 20
+
+[material.clay]
+type = "mohr-coulomb"
+E = 1e8
+nu = 0.3
+density = 2000.0
+friction_angle = 30.0
+cohesion = 10e3
+
+[[body]]
+material = "clay"
+shape = "prism"
+vertices = [[0, 0], [40, 0], [40, 10], [30, 10], [10, 20], [0, 20]]
+z = [0.0, 4.0]
+
+[initial_stress]
+kind = "k0"
+''')
+    world = load_scene(f).world
+    assert world.dim == 3 and isinstance(world.bodies[0].shape, Prism)
+    x, sig = world.model.positions, world.model.initial_stress
+    surface = np.minimum(20.0, np.where(x[:, 0] > 30.0, 10.0, 25.0 - x[:, 0] / 2))
+    # the weight integral's error is at most one sample's weight (geostatic.SAMPLES from
+    # the domain's top): where the surface cuts a sample it is counted in or out
+    from timpm.geostatic import SAMPLES
+    one_sample = 2000.0 * 9.81 * 26.0 / SAMPLES
+    np.testing.assert_allclose(-sig[:, 1, 1], 2000.0 * 9.81 * (surface - x[:, 1]), rtol=0,
+                               atol=one_sample)
+    np.testing.assert_allclose(sig[:, 2, 2], 0.5 * sig[:, 1, 1])
+    np.testing.assert_allclose(sig[:, 0, 0], 0.5 * sig[:, 1, 1])
+    bad = tmp_path / "bad.toml"
+    bad.write_text(f.read_text().replace('shape = "prism"', 'shape = "polygon"'))
+    with pytest.raises(ValueError, match=r"body\[0\]\.z: a polygon takes vertices, not z"):
+        load_scene(bad)
+    bad.write_text(f.read_text().replace('shape = "prism"', 'shape = "polygon"')
+                   .replace("z = [0.0, 4.0]\n", ""))
+    with pytest.raises(ValueError, match="a polygon is a 2D shape, the domain is 3D"):
+        load_scene(bad)
