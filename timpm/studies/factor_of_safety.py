@@ -54,10 +54,9 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     failed (see the module), the largest displacement at 3/4 and at the end, the
     particles' plastic strain and positions at the end."""
     from ..errors import ErrorCode, SimulationError
-    from ..solver import Solver
-
     from ..geostatic import GravityLoading
     from ..loading import gravity_loading
+    from ..solver import Solver
 
     bodies = tuple(replace(b, material=reduced(b.material, F)) for b in world.bodies)
     w = replace(world, bodies=bodies)
@@ -150,6 +149,10 @@ def plot_mechanism(world, failed, record, path):
 
     from ..files import replacing
 
+    if failed.get("plastic") is None:  # the run stopped (off the grid, no rest under gravity)
+        raise ValueError(f"no mechanism to draw: the run at F = {failed['F']:g}, the smallest "
+                         f"that failed, stopped ({failed['stopped']}); narrow the tolerance "
+                         "or the bracket")
     X = world.model.positions
     fig, ax = plt.subplots(figsize=(9, 4.2))
     sc = ax.scatter(X[:, 0], X[:, 1], c=np.minimum(failed["plastic"], 1.0), s=4, cmap="inferno_r",
