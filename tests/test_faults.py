@@ -439,3 +439,16 @@ def test_ctrl_c_during_a_demo_leaves_only_whole_png_frames(tmp_path):
     for name in names:
         with Image.open(frames / name) as im:
             im.load()  # a truncated file raises here
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--json", "/proc/x.json"], "--json /proc/x.json: no file can be written"),
+    (["--plot", "x.svg"], "--plot x.svg: the format is chosen by the suffix, one of .png"),
+    (["--json", "a.png", "--plot", "a.png"], "--plot a.png names the same file as --json"),
+    (["--json", ""], "--json needs a file name"),
+])
+def test_element_test_outputs_are_checked_first(args, message, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert _cli("run", "biaxial-mc", *args) == 2
+    assert message in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())

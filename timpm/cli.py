@@ -526,8 +526,8 @@ def _factor_of_safety(args) -> int:
             _write_json(args.json, record)
         if args.plot:
             factor_of_safety.plot_mechanism(scene.world, failed, record, args.plot)
-    except OSError as exc:
-        print(f"timpm: error: could not write {exc.filename}: {exc.strerror}", file=sys.stderr)
+    except (OSError, ValueError) as exc:  # the record is written first: it is kept
+        print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
     return 0
 

@@ -337,7 +337,7 @@ def main(argv):
     """``timpm run biaxial-mc|triaxial-mc [--param NAME=VALUE ...] [--json F] [--plot P]``."""
     from .. import runtime
     from ..argtypes import param
-    from ..files import write_json
+    from ..files import check_distinct, check_output, write_json
 
     ap = argparse.ArgumentParser(prog=f"timpm run {argv[0] if argv else 'biaxial-mc'}",
                                  description="an element test of a soil law (Mohr-Coulomb, "
@@ -352,13 +352,14 @@ def main(argv):
     ap.add_argument("--plot", metavar="FILE.png", help="draw the deviator and the volume")
     ap.add_argument("--quiet", action="store_true")
     args = ap.parse_args(argv)
-    for path, option in ((args.json, "--json"), (args.plot, "--plot")):
-        if path is not None and not path:
-            print(f"timpm: error: {option} needs a file name", file=sys.stderr)
-            return 2
-    if args.plot and not args.plot.lower().endswith(".png"):
-        print(f"timpm: error: --plot {args.plot}: the plot is written as PNG (FILE.png)",
-              file=sys.stderr)
+    try:  # the outputs, before any work
+        if args.json is not None:
+            check_output(args.json, "--json")
+        if args.plot is not None:
+            check_output(args.plot, "--plot", ("png",))
+        check_distinct({"--json": args.json, "--plot": args.plot})
+    except ValueError as exc:
+        print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
     try:
         runtime.init(precision="f64")
@@ -378,6 +379,6 @@ def main(argv):
         if args.plot:
             plot_element_test(record, args.plot)
     except OSError as exc:
-        print(f"timpm: error: could not write {exc.filename}: {exc.strerror}", file=sys.stderr)
+        print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
     return 0
