@@ -138,8 +138,9 @@ class Midpoint:
             accel = ti.Vector.zero(float, self.dim)
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
             for r in range(self.stencil_rows):
+                row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self.stencil_node(w, dw, r, a)
+                    offset, phi, grad = self.row_node(w, dw, r, row, a)
                     vi = self.gp[base + offset]
                     v_mid += phi * vi
                     accel += phi * self.gf[base + offset]
@@ -268,8 +269,9 @@ class Midpoint:
             mom = mp * self.v[p] - affine @ self.from_first_node(xi, base)
             h_affine = self.values.h() * affine
             for r in range(self.stencil_rows):
+                row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self.stencil_node(w, dw, r, a)
+                    offset, phi, grad = self.row_node(w, dw, r, row, a)
                     node = base + offset
                     self.gm[node] += mp * phi
                     if ti.static(self.basis.support > 2 or self.mls_mpm):
@@ -300,8 +302,9 @@ class Midpoint:
                 A = self.values.D_inv() * stress_volume
             d = self.from_first_node(xi, base)
             for r in range(self.stencil_rows):
+                row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self.stencil_node(w, dw, r, a)
+                    offset, phi, grad = self.row_node(w, dw, r, row, a)
                     force = phi * fp
                     if ti.static(self.mls_mpm):
                         force -= phi * (self.values.h() * self.times_offset(A, r, a) - A @ d)
@@ -318,7 +321,8 @@ class Midpoint:
             self.C[p] = self.scheme.affine_of(self, B, base, w, xi)
             dx = ti.Vector.zero(float, self.dim)
             for r in range(self.stencil_rows):
+                row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self.stencil_node(w, dw, r, a)
+                    offset, phi, grad = self.row_node(w, dw, r, row, a)
                     dx += phi * self.gp[base + offset]
             self._midpoint_end_state(p, self.x[p] + self.values.dt() * dx, v_new)

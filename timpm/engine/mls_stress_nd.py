@@ -148,8 +148,9 @@ class MLSStressND:
                     base, w, dw, _ = self._stencil_at(y)
                     scale = jw * self.values.h() ** self.dim
                     for r in range(self.stencil_rows):
+                        row = self.stencil_row(w, dw, r)
                         for a in ti.static(range(self.basis.support)):
-                            offset, phi, grad = self.stencil_node(w, dw, r, a)
+                            offset, phi, grad = self.row_node(w, dw, r, row, a)
                             self.accumulate(self.gf[base + offset], -scale * (sig @ grad))
 
     @ti.func

@@ -160,8 +160,9 @@ class Recorder:
             base, w, dw, xi, inside = self.stencil(p)
             if inside:
                 for r in range(self.stencil_rows):
+                    row = self.stencil_row(w, dw, r)
                     for a in ti.static(range(self.basis.support)):
-                        offset, phi, grad = self.stencil_node(w, dw, r, a)
+                        offset, phi, grad = self.row_node(w, dw, r, row, a)
                         self.accumulate(self.gm[base + offset], self.m[p] * phi)
                         self.accumulate(self.gp[base + offset], self.m[p] * phi * self.v[p])
 

@@ -82,8 +82,9 @@ class RungeKutta:
             v_rate = ti.Vector.zero(float, self.dim)
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
             for r in range(self.stencil_rows):
+                row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self.stencil_node(w, dw, r, a)
+                    offset, phi, grad = self.row_node(w, dw, r, row, a)
                     vi = self.gp[base + offset]
                     x_rate += phi * vi
                     v_rate += phi * self.gf[base + offset]

@@ -5,8 +5,11 @@ values (``self.values``); the basis (``self.basis``) is a compile-time class who
 ``ti.func`` gives the 1D weights, combined here as tensor products.
 
 The phases loop over a particle's stencil nodes row by row: a run-time loop over the
-rows (every axis but the last: ``stencil_rows`` = support^(dim - 1), one in 1D) and the
-nodes of a row unrolled (``ti.static``), each node from ``stencil_node(w, dw, r, a)``.
+rows (every axis but the last: ``stencil_rows`` = support^(dim - 1), one in 1D), the row's
+weight products over those axes once (``row = stencil_row(w, dw, r)``), and the nodes of
+the row unrolled (``ti.static``), each node from ``row_node(w, dw, r, row, a)``: the same
+products in the same order as ``stencil_node``, so the same bits, without recomputing the
+row's products per node (3D steps 3 % faster, docs/performance.md).
 Taichi's IR passes cost about the square of a kernel's statement count (each replaced
 statement rescans the kernel): the 3D cube scene's step, 27 nodes unrolled, compiled
 cold for 62 s, 2.2 s so.  The unrolled row keeps the weights of the last axis in registers and the
@@ -105,6 +108,34 @@ class StencilOps:
         ``for r in range(self.stencil_rows): for a in ti.static(range(support))``)."""
         offset = self._offset_of(r, a)
         phi, grad = self._weight(w, dw, offset)
+        return offset, phi, grad
+
+    @ti.func
+    def stencil_row(self, w, dw, r):
+        """The products of stencil row r over every axis but the last, computed once per
+        row: (w_0 w_1, dw_0 w_1, w_0 dw_1) in 3D, (w_0, dw_0, 0) in 2D, (1, 0, 0) in 1D."""
+        row = ti.Vector([1.0, 0.0, 0.0])
+        o0, o1 = self._row_offsets(r)
+        if ti.static(self.dim == 3):
+            row = ti.Vector([w[o0, 0] * w[o1, 1], dw[o0, 0] * w[o1, 1], w[o0, 0] * dw[o1, 1]])
+        elif ti.static(self.dim == 2):
+            row = ti.Vector([w[o1, 0], dw[o1, 0], 0.0])
+        return row
+
+    @ti.func
+    def row_node(self, w, dw, r, row, a: ti.template()):
+        """Node a of stencil row r from the row's products (``stencil_row``): its offset,
+        basis value and gradient, the same numbers as ``stencil_node``."""
+        offset = self._offset_of(r, a)
+        last = ti.static(self.dim - 1)
+        phi = row[0] * w[a, last]
+        grad = ti.Vector.zero(float, self.dim)
+        if ti.static(self.dim == 3):
+            grad = ti.Vector([row[1] * w[a, last], row[2] * w[a, last], row[0] * dw[a, last]])
+        elif ti.static(self.dim == 2):
+            grad = ti.Vector([row[1] * w[a, last], row[0] * dw[a, last]])
+        else:
+            grad[0] = row[0] * dw[a, last]
         return offset, phi, grad
 
     @ti.func

@@ -75,8 +75,9 @@ class Affine:
             mom = mp * prog.v[p] + prog.values.dt() * fp - affine @ d
             h_affine = prog.values.h() * affine
             for r in range(prog.stencil_rows):
+                row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
-                    offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                    offset, phi, grad = prog.row_node(w, dw, r, row, a)
                     node = base + offset
                     if ti.static(prog.mls_mpm):
                         prog.scatter_add("gm", copy, node, mp * phi)
@@ -132,8 +133,9 @@ class Affine:
             prog.C[p] = B  # the linear basis keeps B_p (see p2g_particle)
             prog.v[p] = vp
             for r in range(prog.stencil_rows):
+                row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
-                    offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                    offset, phi, grad = prog.row_node(w, dw, r, row, a)
                     node_values = prog.deposit("gp", copy, base + offset, offset,
                                                 prog.m[p] * phi * vp, node_values)
         return base, inside, node_values
@@ -150,8 +152,9 @@ class Affine:
         grad_du = ti.Matrix.zero(float, prog.dim, prog.dim)
         B = ti.Matrix.zero(float, prog.dim, prog.dim)  # sum_i phi_i v_i o_i^T
         for r in range(prog.stencil_rows):
+            row = prog.stencil_row(w, dw, r)
             for a in ti.static(range(prog.basis.support)):
-                offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                offset, phi, grad = prog.row_node(w, dw, r, row, a)
                 vi = prog.gv[base + offset]
                 vp += phi * vi
                 if ti.static(gradient):
@@ -190,8 +193,9 @@ class Affine:
         if ti.static(prog.strain_remap):
             vp = prog.v[p]
             for r in range(prog.stencil_rows):
+                row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
-                    offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                    offset, phi, grad = prog.row_node(w, dw, r, row, a)
                     grad_du += (prog.gp[base + offset] * prog.values.dt()).outer_product(grad)
         else:
             B = ti.Matrix.zero(float, prog.dim, prog.dim)

@@ -97,8 +97,9 @@ class MUSL:
                 else:
                     prog.scatter_gauss_moments_nd(p)
             for r in range(prog.stencil_rows):
+                row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
-                    offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                    offset, phi, grad = prog.row_node(w, dw, r, row, a)
                     node = base + offset
                     if ti.static(not prog.mls):
                         node_values = prog.deposit("gm", copy, node, offset, mp * phi, node_values)
@@ -171,8 +172,9 @@ class MUSL:
         if inside:
             acc = ti.Vector.zero(float, prog.dim)
             for r in range(prog.stencil_rows):
+                row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
-                    offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                    offset, phi, grad = prog.row_node(w, dw, r, row, a)
                     acc += phi * prog.gf[base + offset]
             vp = self.new_velocity(prog, base, w, dw, prog.v[p] + prog.values.dt() * acc)
             prog.v[p] = vp
@@ -180,8 +182,9 @@ class MUSL:
                 prog.scatter_node_moments(p, vp[0])
             else:
                 for r in range(prog.stencil_rows):
+                    row = prog.stencil_row(w, dw, r)
                     for a in ti.static(range(prog.basis.support)):
-                        offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                        offset, phi, grad = prog.row_node(w, dw, r, row, a)
                         node_values = prog.deposit("gp", copy, base + offset, offset,
                                                     prog.m[p] * phi * vp, node_values)
         return base, inside, node_values
@@ -218,8 +221,9 @@ class MUSL:
         vp = ti.Vector.zero(float, prog.dim)
         grad_du = ti.Matrix.zero(float, prog.dim, prog.dim)
         for r in range(prog.stencil_rows):
+            row = prog.stencil_row(w, dw, r)
             for a in ti.static(range(prog.basis.support)):
-                offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                offset, phi, grad = prog.row_node(w, dw, r, row, a)
                 vi = prog.gp[base + offset]
                 vp += phi * vi
                 grad_du += (vi * prog.values.dt()).outer_product(grad)

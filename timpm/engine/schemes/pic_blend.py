@@ -49,8 +49,9 @@ class PICBlend(MUSL):
         # v_p = (1 - b) v_p^FLIP + b sum_i phi_i v_i^L
         pic = ti.Vector.zero(float, prog.dim)
         for r in range(prog.stencil_rows):
+            row = prog.stencil_row(w, dw, r)
             for a in ti.static(range(prog.basis.support)):
-                offset, phi, grad = prog.stencil_node(w, dw, r, a)
+                offset, phi, grad = prog.row_node(w, dw, r, row, a)
                 pic += phi * prog.gv[base + offset]
         b = prog.values.pic_fraction()
         return (1.0 - b) * flip + b * pic
