@@ -190,3 +190,27 @@ class SolidMaterial(Material):
     def _trial_F(self, s: ti.template(), p, grad_du):
         """F_trial = (I + grad du) F_p: the deformation gradient advanced by the step."""
         return (ti.Matrix.identity(float, s.dim) + grad_du) @ s.F[p]
+
+    @ti.func
+    def _principal_log_strains(self, s: ti.template(), F, n: ti.template()):
+        """F = U diag(S) V^T: U, V and the logarithms of S as the first ``s.dim`` of ``n``
+        entries (n > dim: room for a plane-strain law's out-of-plane strain)."""
+        U, S, V = ti.svd(F)
+        eps = ti.Vector.zero(float, n)
+        for k in ti.static(range(s.dim)):
+            eps[k] = ti.log(ti.max(ti.abs(S[k, k]), 1e-12))
+        return U, eps, V
+
+    @ti.func
+    def _hencky_stress(self, s: ti.template(), p, U, V, eps, tr):
+        """The elastic state F_e = U diag(exp(eps)) V^T stored in ``s.F[p]``, and the Cauchy
+        stress of the principal Kirchhoff stresses 2 mu eps_k + lam tr (``tr``: the law's
+        trace of eps), U diag(tau) U^T V0 / V."""
+        d = ti.static(s.dim)
+        Se = ti.Matrix.zero(float, d, d)
+        T = ti.Matrix.zero(float, d, d)
+        for k in ti.static(range(d)):
+            Se[k, k] = ti.exp(eps[k])
+            T[k, k] = self.c.two_mu() * eps[k] + self.c.lam() * tr
+        s.F[p] = U @ Se @ V.transpose()
+        return U @ T @ U.transpose() * self._initial_over_current_volume(s, p)

@@ -153,21 +153,11 @@ class DruckerPrager(SolidMaterial):
     @ti.func
     def _update_general(self, s: ti.template(), p, F):
         d = ti.static(s.dim)
-        U, S, V = ti.svd(F)
-        eps = ti.Vector.zero(float, d)
-        for k in ti.static(range(d)):
-            eps[k] = ti.log(ti.max(ti.abs(S[k, k]), 1e-12))
+        U, eps, V = self._principal_log_strains(s, F, d)
         eps_new = self._return_general(eps)
         change = eps - eps_new
         s.accumulate(s.plastic[p], (change - change.sum() / d).norm())
-        Se = ti.Matrix.zero(float, d, d)
-        T = ti.Matrix.zero(float, d, d)
-        tr = eps_new.sum()
-        for k in ti.static(range(d)):
-            Se[k, k] = ti.exp(eps_new[k])
-            T[k, k] = self.c.two_mu() * eps_new[k] + self.c.lam() * tr
-        s.F[p] = U @ Se @ V.transpose()
-        return U @ T @ U.transpose() * self._initial_over_current_volume(s, p)
+        return self._hencky_stress(s, p, U, V, eps_new, eps_new.sum())
 
     @ti.func
     def _update_2d(self, s: ti.template(), p, F):
@@ -219,10 +209,7 @@ class DruckerPrager(SolidMaterial):
     @ti.func
     def _update_svd(self, s: ti.template(), p, F):
         d = ti.static(s.dim)
-        U, S, V = ti.svd(F)
-        eps = ti.Vector.zero(float, d)
-        for k in ti.static(range(d)):
-            eps[k] = ti.log(ti.max(ti.abs(S[k, k]), 1e-12))
+        U, eps, V = self._principal_log_strains(s, F, d)
         # return mapping on the principal Hencky strains (Klar et al. 2016, Alg. 2)
         tr = eps.sum()
         dev = eps - tr / d

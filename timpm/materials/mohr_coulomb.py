@@ -142,11 +142,8 @@ class MohrCoulomb(SolidMaterial):
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         d = ti.static(s.dim)
-        F = self._trial_F(s, p, grad_du)
-        U, S, V = ti.svd(F)
-        eps = ti.Vector.zero(float, 3)  # principal elastic log strains; [2]: zz in 2D
-        for k in ti.static(range(d)):
-            eps[k] = ti.log(ti.max(ti.abs(S[k, k]), 1e-12))
+        # principal elastic log strains; [2]: zz in 2D
+        U, eps, V = self._principal_log_strains(s, self._trial_F(s, p, grad_du), 3)
         if ti.static(d == 2):
             eps[2] = s.ezz[p]
         eps_new = principal_return(eps, self.c.lam(), self.c.two_mu(), self.c.bulk3(),
@@ -155,17 +152,9 @@ class MohrCoulomb(SolidMaterial):
         plastic = eps - eps_new
         dev = plastic - plastic.sum() / 3.0
         s.accumulate(s.plastic[p], dev.norm())
-        Se = ti.Matrix.zero(float, d, d)
-        T = ti.Matrix.zero(float, d, d)
-        tr = eps_new.sum()
-        for k in ti.static(range(d)):
-            Se[k, k] = ti.exp(eps_new[k])
-            T[k, k] = self.c.two_mu() * eps_new[k] + self.c.lam() * tr
-        s.F[p] = U @ Se @ V.transpose()
         if ti.static(d == 2):
             s.ezz[p] = eps_new[2]
-        # Kirchhoff stress U diag(tau) U^T; Cauchy stress = tau V0 / V
-        return U @ T @ U.transpose() * self._initial_over_current_volume(s, p)
+        return self._hencky_stress(s, p, U, V, eps_new, eps_new.sum())
 
 
 @ti.func
