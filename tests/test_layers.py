@@ -29,7 +29,7 @@ LAYERS = (
     ("timpm.problems*", "timpm.scenarios*"),
     ("timpm.studies*",),
     ("timpm.output*",),
-    ("timpm.cli", "timpm.__main__", "timpm.scenefile"),
+    ("timpm.cli", "timpm.__main__", "timpm.scenefile", "timpm.soil_commands"),
 )
 
 #: modules outside the layer order

@@ -21,6 +21,7 @@ from .problems import PROBLEMS, get_problem
 from .runtime import exit_process
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from .solver import SimulationError
+from . import soil_commands
 from .studies import factor_of_safety, speed_error, sweep
 
 __all__ = ["main", "entry", "demo_script"]
@@ -261,7 +262,7 @@ def _parser():
                            "factor-of-safety")
     studies = study.add_subparsers(dest="study", required=True)
     speed_error.add_parser(studies).set_defaults(func=_speed_error)
-    factor_of_safety.add_parser(studies).set_defaults(func=_factor_of_safety)
+    factor_of_safety.add_parser(studies).set_defaults(func=soil_commands.factor_of_safety)
     for parser in (ap, *sub.choices.values(), *studies.choices.values()):
         numbers_as_values(parser)
     return ap
@@ -290,14 +291,7 @@ def _listing() -> str:
         if higher != linear:  # a scheme of its own beyond the linear basis (mms-1d, 2d)
             lines.append(f"  {'':16s} scheme: {', '.join(higher)} beyond the linear basis, "
                          f"{', '.join(linear)} with it (mass, projection, integrator)")
-    from .studies.element_test import DEFAULTS, ELEMENT_TESTS
-
-    lines.append("element tests of the Mohr-Coulomb law (timpm run TEST --param NAME=VALUE "
-                 "--json F --plot P.png):")
-    for name, dim in ELEMENT_TESTS.items():
-        lines.append(f"  {name:16s} drained {'plane-strain biaxial' if dim == 2 else 'triaxial'}"
-                     f" compression ({dim}D)")
-    lines.append(f"  {'':16s} parameters: " + ", ".join(f"{k}={v:g}" for k, v in DEFAULTS.items()))
+    lines += soil_commands.listing()
     lines.append("bases (--basis): " + ", ".join(BASES) + f"; bsplineN and uniform-bsplineN "
                  f"for degree N = 1 to {MAX_BSPLINE_DEGREE} (clamped, padded uniform)")
     lines.append("demos (timpm demo NAME --out FILE.gif --param NAME=VALUE):")
@@ -494,44 +488,6 @@ def _speed_error(args) -> int:
     return 0
 
 
-def _factor_of_safety(args) -> int:
-    """``timpm study factor-of-safety FILE.toml``: the bisection, its record and plot."""
-    from . import runtime
-    from .scenefile import load_scene
-
-    if args.plot is not None and not args.plot.lower().endswith(".png"):
-        print(f"timpm: error: --plot {args.plot}: the plot is written as PNG (FILE.png)",
-              file=sys.stderr)
-        return 2
-    try:
-        _check_output_files(args, {"the scene file": args.scene})
-        scene = load_scene(args.scene)
-        if scene.world is None:
-            raise ValueError(f"{args.scene}: the factor of safety takes a world (a slope), "
-                             "not a [problem]")
-        runtime.init(precision=scene.precision)
-        record, failed = factor_of_safety.factor_of_safety(
-            scene.world, scene.t_end, low=args.bracket[0], high=args.bracket[1],
-            tolerance=args.tolerance, creep=args.creep, mode=scene.mode,
-            progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
-    except (ValueError, SimulationError) as exc:
-        print(f"timpm: error: {exc}", file=sys.stderr)
-        return 2
-    record["scene"] = args.scene
-    print(f"factor of safety {record['factor_of_safety']:.4f} (bracket "
-          f"{record['bracket'][0]:.4f} to {record['bracket'][1]:.4f}, {len(record['trials'])} "
-          f"runs, {record['wall_seconds']:.1f} s)")
-    try:
-        if args.json:
-            _write_json(args.json, record)
-        if args.plot:
-            factor_of_safety.plot_mechanism(scene.world, failed, record, args.plot)
-    except (OSError, ValueError) as exc:  # the record is written first: it is kept
-        print(f"timpm: error: {exc}", file=sys.stderr)
-        return 2
-    return 0
-
-
 def entry():
     """The ``timpm`` command (console script and ``python -m timpm``): :func:`main`, then
     the process ends without the interpreter's teardown (:func:`timpm.runtime.exit_process`;
@@ -555,10 +511,10 @@ def _main(argv=None):
 
         if is_scene_argument(argv[1:]):
             return run_scene_file(argv[1:])
-        from .studies.element_test import ELEMENT_TESTS, main as run_element_test
+        from .studies.element_test import ELEMENT_TESTS
 
         if argv[1:2] and argv[1] in ELEMENT_TESTS:  # a soil law's element test
-            return run_element_test(argv[1:])
+            return soil_commands.element_test(argv[1:])
     args = _parser().parse_args(argv)
     if args.command == "study":
         return args.func(args)

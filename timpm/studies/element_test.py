@@ -15,15 +15,13 @@ which the record holds as ``exact_peak_deviator`` beside the ``peak_deviator`` f
 The record also holds the stress path (mean stress, deviator) and the volumetric strain
 against the axial strain: dilatancy where the dilation angle is not zero.
 """
-import argparse
 import math
-import sys
 import time
 
 import numpy as np
 import taichi as ti
 
-__all__ = ["ELEMENT_TESTS", "ElementTest", "run_element_test", "main"]
+__all__ = ["ELEMENT_TESTS", "ElementTest", "run_element_test", "plot_element_test"]
 
 #: test name -> dimension
 ELEMENT_TESTS = {"biaxial-mc": 2, "triaxial-mc": 3}
@@ -331,54 +329,3 @@ def plot_element_test(record, path):
     with replacing(path, ".png") as tmp:
         fig.savefig(tmp, dpi=100)
     plt.close(fig)
-
-
-def main(argv):
-    """``timpm run biaxial-mc|triaxial-mc [--param NAME=VALUE ...] [--json F] [--plot P]``."""
-    from .. import runtime
-    from ..argtypes import param
-    from ..files import check_distinct, check_output, write_json
-
-    ap = argparse.ArgumentParser(prog=f"timpm run {argv[0] if argv else 'biaxial-mc'}",
-                                 description="an element test of a soil law (Mohr-Coulomb, "
-                                 "Drucker-Prager): drained compression under a confining "
-                                 "pressure")
-    ap.add_argument("test", choices=list(ELEMENT_TESTS))
-    ap.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
-                    help=f"one of {', '.join(f'{k} (default {v:g})' for k, v in DEFAULTS.items())}")
-    ap.add_argument("--law", default="mohr-coulomb", choices=LAWS,
-                    help="the soil law (default mohr-coulomb)")
-    ap.add_argument("--json", metavar="FILE", help="write the record as JSON")
-    ap.add_argument("--plot", metavar="FILE.png", help="draw the deviator and the volume")
-    ap.add_argument("--quiet", action="store_true")
-    args = ap.parse_args(argv)
-    try:  # the outputs, before any work
-        if args.json is not None:
-            check_output(args.json, "--json")
-        if args.plot is not None:
-            check_output(args.plot, "--plot", ("png",))
-        check_distinct({"--json": args.json, "--plot": args.plot})
-    except ValueError as exc:
-        print(f"timpm: error: {exc}", file=sys.stderr)
-        return 2
-    try:
-        runtime.init(precision="f64")
-        record = run_element_test(args.test, law=args.law, **dict(args.param))
-    except (ValueError, RuntimeError) as exc:
-        print(f"timpm: error: {exc}", file=sys.stderr)
-        return 2
-    if not args.quiet:
-        print(f"{args.test}: peak deviator {record['peak_deviator']:.6g}, closed form "
-              f"{record['exact_peak_deviator']:.6g} (relative error "
-              f"{record['peak_relative_error']:.2e}) at axial strain "
-              f"{100 * record['axial_strain_at_peak']:.3g}%; volumetric strain at the end "
-              f"{100 * record['final_volumetric_strain']:.3g}%")
-    try:
-        if args.json:
-            write_json(args.json, {"command": "run", "problem": args.test, "runs": [record]})
-        if args.plot:
-            plot_element_test(record, args.plot)
-    except OSError as exc:
-        print(f"timpm: error: {exc}", file=sys.stderr)
-        return 2
-    return 0

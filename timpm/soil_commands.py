@@ -1,0 +1,112 @@
+"""The soil commands of ``timpm``: ``timpm run biaxial-mc|triaxial-mc`` (an element test of
+a soil law, :mod:`timpm.studies.element_test`) and ``timpm study factor-of-safety FILE.toml``
+(a slope's factor of safety by strength reduction, :mod:`timpm.studies.factor_of_safety`).
+Each checks its outputs before any work, prints ``timpm: error: ...`` and returns 2 on a
+bad input, and writes its record before its plot."""
+import argparse
+import sys
+
+from . import runtime
+from .errors import SimulationError
+from .files import check_distinct, check_output, write_json
+from .studies import element_test as elements
+from .studies import factor_of_safety as fos
+
+__all__ = ["element_test", "factor_of_safety", "listing"]
+
+
+def listing() -> list:
+    """``timpm list``'s lines of the element tests."""
+    lines = ["element tests of a soil law (timpm run TEST [--law drucker-prager] --param "
+             "NAME=VALUE --json F --plot P.png):"]
+    for name, dim in elements.ELEMENT_TESTS.items():
+        lines.append(f"  {name:16s} drained {'plane-strain biaxial' if dim == 2 else 'triaxial'}"
+                     f" compression ({dim}D)")
+    lines.append(f"  {'':16s} parameters: "
+                 + ", ".join(f"{k}={v:g}" for k, v in elements.DEFAULTS.items()))
+    return lines
+
+
+def _check_outputs(args, inputs=None):
+    """--json and --plot (a PNG) writable and distinct from each other and the inputs."""
+    if args.json is not None:
+        check_output(args.json, "--json")
+    if args.plot is not None:
+        check_output(args.plot, "--plot", ("png",))
+    check_distinct({"--json": args.json, "--plot": args.plot}, inputs)
+
+
+def _error(exc) -> int:
+    print(f"timpm: error: {exc}", file=sys.stderr)
+    return 2
+
+
+def element_test(argv) -> int:
+    """``timpm run biaxial-mc|triaxial-mc [--param NAME=VALUE ...] [--json F] [--plot P]``."""
+    from .argtypes import param
+
+    ap = argparse.ArgumentParser(prog=f"timpm run {argv[0] if argv else 'biaxial-mc'}",
+                                 description="an element test of a soil law (Mohr-Coulomb, "
+                                 "Drucker-Prager): drained compression under a confining "
+                                 "pressure")
+    ap.add_argument("test", choices=list(elements.ELEMENT_TESTS))
+    ap.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
+                    help="one of " + ", ".join(f"{k} (default {v:g})"
+                                               for k, v in elements.DEFAULTS.items()))
+    ap.add_argument("--law", default="mohr-coulomb", choices=elements.LAWS,
+                    help="the soil law (default mohr-coulomb)")
+    ap.add_argument("--json", metavar="FILE", help="write the record as JSON")
+    ap.add_argument("--plot", metavar="FILE.png", help="draw the deviator and the volume")
+    ap.add_argument("--quiet", action="store_true")
+    args = ap.parse_args(argv)
+    try:
+        _check_outputs(args)
+        runtime.init(precision="f64")
+        record = elements.run_element_test(args.test, law=args.law, **dict(args.param))
+    except (ValueError, RuntimeError) as exc:
+        return _error(exc)
+    if not args.quiet:
+        print(f"{args.test}: peak deviator {record['peak_deviator']:.6g}, closed form "
+              f"{record['exact_peak_deviator']:.6g} (relative error "
+              f"{record['peak_relative_error']:.2e}) at axial strain "
+              f"{100 * record['axial_strain_at_peak']:.3g}%; volumetric strain at the end "
+              f"{100 * record['final_volumetric_strain']:.3g}%")
+    try:
+        if args.json:
+            write_json(args.json, {"command": "run", "problem": args.test, "runs": [record]})
+        if args.plot:
+            elements.plot_element_test(record, args.plot)
+    except OSError as exc:
+        return _error(exc)
+    return 0
+
+
+def factor_of_safety(args) -> int:
+    """``timpm study factor-of-safety FILE.toml``: the bisection, its record and plot."""
+    from .scenefile import load_scene
+
+    try:
+        _check_outputs(args, {"the scene file": args.scene})
+        scene = load_scene(args.scene)
+        if scene.world is None:
+            raise ValueError(f"{args.scene}: the factor of safety takes a world (a slope), "
+                             "not a [problem]")
+        runtime.init(precision=scene.precision)
+        record, failed = fos.factor_of_safety(
+            scene.world, scene.t_end, low=args.bracket[0], high=args.bracket[1],
+            tolerance=args.tolerance, creep=args.creep, mode=scene.mode,
+            progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
+    except (ValueError, SimulationError) as exc:
+        return _error(exc)
+    record["scene"] = args.scene
+    print(f"factor of safety {record['factor_of_safety']:.4f} (bracket "
+          f"{record['bracket'][0]:.4f} to {record['bracket'][1]:.4f}, {len(record['trials'])} "
+          f"runs, {record['wall_seconds']:.1f} s)")
+    try:
+        if args.json:
+            write_json(args.json, record)
+        if args.plot:
+            fos.plot_mechanism(scene.world, failed, record, args.plot)
+    except (OSError, ValueError) as exc:  # the record is written first: it is kept
+        return _error(exc)
+    return 0
