@@ -223,9 +223,10 @@ SWEEP = [sys.executable, "-m", "timpm", "convergence", "vibrating-string", "--ba
          "--t-end", "8", "--workers", "2"]
 
 
-def _sweep_with_workers():
-    """The issue's --workers 2 sweep, started, and its worker pids once both run."""
-    run = subprocess.Popen(SWEEP, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+def _sweep_with_workers(command=SWEEP):
+    """The issue's --workers 2 sweep (or ``command``), started, and its worker pids once
+    both run."""
+    run = subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                            text=True, preexec_fn=_default_signals)
     deadline = time.monotonic() + 120
     children = []
@@ -234,10 +235,17 @@ def _sweep_with_workers():
             run.kill()
             pytest.fail(f"the sweep did not start its workers: {run.communicate()}")
         time.sleep(0.2)
-        children = [int(p) for p in Path(f"/proc/{run.pid}/task/{run.pid}/children")
-                    .read_text().split()]
+        children = [int(p) for task in Path(f"/proc/{run.pid}/task").glob("*")
+                    for p in _children_of(task)]  # any thread's (Dask starts them off main)
     time.sleep(1.0)
     return run, children
+
+
+def _children_of(task):
+    try:
+        return (task / "children").read_text().split()
+    except OSError:  # the thread ended
+        return []
 
 
 def _alive(pid):
@@ -360,20 +368,69 @@ def test_demo_outputs_may_not_collide(args, capsys, tmp_path, monkeypatch):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
-def test_sigterm_to_a_sweep_stops_its_workers_cleanly():
-    """SIGTERM to a --workers sweep: the command stops its workers itself (no leaked
-    semaphore warning, no worker left), one line, exit 143."""
-    run, children = _sweep_with_workers()
+@pytest.mark.parametrize("executor", [["--workers", "2"], ["--dask", "local"]])
+def test_sigterm_to_a_sweep_stops_its_workers_cleanly(executor, tmp_path):
+    """SIGTERM to a --workers or --dask local sweep: the command stops its workers itself
+    (no worker left; with --workers no leaked semaphore warning either), says how far it
+    got in one line, keeps the runs done as a partial record, exit 143.  (Dask's own
+    shutdown logs warnings, and under load tracebacks of its workers' heartbeats, before
+    that line.)"""
+    if executor[0] == "--dask":
+        pytest.importorskip("distributed")
+    record = tmp_path / "sweep.json"
+    run, children = _sweep_with_workers(SWEEP[:-2] + executor + ["--json", str(record)])
     with _killed_at_exit(run):
         run.send_signal(signal.SIGTERM)
         out, err = run.communicate(timeout=60)
     assert run.returncode == 143, err
-    assert "leaked semaphore" not in err and "Traceback" not in err
-    assert [line for line in err.splitlines() if line.startswith("timpm")] == ["timpm: interrupted"]
+    said = [line for line in err.splitlines() if line.startswith("timpm")]
+    assert len(said) == 1 and said[0].startswith("timpm: interrupted after "), err
+    if executor[0] == "--workers":
+        assert "leaked semaphore" not in err and "Traceback" not in err
+    done = int(said[0].split()[3])
+    assert said[0].startswith(f"timpm: interrupted after {done} of 5 runs")
+    if done:  # the meshes done are kept, marked interrupted
+        doc = json.loads(record.read_text())
+        assert doc["interrupted"] is True and len(doc["runs"]) == done
+    else:
+        assert not record.exists()
+    assert not list(tmp_path.glob("*.tmp*"))
     deadline = time.monotonic() + 10
     while any(_alive(p) for p in children) and time.monotonic() < deadline:
         time.sleep(0.2)
     assert not any(_alive(p) for p in children)
+
+
+@pytest.mark.parametrize("command", ["convergence", "speed-error"])
+def test_an_interrupted_sweep_keeps_the_runs_done(command, tmp_path, capsys, monkeypatch):
+    """Ctrl-C during a sweep's third run: the two runs done are written to --json, whole
+    and marked interrupted, the plot is not drawn, and the command exits 130."""
+    from timpm.studies import speed_error, study
+
+    module, task = (study, "_mesh_record") if command == "convergence" else \
+        (speed_error, "_configuration")
+    calls, real = [], getattr(module, task)
+
+    def stopped_at_the_third(*args):
+        calls.append(args)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(*args)
+
+    monkeypatch.setattr(module, task, stopped_at_the_third)
+    record, plot = tmp_path / "r.json", tmp_path / "r.png"
+    args = (["convergence", "vibrating-string", "--elements", "4", "8", "16", "32"]
+            if command == "convergence" else
+            ["study", "speed-error", "vibrating-string", "--bases", "linear", "--masses",
+             "lumped", "--elements", "4", "8", "16", "32", "--repeats", "1"])
+    assert _cli(*args, "--json", record, "--plot", plot) == 130
+    err = capsys.readouterr().err
+    assert f"timpm: interrupted after 2 of 4 runs; partial record {record}" in err
+    doc = json.loads(record.read_text())
+    assert doc["interrupted"] is True
+    assert [r["elements"] for r in doc["runs"]] == [4, 8]
+    assert all(r["rms_error"] > 0 for r in doc["runs"])
+    assert not plot.exists()
 
 
 @pytest.mark.parametrize("args, message", [

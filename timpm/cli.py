@@ -29,7 +29,7 @@ __all__ = ["main", "entry", "demo_script"]
 
 def _add_common(p):
     p.add_argument("problem", help=f"one of: {', '.join(PROBLEMS)}")
-    p.add_argument("--ppc", type=int, help="particles per element (default: the problem's)")
+    p.add_argument("--ppc", type=positive_int, help="particles per element (default: the problem's)")
     p.add_argument("--basis", default="linear", type=basis_argument,
                    help=f"one of: {', '.join(BASES)}, bsplineN, uniform-bsplineN")
     p.add_argument("--mass", choices=["lumped", "consistent"],
@@ -202,7 +202,7 @@ def _parser():
              "timpm run FILE.toml (timpm run FILE.toml --help)")
     run = sub.add_parser("run", help=about, description=about)
     _add_common(run)
-    run.add_argument("--elements", type=int, help="number of elements over the body")
+    run.add_argument("--elements", type=positive_int, help="number of elements over the body")
     _add_fields(run, "field frames over the run, with --vtk or --npz (default 20)")
     run.add_argument("--csv", metavar="FILE", help="write the recorded time series (the "
                      "monitored particle, the energies) as a table")
@@ -224,7 +224,7 @@ def _parser():
     _add_checkpoint(resume)
     conv = sub.add_parser("convergence", help="RMS error and observed rates over meshes")
     _add_common(conv)
-    conv.add_argument("--elements", type=int, nargs="+", default=[4, 8, 16, 32, 64],
+    conv.add_argument("--elements", type=positive_int, nargs="+", default=[4, 8, 16, 32, 64],
                       help="numbers of elements (default: 4 8 16 32 64)")
     sweep.add_arguments(conv)
     cmp = sub.add_parser("compare-ulfem", help="MPM against updated-Lagrangian FEM on the "
@@ -444,6 +444,19 @@ def _demo(args):
     return 0
 
 
+def _partial_sweep(args, stop) -> int:
+    """An interrupted sweep (Ctrl-C, SIGTERM, SIGHUP): the record of its runs done written to
+    --json, marked interrupted; 128 + the signal."""
+    kept = f"; partial record {args.json}" if args.json and stop.done else ""
+    try:
+        if kept:
+            _write_json(args.json, stop.partial)
+    except OSError as exc:
+        kept = f"; the partial record was not written: {exc}"
+    print(f"timpm: {stop}{kept}", file=sys.stderr)
+    return interrupt.exit_code()
+
+
 def _speed_error(args) -> int:
     """``timpm study speed-error``: run the sweep, print the report, write plot and JSON."""
     from .output.viz import plot_speed_error
@@ -462,6 +475,8 @@ def _speed_error(args) -> int:
             placement=args.placement, t_end=args.t_end, dt_tolerance=args.dt_tolerance,
             max_halvings=args.max_halvings, repeats=args.repeats, mode=args.mode,
             progress=None if args.quiet else progress, workers=args.workers, dask=args.dask)
+    except sweep.SweepInterrupted as stop:
+        return _partial_sweep(args, stop)
     except (ValueError, SimulationError, sweep.SweepError) as exc:
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2
@@ -575,6 +590,8 @@ def _main(argv=None):
                 _write_json(args.json, doc)
             if args.plot:
                 plot_convergence(doc, args.plot)
+    except sweep.SweepInterrupted as stop:
+        return _partial_sweep(args, stop)
     except (ValueError, SimulationError, sweep.SweepError, OSError) as exc:  # OSError: output
         print(f"timpm: error: {exc}", file=sys.stderr)
         return 2

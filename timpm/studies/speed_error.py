@@ -73,7 +73,7 @@ from ..engine.features import MODES
 from ..problems import PROBLEMS, get_problem
 from ..scene import MASS_KINDS, PLACEMENTS, STRESS_UPDATES
 from .analysis import rms_error
-from .sweep import add_arguments, check_executor, map_runs
+from .sweep import add_arguments, check_executor, interruptible, map_runs
 from .speed_error_report import (cheapest_for, default_targets, format_report, merge_studies,
                                  pareto_front, plateaus)
 
@@ -231,7 +231,9 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
     swept too).  Invalid combinations (a basis that cannot be lumped, too few particles
     per element, a singular mass matrix, a failed run) are skipped with a note in
     ``skipped``.  Returns a JSON-ready document: ``runs`` (records, each with a ``pareto``
-    flag), ``skipped``, ``dt_rule`` and the settings.
+    flag), ``skipped``, ``dt_rule`` and the settings.  Interrupted (Ctrl-C, SIGTERM,
+    SIGHUP), it raises :class:`~timpm.studies.sweep.SweepInterrupted` carrying that
+    document of the configurations done.
     """
     check_executor(workers, dask)
     prob = get_problem(problem, **(params or {}))
@@ -286,24 +288,30 @@ def speed_error_study(problem, bases=("linear", "bspline2", "bspline3"),
         say(outcome["note"])
 
     started = time.perf_counter()
-    map_runs(_configuration, [(prob, conf, settings) for conf in configurations],
-             workers=workers, dask=dask, on_result=collect,
-             cost=[c["elements"] * c["ppc"] for c in configurations])
-    flags = pareto_front(runs)
-    for rec, on in zip(runs, flags):
-        rec["pareto"] = on
-    return {
-        "command": "speed-error", "problem": prob.name, "t_end": t_end,
-        "stress_update": stress_update, "params": dict(params or {}),
-        "problem_dt": prob.dt, "dt_tolerance": dt_tolerance, "max_halvings": max_halvings,
-        "repeats": repeats, "dt_rule": dt_rule_text(prob.dt, dt_tolerance, max_halvings),
-        "sweep": {"bases": list(bases), "masses": list(masses),
-                  "combos": [list(c) for c in combos], "placements": list(placements),
-                  "elements": list(elements), "ppcs": list(ppcs)},
-        "runs": runs, "skipped": skipped,
-        "sweep_seconds": time.perf_counter() - started,
-        "compile_seconds": sum(compiled),
-    }
+
+    def document() -> dict:
+        flags = pareto_front(runs)
+        for rec, on in zip(runs, flags):
+            rec["pareto"] = on
+        return {
+            "command": "speed-error", "problem": prob.name, "t_end": t_end,
+            "stress_update": stress_update, "params": dict(params or {}),
+            "problem_dt": prob.dt, "dt_tolerance": dt_tolerance,
+            "max_halvings": max_halvings, "repeats": repeats,
+            "dt_rule": dt_rule_text(prob.dt, dt_tolerance, max_halvings),
+            "sweep": {"bases": list(bases), "masses": list(masses),
+                      "combos": [list(c) for c in combos], "placements": list(placements),
+                      "elements": list(elements), "ppcs": list(ppcs)},
+            "runs": runs, "skipped": skipped,
+            "sweep_seconds": time.perf_counter() - started,
+            "compile_seconds": sum(compiled),
+        }
+
+    with interruptible(document, len(configurations)):
+        map_runs(_configuration, [(prob, conf, settings) for conf in configurations],
+                 workers=workers, dask=dask, on_result=collect,
+                 cost=[c["elements"] * c["ppc"] for c in configurations])
+    return document()
 
 
 def _configuration(prob, conf, settings) -> dict:

@@ -11,7 +11,7 @@ from ..checks import distinct, finite, step_count, whole
 from ..problems import get_problem
 from ..solver import Solver
 from .analysis import energy_drift, observed_rates, rms_error
-from .sweep import check_executor, map_runs
+from .sweep import check_executor, interruptible, map_runs
 
 __all__ = ["RunResult", "run_problem", "resume_problem", "convergence", "clear_solvers"]
 
@@ -312,7 +312,8 @@ def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=F
     address, or "local"; :mod:`timpm.studies.sweep`): the records are those of this
     serial loop, in its order, but for the times; no progress line is drawn there.
     No time series of the monitored particle is recorded by default: the records do not
-    hold one.
+    hold one.  Interrupted (Ctrl-C, SIGTERM, SIGHUP), it raises
+    :class:`~timpm.studies.sweep.SweepInterrupted` carrying the record of the meshes done.
     """
     kwargs.setdefault("series", False)
     if len(elements) == 0:
@@ -329,9 +330,17 @@ def convergence(problem="vibrating-string", elements=(4, 8, 16, 32, 64), batch=F
         if remote:
             _check_options(problem, elements[0], kwargs)
             kwargs = {**kwargs, "progress": False}
-        records = map_runs(_mesh_record, [(problem, n, kwargs) for n in elements],
-                           workers=workers, dask=dask, cost=list(elements))
-    doc = {"problem": records[0]["problem"], "runs": records}
+        records = []
+        with interruptible(lambda: _convergence_doc(problem, records), len(elements)):
+            map_runs(_mesh_record, [(problem, n, kwargs) for n in elements],
+                     workers=workers, dask=dask, cost=list(elements),
+                     on_result=lambda _, record: records.append(record))
+    return _convergence_doc(problem, records)
+
+
+def _convergence_doc(problem, records) -> dict:
+    """The record of a convergence sweep's ``records`` (those done, when interrupted)."""
+    doc = {"problem": records[0]["problem"] if records else problem, "runs": records}
     errors = [r["rms_error"] for r in records]
     if all(e is not None for e in errors):
         doc["rates"] = observed_rates([r["elements"] for r in records], errors)

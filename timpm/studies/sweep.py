@@ -33,7 +33,7 @@ import numpy as np
 
 from ..argtypes import positive_int
 
-__all__ = ["SweepError", "check_executor", "map_runs", "add_arguments", "CONNECT_TIMEOUT",
+__all__ = ["SweepError", "SweepInterrupted", "interruptible", "check_executor", "map_runs", "add_arguments", "CONNECT_TIMEOUT",
            "DASK_INSTALL"]
 
 #: seconds to wait for a Dask scheduler to answer, and for its first worker
@@ -46,6 +46,32 @@ _WORKER_ENV = {"ENABLE_TAICHI_HEADER_PRINT": "false"}
 class SweepError(RuntimeError):
     """The worker processes or the Dask cluster could not run the sweep (not a run's own
     error, which is raised as it is)."""
+
+
+class SweepInterrupted(Exception):
+    """Ctrl-C, SIGTERM or SIGHUP stopped a sweep: ``partial`` is its record of the runs
+    that had finished (marked ``"interrupted": true``), ``done`` and ``planned`` count
+    them."""
+
+    def __init__(self, partial: dict, done: int, planned: int):
+        super().__init__(f"interrupted after {done} of {planned} runs")
+        self.partial, self.done, self.planned = partial, done, planned
+
+
+@contextlib.contextmanager
+def interruptible(partial, planned: int):
+    """Turn an interruption of the sweep in the block (``KeyboardInterrupt``, or a run's
+    own :class:`~timpm.interrupt.RunInterrupted`) into :class:`SweepInterrupted`
+    carrying ``partial()``, the record of the runs done so far, and how many they are
+    (its ``"runs"``)."""
+    from ..interrupt import RunInterrupted
+
+    try:
+        yield
+    except (KeyboardInterrupt, RunInterrupted) as stop:
+        doc = partial()
+        doc["interrupted"] = True
+        raise SweepInterrupted(doc, len(doc.get("runs", ())), planned) from stop
 
 
 def check_executor(workers=None, dask=None) -> None:
