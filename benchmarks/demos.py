@@ -39,7 +39,7 @@ def measure(name, t_end, mode="auto", scatter="auto"):
             "mpss": world.n_particles * steps / wall / 1e6, "particle_bytes": mem["particle_bytes"],
             "node_bytes": mem["node_bytes"], "scatter_node_bytes": mem["scatter_node_bytes"],
             "particle_fields": mem["particle_fields"],
-            "transfer": world.transfer, "basis": world.basis}
+            "transfer": world.transfer, "basis": world.basis.name}
 
 
 def main(argv=None):

@@ -16,7 +16,7 @@ part of the body, the same weights and fallbacks).
 """
 import numpy as np
 
-from timpm.basis import get_basis, stencils
+from timpm.basis import stencils
 from timpm.engine.mls_projection import GAUSS_POINTS, GAUSS_WEIGHTS
 from timpm.problems import get_problem
 from timpm.studies.mls import quadratic_spline
@@ -41,7 +41,7 @@ def mls_weights(xi, y, order):
 
 def operators(scene):
     """(K of the Gauss-point force, K of the particles', consistent mass, lumped mass)."""
-    grid, basis = scene.grid, get_basis(scene.basis)
+    grid, basis = scene.grid, scene.basis
     ne, h, s = grid.n_elements, grid.h, basis.support
     nn, E, rho = basis.n_nodes(ne), scene.material.E, scene.material.density
     xi = (scene.positions - grid.origin) / h

@@ -43,13 +43,22 @@ def test_param_override_and_list(capsys):
 @pytest.mark.parametrize("argv,message", [
     (["run", "nope"], "unknown problem 'nope'"),
     (["run", "vibrating-string", "--dt", "1"], "exceeds the critical time step"),
-    (["run", "vibrating-string", "--elements", "0"], "number of elements must be a positive"),
-    (["run", "vibrating-string", "--ppc", "-1"], "particles per element must be a positive"),
     (["run", "vibrating-string", "--param", "E=-1"], "parameter E must be positive"),
     (["run", "vibrating-string", "--param", "Q=1"], "no parameter Q"),
 ])
 def test_bad_input_exits_with_a_message(argv, message, capsys):
     assert main(argv) == 2
+    assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["run", "vibrating-string", "--elements", "0"], "argument --elements: must be a positive integer, got 0"),
+    (["run", "vibrating-string", "--ppc", "-1"], "argument --ppc: must be a positive integer, got -1"),
+])
+def test_a_count_is_refused_by_the_parser(argv, message, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
     assert message in capsys.readouterr().err
 
 

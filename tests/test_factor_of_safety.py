@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from timpm.basis import Linear
 from timpm.materials import MohrCoulomb
 from timpm.studies import factor_of_safety as fos
 
@@ -37,7 +38,7 @@ def test_the_bisection_closes_on_the_factor(monkeypatch):
     monkeypatch.setattr(fos, "trial", stub)
 
     class World:  # the record reads these
-        h, basis, transfer = 1.0, "linear", "musl"
+        h, basis, transfer = 1.0, Linear, "musl"
 
         class model:
             positions = np.array([[0.0, 0.0], [1.0, 10.0]])

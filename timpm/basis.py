@@ -16,6 +16,7 @@ implement the same interface; see ``BASES``.
 """
 
 import argparse
+import copyreg
 
 import numpy as np
 import taichi as ti
@@ -25,7 +26,23 @@ __all__ = ["Basis", "Linear", "QuadraticLagrange", "QuadraticBSpline", "CubicBSp
            "MAX_BSPLINE_DEGREE", "basis_argument", "evaluate", "stencils"]
 
 
-class Basis:
+class _BasisType(type):
+    """The type of the basis classes: a model, a scene and the engine carry the class
+    itself, resolved from its name once where the name is read; it prints as its name
+    and pickles by it (a sweep's worker rebuilds a B-spline of any degree)."""
+
+    def __repr__(cls):
+        return f"<basis {cls.name}>" if cls.name else super().__repr__()
+
+
+def _pickled(cls):
+    return (get_basis, (cls.name,)) if cls.name else cls.__qualname__
+
+
+copyreg.pickle(_BasisType, _pickled)
+
+
+class Basis(metaclass=_BasisType):
     """Interface of a one-dimensional basis (documentation and defaults)."""
 
     #: name used on the command line and in result records
@@ -343,14 +360,13 @@ def get_basis(name: str) -> type[Basis]:
             f"(or bsplineN / uniform-bsplineN for degree N = 1 to {MAX_BSPLINE_DEGREE})") from None
 
 
-def basis_argument(text: str) -> str:
-    """A command line's basis name, checked where the parser reads it (before Taichi
-    starts or any work): the name back, or argparse's error with the known ones."""
+def basis_argument(text: str) -> type[Basis]:
+    """A command line's basis name, resolved where the parser reads it (before Taichi
+    starts or any work): its class, or argparse's error with the known ones."""
     try:
-        get_basis(text)
+        return get_basis(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
-    return text
 
 
 @ti.kernel

@@ -206,8 +206,7 @@ class Model:
         set_("h", positive("element size h", self.h))
         set_("origin", tuple(vector("grid origin", self.origin, dim)))
         basis = get_basis(self.basis)
-        set_("basis", basis.name)
-        set_("_basis", basis)
+        set_("basis", basis)
         for k, e in enumerate(elements):
             if e < basis.min_elements:
                 raise ValueError(f"the {basis.name} basis needs at least {basis.min_elements} "
@@ -559,12 +558,8 @@ class Model:
         return len(self.elements)
 
     @property
-    def basis_class(self):
-        return self._basis
-
-    @property
     def nodes(self) -> tuple:
-        basis = self.basis_class
+        basis = self.basis
         return tuple(basis.n_nodes(e) for e in self.elements)
 
     @property
@@ -578,7 +573,7 @@ class Model:
     def wall_nodes(self) -> tuple:
         """Per axis the last node at or below the lower wall and the first node at or
         above the upper wall (node coordinates of the basis): the nodes a wall acts on."""
-        basis = self.basis_class
+        basis = self.basis
         out = []
         for (lo, hi), e in zip(self.wall_cells, self.elements):
             x = basis.node_coordinates(e)

@@ -274,7 +274,7 @@ class Scene:
 
     def __post_init__(self):
         basis = get_basis(self.basis)
-        object.__setattr__(self, "basis", basis.name)
+        object.__setattr__(self, "basis", basis)
         if not isinstance(self.grid, Grid1D):
             raise ValueError(f"a Scene's grid must be a Grid1D, got {self.grid!r}")
         if not isinstance(self.material, Material):
@@ -345,7 +345,3 @@ class Scene:
         """Eq. 2.4 (lumped mass) or the element bound of the particles' consistent mass;
         times sqrt(2) under rk4 (``timpm.model.CRITICAL_STEP_FACTOR``)."""
         return self._critical_dt
-
-    @property
-    def basis_class(self):
-        return get_basis(self.basis)

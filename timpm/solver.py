@@ -91,7 +91,7 @@ class Solver:
         f, lay = self.features, self.layout
         self.scene, self.track = scene, track
         self.model = getattr(scene, "model", scene)  # the one model of 1D to 3D
-        self.basis = f.basis_class
+        self.basis = f.basis
         self.dim, self.mode, self.scatter, self.team = f.dim, f.mode, f.scatter, f.team
         self.n_copies, self.transfer = f.n_copies, f.transfer
         self.n_particles, self.n_tracked = lay.n_particles, lay.n_tracked

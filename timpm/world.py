@@ -280,14 +280,14 @@ class World:
         object.__setattr__(self, "bodies", bodies)
         object.__setattr__(self, "domain", tuple(map(float, domain)))
         object.__setattr__(self, "gravity", tuple(g))
-        object.__setattr__(self, "basis", basis.name)
+        object.__setattr__(self, "basis", basis)
         object.__setattr__(self, "walls", walls_from(self.walls, dim, open_ok=True))
         object.__setattr__(self, "_particles", self._fill(dim, h, domain))
         self._check_dt(h, g, domain)
         forces, force_time = self._surface_forces(dim, h)
         pad = self.padding
         part = self._particles
-        model = Model(basis=basis.name, origin=self.origin, h=h, elements=self.grid_elements,
+        model = Model(basis=basis, origin=self.origin, h=h, elements=self.grid_elements,
                       positions=part["positions"], volume=part["volume"],
                       velocity=part["velocity"], materials=part["materials"],
                       material_index=part["material_index"], body_index=part["body_index"],
@@ -341,15 +341,11 @@ class World:
         return self.domain[0] / self.cells
 
     @property
-    def basis_class(self):
-        return get_basis(self.basis)
-
-    @property
     def padding(self) -> int:
         """Cells of grid beyond each wall: the basis support; none for the clamped
         B-splines, whose grid ends at the walls (their partition of unity holds up to the
         boundary, and the wall acts on the one node layer there)."""
-        basis = self.basis_class
+        basis = self.basis
         return basis.support if basis.uniform_nodes else 0
 
     @property
@@ -363,7 +359,7 @@ class World:
     def _check_size(self, dim, h, domain):
         """The grid and the lattices the bodies are filled from, checked before either is
         allocated (:func:`timpm.checks.check_size`)."""
-        basis = self.basis_class
+        basis = self.basis
         nodes = np.prod([float(basis.n_nodes(e)) for e in self.grid_elements])
         particles = 0.0
         for body in self.bodies:

@@ -108,7 +108,7 @@ class Numpy1D:
     study's stress update sigma += (E - sigma) d_eps (or E d_eps) and V *= 1 + d_eps."""
 
     def __init__(self, scene):
-        if scene.basis_class.name != "linear" or scene.mass != "lumped":
+        if scene.basis.name != "linear" or scene.mass != "lumped":
             raise ValueError("Numpy1D implements the linear basis with the lumped mass")
         if scene.traction is not None or scene.damping or scene.projection != "standard":
             raise ValueError("Numpy1D has no tractions, damping or MLS projection")

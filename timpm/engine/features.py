@@ -16,7 +16,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..basis import get_basis
 from ..model import Model
 from .. import runtime
 from .schemes import scheme_class
@@ -51,7 +50,7 @@ class FeatureSet:
     same compiled kernels."""
 
     dim: int
-    basis: str
+    basis: type                  # the basis class (timpm.basis), compiled in
     transfer: str                # "musl", "apic" or "mls-mpm"
     consistent: bool             # consistent mass matrix (1D banded LU, 2D/3D CG)
     mls: bool                    # MLS projection of 4.4 (1D)
@@ -82,10 +81,6 @@ class FeatureSet:
 
     # ---- derived choices ---------------------------------------------------------------
     @property
-    def basis_class(self):
-        return get_basis(self.basis)
-
-    @property
     def affine(self) -> bool:
         """The affine transfers: APIC, and MLS-MPM (Hu et al. 2018), which also takes the
         force and the velocity gradient from the affine moments."""
@@ -101,13 +96,13 @@ class FeatureSet:
         gravity and forces at the Gauss points from the reconstructed density and stress,
         nodal velocities by MLS.  Any other basis or mass takes only the stress from the
         Gauss points (the internal force); mass and momentum come from the particles."""
-        return self.mls and self.basis_class.support == 2 and not self.consistent
+        return self.mls and self.basis.support == 2 and not self.consistent
 
     @property
     def mls_stress_order(self) -> int:
         """The polynomial order of the MLS stress reconstruction: 1 with the linear basis
         (4.4), 2 with the higher-order ones (their force integrand is of higher degree)."""
-        return 1 if self.basis_class.support == 2 else 2
+        return 1 if self.basis.support == 2 else 2
 
     @property
     def strain_remap(self) -> bool:
@@ -115,7 +110,7 @@ class FeatureSet:
         P'_i / m_i, P'_i = sum_p m_p phi_i v_p (the study's MUSL remap, 2.2.4): the grid
         velocity of a node a particle barely touches ~ 1 / phi and grad phi does not vanish
         with phi, so sum_i v_i grad phi_i^T is unbounded there (v_p and C_p are not)."""
-        return self.transfer == "apic" and self.basis_class.support == 2
+        return self.transfer == "apic" and self.basis.support == 2
 
     @property
     def rk4(self) -> bool:
@@ -171,11 +166,11 @@ class FeatureSet:
 
     @property
     def bandwidth(self) -> int:
-        return self.basis_class.support - 1
+        return self.basis.support - 1
 
     @property
     def node_offset(self) -> int:
-        basis = self.basis_class
+        basis = self.basis
         return basis.offset() if hasattr(basis, "offset") else 0
 
 
@@ -251,7 +246,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     for p in track:
         if not 0 <= p < n:
             raise ValueError(f"tracked particle {p} does not exist ({n} particles)")
-    basis = model.basis_class
+    basis = model.basis
     dim, transfer = model.dim, model.transfer
     requested = mode
     on_cpu = runtime.on_cpu()
@@ -299,7 +294,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     has_u = dim == 1  # particle displacements: the 1D exact solutions compare them
     crossings = (dim == 1) if track_crossings is None else bool(track_crossings)
     features = FeatureSet(
-        dim=dim, basis=basis.name, transfer=transfer, consistent=consistent, mls=mls,
+        dim=dim, basis=basis, transfer=transfer, consistent=consistent, mls=mls,
         materials=tuple((type(m), m.flags()) for m in materials), walls=walls,
         damping=damping > 0.0, pic=model.pic_fraction > 0.0,
         traction=None if traction is None else type(traction.time_function),

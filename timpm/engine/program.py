@@ -76,7 +76,7 @@ class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG,
         f = self.f = features
         self.capacity = capacity
         # compile-time choices the phases read (through ti.static)
-        self.dim, self.basis = f.dim, f.basis_class
+        self.dim, self.basis = f.dim, f.basis
         # the stencil's rows: every axis but the last (stencil.py)
         self.stencil_rows = self.basis.support ** (self.dim - 1)
         self.transfer, self.mode, self.team = f.transfer, f.mode, f.team

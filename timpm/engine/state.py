@@ -87,7 +87,7 @@ class State:
         values = {k: v for k, v in lay.values.items() if k not in PROCESS_VALUES}
         values["pic_fraction"] = model.pic_fraction  # also where none applies: 0
         return _plain({
-            "dim": f.dim, "basis": f.basis, "transfer": f.transfer,
+            "dim": f.dim, "basis": f.basis.name, "transfer": f.transfer,
             "consistent": f.consistent, "mls": f.mls,
             "materials": [[cls.__name__, repr(flags)] for cls, flags in f.materials],
             "walls": f.walls, "traction": _name(f.traction), "body_force": f.body_force,
@@ -125,7 +125,7 @@ class State:
     def inertia(self, x):
         """D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T of every particle at positions ``x``
         (n, dim): its diagonal, (n, dim)."""
-        lay, basis = self.layout, self.features.basis_class
+        lay, basis = self.layout, self.features.basis
         out = np.empty_like(x)
         for k in range(self.features.dim):
             xi = (x[:, k] - lay.origin[k]) * lay.values["inv_h"]

@@ -9,6 +9,7 @@ from ..loads import Ramp, SurfaceTraction
 from ..materials import MATERIALS, get_material
 from ..model import SIDES
 from ..problems import PROBLEMS
+from ..basis import get_basis
 from ..geostatic import K0, GravityLoading
 from ..world import PRESETS, Ball, Body, Box, Polygon, Prism, Wall, World
 from .keypaths import key_lines, parse_path
@@ -91,6 +92,8 @@ def _problem_scene(reader, data, path) -> SceneFile:
         cls().with_params(**params)
     except (ValueError, TypeError) as err:
         raise reader.error(("problem", "params"), str(err)) from None
+    if "basis" in opts:  # checked by the schema: its class from here on
+        opts["basis"] = get_basis(opts["basis"])
     kwargs = dict(opts, params=params)
     return SceneFile(path=str(path), name=cls.name, world=None,
                      problem=dict(problem=cls.name, **kwargs),
@@ -276,7 +279,7 @@ def _world_scene(reader, data, path) -> SceneFile:
     name = sim.get("name", path.stem)
     try:
         world = World(domain=domain["size"], cells=domain["cells"], bodies=bodies,
-                      basis=sim.get("basis", "uniform-bspline2"),
+                      basis=get_basis(sim.get("basis", "uniform-bspline2")),
                       transfer=sim.get("transfer", "apic"), gravity=loads.get("gravity"),
                       walls=walls, dt=sim.get("dt"), courant=sim.get("courant"),
                       allow_overlap=sim.get("allow_overlap", False),

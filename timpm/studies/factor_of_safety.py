@@ -133,7 +133,7 @@ def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3
         "criterion": f"failed where the largest particle displacement grows by more than "
                      f"{creep:g} x the ground's height over the last quarter of the run",
         "creep": creep, "height": _height(world), "particles": world.model.n_particles,
-        "h": world.h, "basis": world.basis, "transfer": world.transfer,
+        "h": world.h, "basis": world.basis.name, "transfer": world.transfer,
         "wall_seconds": time.perf_counter() - t0,
         "trials": [{k: v for k, v in r.items() if k not in ("positions", "plastic")}
                    for r in trials],

@@ -88,7 +88,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     description = None
     if isinstance(problem, str):
         model = run.scene.model
-        description = dict(problem=problem, elements=run.elements, ppc=run.ppc, basis=basis,
+        description = dict(problem=problem, elements=run.elements, ppc=run.ppc, basis=run.scene.basis.name,
                            mass=model.mass_matrix, dt=run.scene.dt, placement=run.placement,
                            stress_update=stress_update, damping=damping,
                            allow_unstable_dt=allow_unstable_dt, mode=mode,
@@ -267,7 +267,7 @@ class _Run:
         en = solver.energies() if self.energies else None
         record = {
             "problem": prob.name, "elements": int(self.elements), "ppc": int(self.ppc),
-            "basis": scene.basis, "mass": scene.mass, "dt": scene.dt, "t_end": t,
+            "basis": scene.basis.name, "mass": scene.mass, "dt": scene.dt, "t_end": t,
             "steps": state["step"], "rms_error": rms_error(u, exact) if exact is not None else None,
             "wall_seconds": solver.run_seconds, "compile_seconds": solver.compile_seconds,
             "build_seconds": build_seconds, "grid_crossings": state["grid_crossings"],
