@@ -371,10 +371,8 @@ def test_demo_outputs_may_not_collide(args, capsys, tmp_path, monkeypatch):
 @pytest.mark.parametrize("executor", [["--workers", "2"], ["--dask", "local"]])
 def test_sigterm_to_a_sweep_stops_its_workers_cleanly(executor, tmp_path):
     """SIGTERM to a --workers or --dask local sweep: the command stops its workers itself
-    (no worker left; with --workers no leaked semaphore warning either), says how far it
-    got in one line, keeps the runs done as a partial record, exit 143.  (Dask's own
-    shutdown logs warnings, and under load tracebacks of its workers' heartbeats, before
-    that line.)"""
+    (no leaked semaphore warning, no worker left, no log of Dask's teardown), says how far
+    it got in one line, keeps the runs done as a partial record, exit 143."""
     if executor[0] == "--dask":
         pytest.importorskip("distributed")
     record = tmp_path / "sweep.json"
@@ -383,10 +381,8 @@ def test_sigterm_to_a_sweep_stops_its_workers_cleanly(executor, tmp_path):
         run.send_signal(signal.SIGTERM)
         out, err = run.communicate(timeout=60)
     assert run.returncode == 143, err
-    said = [line for line in err.splitlines() if line.startswith("timpm")]
+    said = [line for line in err.splitlines() if not line.startswith("[W ")]  # Taichi's
     assert len(said) == 1 and said[0].startswith("timpm: interrupted after "), err
-    if executor[0] == "--workers":
-        assert "leaked semaphore" not in err and "Traceback" not in err
     done = int(said[0].split()[3])
     assert said[0].startswith(f"timpm: interrupted after {done} of 5 runs")
     if done:  # the meshes done are kept, marked interrupted

@@ -304,6 +304,30 @@ def _stop_workers(pool) -> None:
             process.terminate()
 
 
+class _QuietTeardown:
+    """After :meth:`start`, until the block ends, no log lines from Dask: an interrupted
+    local cluster closes without the nannies' warnings about the workers they stop (busy in
+    a kernel, they are killed)."""
+
+    def __init__(self):
+        import logging
+
+        self.logger, self.level = logging.getLogger("distributed"), None
+
+    def start(self):
+        import logging
+
+        self.level = self.logger.level
+        self.logger.setLevel(logging.CRITICAL)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if self.level is not None:
+            self.logger.setLevel(self.level)
+
+
 def _cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else \
         (os.cpu_count() or 1)
@@ -326,9 +350,12 @@ def _on_dask(job, calls, start, address, timeout, on_result) -> list:
             raise SweepError(f"dask={address!r} is not a scheduler address such as "
                              f"tcp://host:8786 (or 'local'): {exc}") from None
     with contextlib.ExitStack() as stack:
+        quiet = stack.enter_context(_QuietTeardown())  # entered first: it exits last
         target = address
         if address == "local":
-            with _environment(_WORKER_ENV):  # its worker processes start here
+            # its worker processes start here; an interrupted sweep stops them, so their
+            # own warnings then (a cancelled task, a lost heartbeat) are not shown
+            with _environment({**_WORKER_ENV, "DASK_LOGGING__DISTRIBUTED": "critical"}):
                 target = stack.enter_context(distributed.LocalCluster(
                     n_workers=min(_cores(), len(calls)), threads_per_worker=1,
                     processes=True, dashboard_address=None))
@@ -353,6 +380,8 @@ def _on_dask(job, calls, start, address, timeout, on_result) -> list:
             return _in_order(futures, on_result)
         except BaseException as exc:  # a failed run or an interrupt: drop the others
             client.cancel(futures)
+            if address == "local" and isinstance(exc, KeyboardInterrupt):
+                quiet.start()
             if isinstance(exc, KilledWorker):
                 raise SweepError(f"a Dask worker died while running a task ({exc}); run "
                                  f"the study without dask to see why") from None
