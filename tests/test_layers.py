@@ -292,3 +292,55 @@ def test_private_reaches_are_found():
               "    return self._n\n")
     assert private_reaches("timpm.b", source, defined) == [
         "timpm.b:1 from a import _helper", "timpm.b:5 solver._step"]
+
+
+# ---- the units of a compiled program ------------------------------------------------------
+def unit_calls(units):
+    """For each class of ``units`` (lowest first), the names it reads through ``self.`` that
+    another class of ``units`` defines: {class: {(other class, name), ...}} (from the source,
+    with ``ast``; every function of the class body, kernels and ``ti.func``s alike)."""
+    import inspect
+    import textwrap
+
+    owner = {}
+    for cls in units:
+        for name in vars(cls):
+            if not name.startswith("__"):
+                owner.setdefault(name, cls)
+    calls = {}
+    for cls in units:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
+        calls[cls] = {(owner[node.attr], node.attr) for node in ast.walk(tree)
+                      if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                      and node.value.id == "self" and owner.get(node.attr, cls) is not cls}
+    return calls
+
+
+def test_the_units_of_a_program_call_only_the_units_below_them():
+    """Program is its units mixed into one ``self`` (failures, stencil, scatter, phase
+    runner, grid nodes, consistent mass, MLS, grid solve, transfer, integrators, uploads,
+    recorder, drivers), listed lowest first: a unit reads what the units before it define,
+    never one after it (no unit calls back into another), and no two define one name."""
+    from timpm.engine.program import Program
+
+    units = list(Program.__bases__)  # lowest first
+    assert all(cls.__module__.startswith("timpm.engine") for cls in units)
+    names = [name for cls in units for name in vars(cls) if not name.startswith("__")]
+    assert sorted({n for n in names if names.count(n) > 1}) == []
+    rank = {cls: k for k, cls in enumerate(units)}
+    upward = sorted(f"{cls.__name__}.{name} is {other.__name__}'s, a unit above it"
+                    for cls, found in unit_calls(units).items() for other, name in found
+                    if rank[other] > rank[cls])
+    assert upward == []
+
+
+def test_a_call_up_the_units_is_found():
+    class Low:
+        def f(self):
+            return self.g()
+
+    class High:
+        def g(self):
+            return self.f()
+
+    assert unit_calls([Low, High]) == {Low: {(High, "g")}, High: {(Low, "f")}}

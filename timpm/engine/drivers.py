@@ -1,4 +1,4 @@
-"""The drivers of a step: errors, the fused serial loop, and the team of threads.
+"""The drivers of a step: the fused serial loop and the team of threads.
 
 Mixed into :class:`~timpm.engine.program.Program`.  Every driver runs the same step, the
 phases of the scheme (:mod:`timpm.engine.schemes`), or an integrator's (rk4, midpoint):
@@ -10,8 +10,10 @@ phases of the scheme (:mod:`timpm.engine.schemes`), or an integrator's (rk4, mid
   (``_team_steps``).
 
 A failure (a particle off the grid, a NaN, an inverted volume, a singular mass matrix,
-a team that does not meet) records its code, step and particle or node (``fail``); the
-run stops after that step and Python raises the error.
+a team that does not meet) records its code, step and particle or node
+(:class:`~timpm.engine.failures.Failures`); the run stops after that step and Python
+raises the error.  Each phase runs through
+:class:`~timpm.engine.schemes.phases.PhaseRunner`.
 """
 import taichi as ti
 
@@ -21,39 +23,7 @@ __all__ = ["Drivers"]
 
 
 class Drivers:
-    """Errors, the fused serial steps and the team (see the module)."""
-
-    @ti.func
-    def fail(self, code, where):
-        """Record the first error of the run: its code (an :class:`~timpm.errors.ErrorCode`),
-        step and particle or node."""
-        first = False
-        if ti.static(self.mode == "serial"):
-            first = self.err_count[None] == 0
-            self.err_count[None] = self.err_count[None] + 1
-        else:
-            first = ti.atomic_add(self.err_count[None], 1) == 0
-        if first:
-            self.err[None] = code
-            if ti.static(self.team):  # where: a particle of the thread's block
-                self.err_step[None] = self.rank_step[where // self.values.scatter_block()]
-            else:
-                self.err_step[None] = self.step_count[None]
-            self.err_where[None] = where
-
-    @ti.func
-    def _halted(self, p):
-        """A step before this one failed: the particles stay as they were at the failure
-        (Python reads the error back every ``check_every`` steps).  The fused serial mode
-        stops before the step after a failure instead (see ``_advance``), a team at the
-        first barrier after it (its step is that of particle p's thread)."""
-        halted = False
-        if ti.static(self.team):
-            halted = (self.err_count[None] != 0 and
-                      self.err_step[None] < self.rank_step[p // self.values.scatter_block()])
-        elif ti.static(self.mode != "serial"):
-            halted = self.err_count[None] != 0 and self.err_step[None] < self.step_count[None]
-        return halted
+    """The fused serial steps and the team (see the module)."""
 
     @ti.func
     def advance_steps(self, n_steps, every):
@@ -83,23 +53,6 @@ class Drivers:
             for phase in ti.static(self.phases):  # the scheme's step (schemes/)
                 self._run_phase(phase)
         self._count_step()
-
-    @ti.func
-    def _run_phase(self, phase: ti.template()):
-        """One phase of a scheme for every particle or node (``schemes.phases``): its loop
-        parallel over the CPU threads, or a part of the one serial task."""
-        if ti.static(phase.kind == "scatter"):
-            self._scatter_particles(phase)
-            if ti.static(self.private_scatter and len(phase.merge) > 0):
-                self._merge_copies(phase.merge)
-        elif ti.static(phase.kind == "particles"):
-            for p in range(self.values.n_particles()):
-                phase.particle(self, p)
-        elif ti.static(phase.kind == "nodes"):
-            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                phase.node(self, I)
-        else:
-            phase.body(self)
 
     @ti.func
     def _team_steps(self, n_steps):

@@ -1,13 +1,52 @@
-"""Why a run stops, read in Python: the error record the kernels keep (code, step, particle
-or node: ``Drivers.fail``) and the energy balance of the recorded energies, each as a
-:class:`~timpm.errors.SimulationError` that names the step and where."""
+"""Why a run stops: the error record the kernels keep (code, step, particle or node:
+:meth:`Failures.fail`, mixed into :class:`~timpm.engine.program.Program` below every other
+unit), and in Python that record and the energy balance of the recorded energies, each as
+a :class:`~timpm.errors.SimulationError` that names the step and where."""
 import numpy as np
+import taichi as ti
 
 from ..errors import ErrorCode, SimulationError, TEAM_SPIN_LIMIT
 from .consistent_mass_cg import CG_MAX_ITERATIONS
 from .midpoint import MIDPOINT_MAX_ITERATIONS
 
-__all__ = ["recorded_failure", "energy_balance"]
+__all__ = ["Failures", "recorded_failure", "energy_balance"]
+
+
+class Failures:
+    """The error record written by the kernels (fields ``err``, ``err_count``, ``err_step``,
+    ``err_where``)."""
+
+    @ti.func
+    def fail(self, code, where):
+        """Record the first error of the run: its code (an :class:`~timpm.errors.ErrorCode`),
+        step and particle or node."""
+        first = False
+        if ti.static(self.mode == "serial"):
+            first = self.err_count[None] == 0
+            self.err_count[None] = self.err_count[None] + 1
+        else:
+            first = ti.atomic_add(self.err_count[None], 1) == 0
+        if first:
+            self.err[None] = code
+            if ti.static(self.team):  # where: a particle of the thread's block
+                self.err_step[None] = self.rank_step[where // self.values.scatter_block()]
+            else:
+                self.err_step[None] = self.step_count[None]
+            self.err_where[None] = where
+
+    @ti.func
+    def _halted(self, p):
+        """A step before this one failed: the particles stay as they were at the failure
+        (Python reads the error back every ``check_every`` steps).  The fused serial mode
+        stops before the step after a failure instead (see ``_advance``), a team at the
+        first barrier after it (its step is that of particle p's thread)."""
+        halted = False
+        if ti.static(self.team):
+            halted = (self.err_count[None] != 0 and
+                      self.err_step[None] < self.rank_step[p // self.values.scatter_block()])
+        elif ti.static(self.mode != "serial"):
+            halted = self.err_count[None] != 0 and self.err_step[None] < self.step_count[None]
+        return halted
 
 
 def recorded_failure(prog, state):

@@ -1,17 +1,18 @@
-"""The grid operations the schemes share: clearing, boundary conditions (Dirichlet nodes
-held or moving at a prescribed velocity v_i f(t), walls), the nodal solves.
-
-Mixed into :class:`~timpm.engine.program.Program`.
+"""The grid operations the schemes share, in two units mixed into
+:class:`~timpm.engine.program.Program`: :class:`GridNodes`, what holds at one node (Dirichlet
+nodes held or moving at a prescribed velocity v_i f(t), walls, the lumped solve), which the
+consistent mass solves call; and :class:`GridSolve`, clearing the grid and the mass solve
+of the whole grid, which calls them (lumped, banded or conjugate gradients).
 """
 import taichi as ti
 
 from .mls_projection import GAUSS_POINTS
 
-__all__ = ["GridOps"]
+__all__ = ["GridNodes", "GridSolve"]
 
 
-class GridOps:
-    """See the module."""
+class GridNodes:
+    """The boundary conditions and the lumped solve at one node (see the module)."""
 
     @ti.func
     def is_fixed(self, I):
@@ -68,6 +69,23 @@ class GridOps:
         return v
 
     @ti.func
+    def lumped_solve(self, I, value):
+        """value / m_i at node I; zero at Dirichlet and empty nodes."""
+        out = ti.Vector.zero(float, self.dim)
+        if self._is_free(I):
+            out = value / self.gm[I]
+        return out
+
+    @ti.func
+    def _is_free(self, I):
+        """Node I carries mass (above ``mass_tol``) and is not a Dirichlet node."""
+        return not (self.is_fixed(I) or self.gm[I] <= self.values.mass_tol())
+
+
+class GridSolve:
+    """Clearing the grid and the mass solve over it (see the module)."""
+
+    @ti.func
     def clear_grid(self):
         for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
             self.gm[I] = 0.0
@@ -111,16 +129,3 @@ class GridOps:
         if ti.static(walls and self.prescribed):  # a velocity: Dirichlet nodes at v(t_n + dt)
             if self.is_fixed(I):
                 rhs[I] = self.prescribed_velocity(I, True)
-
-    @ti.func
-    def lumped_solve(self, I, value):
-        """value / m_i at node I; zero at Dirichlet and empty nodes."""
-        out = ti.Vector.zero(float, self.dim)
-        if self._is_free(I):
-            out = value / self.gm[I]
-        return out
-
-    @ti.func
-    def _is_free(self, I):
-        """Node I carries mass (above ``mass_tol``) and is not a Dirichlet node."""
-        return not (self.is_fixed(I) or self.gm[I] <= self.values.mass_tol())

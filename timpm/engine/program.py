@@ -8,9 +8,12 @@ take turns in the same fields: a solver *activates* its state (uploads it) befor
 or reads, and the state it replaces is saved to host memory first.
 
 The step is the transfer scheme's list of phases (:mod:`.schemes`); the operations those
-phases call come from the mixins, one unit each: the stencil, the scatter strategies, the
-grid operations, the consistent mass, the particle update, the MLS projection, recording
-and the drivers (fused serial, parallel, team).
+phases call come from the mixins, one unit each, listed lowest first in the class's bases:
+the error record, the stencil, the scatter strategies, the phase runner, the grid's nodes
+(boundary conditions, lumped solve), the consistent mass (1D banded, 2D/3D conjugate
+gradients), the MLS projection, the grid solve, the particle update, the Runge-Kutta and
+midpoint integrators, the uploads, recording and the drivers (fused serial, parallel,
+team).  A unit calls only the units before it (``tests/test_layers.py``).
 """
 import math
 import weakref
@@ -21,7 +24,8 @@ import taichi as ti
 from .consistent_mass import ConsistentMass
 from .consistent_mass_cg import ConsistentMassCG, cg_fields, cg_particle_fields
 from .drivers import Drivers
-from .grid import GridOps
+from .failures import Failures
+from .grid import GridNodes, GridSolve
 from .mls_projection import GAUSS_POINTS, MLSProjection
 from .mls_stress_nd import MLSStressND, mls_nd_fields
 from .params import ParamBlock
@@ -29,6 +33,7 @@ from .recorder import NUMPY_DTYPES, Recorder, components, entry_size
 from .midpoint import Midpoint, midpoint_fields
 from .rk4 import RungeKutta, rk4_fields
 from .schemes import scheme_for
+from .schemes.phases import PhaseRunner
 from .scatter import ScatterOps
 from .stencil import StencilOps
 from .transfer import Transfer
@@ -68,8 +73,9 @@ def _param_spec(features, scheme):
 
 
 @ti.data_oriented
-class Program(StencilOps, ScatterOps, GridOps, ConsistentMass, ConsistentMassCG, Transfer,
-              RungeKutta, Midpoint, Uploads, MLSProjection, MLSStressND, Recorder, Drivers):
+class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, ConsistentMass,
+              ConsistentMassCG, MLSProjection, MLSStressND, GridSolve, Transfer, RungeKutta,
+              Midpoint, Uploads, Recorder, Drivers):
     """Fields and kernels of one feature set at one capacity."""
 
     def __init__(self, features, capacity):

@@ -1,7 +1,11 @@
-"""The four kinds of phase a scheme's step is made of (see :mod:`timpm.engine.schemes`)."""
+"""The four kinds of phase a scheme's step is made of (see :mod:`timpm.engine.schemes`),
+and how one runs (:class:`PhaseRunner`, mixed into :class:`~timpm.engine.program.Program`;
+every driver and integrator runs its phases through it)."""
 from dataclasses import dataclass
 
-__all__ = ["Scatter", "Particles", "Nodes", "Whole"]
+import taichi as ti
+
+__all__ = ["Scatter", "Particles", "Nodes", "Whole", "PhaseRunner"]
 
 
 @dataclass(frozen=True)
@@ -38,3 +42,24 @@ class Whole:
     label: str
     body: object
     kind: str = "whole"
+
+
+class PhaseRunner:
+    """Runs one phase over its particles or nodes."""
+
+    @ti.func
+    def _run_phase(self, phase: ti.template()):
+        """One phase of a scheme for every particle or node (``schemes.phases``): its loop
+        parallel over the CPU threads, or a part of the one serial task."""
+        if ti.static(phase.kind == "scatter"):
+            self._scatter_particles(phase)
+            if ti.static(self.private_scatter and len(phase.merge) > 0):
+                self._merge_copies(phase.merge)
+        elif ti.static(phase.kind == "particles"):
+            for p in range(self.values.n_particles()):
+                phase.particle(self, p)
+        elif ti.static(phase.kind == "nodes"):
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
+                phase.node(self, I)
+        else:
+            phase.body(self)
