@@ -397,6 +397,39 @@ def test_sigterm_to_a_sweep_stops_its_workers_cleanly(executor, tmp_path):
     assert not any(_alive(p) for p in children)
 
 
+INTERRUPTED_CLUSTER_START = """
+import os, signal, sys, threading
+import distributed
+from timpm.cli import main
+
+real = distributed.LocalCluster
+
+def interrupted_start(*args, **kwargs):
+    # a scheduler's SIGTERM while the cluster starts
+    threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGTERM)).start()
+    return real(*args, **kwargs)
+
+distributed.LocalCluster = interrupted_start
+sys.exit(main(["convergence", "vibrating-string", "--elements", "4", "8", "--dask", "local",
+               "--json", sys.argv[1]]))
+"""
+
+
+def test_sigterm_while_a_dask_cluster_starts_stops_the_sweep_cleanly(tmp_path):
+    """SIGTERM (or Ctrl-C) while the local cluster starts is held until it is up: then the
+    sweep stops as at any other time, the cluster closed (stopped half-way, Dask's exit
+    handler failed on it with a traceback)."""
+    pytest.importorskip("distributed")
+    record = tmp_path / "r.json"
+    run = subprocess.run([sys.executable, "-c", INTERRUPTED_CLUSTER_START, str(record)],
+                         env=ENV, capture_output=True, text=True, timeout=120,
+                         preexec_fn=_default_signals)
+    said = [line for line in run.stderr.splitlines() if not line.startswith("[W ")]
+    assert run.returncode == 143 and said == ["timpm: interrupted after 0 of 2 runs"], \
+        run.stderr
+    assert not record.exists()
+
+
 @pytest.mark.parametrize("command", ["convergence", "speed-error"])
 def test_an_interrupted_sweep_keeps_the_runs_done(command, tmp_path, capsys, monkeypatch):
     """Ctrl-C during a sweep's third run: the two runs done are written to --json, whole

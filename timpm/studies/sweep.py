@@ -304,6 +304,34 @@ def _stop_workers(pool) -> None:
             process.terminate()
 
 
+def _dask_client(distributed, stack, address, timeout, n_calls):
+    """A client of the scheduler at ``address`` (or of a new local cluster) with at least
+    one worker, entered into ``stack``."""
+    import asyncio
+
+    target = address
+    if address == "local":
+        # its worker processes start here; an interrupted sweep stops them, so their
+        # own warnings then (a cancelled task, a lost heartbeat) are not shown
+        with _environment({**_WORKER_ENV, "DASK_LOGGING__DISTRIBUTED": "critical"}):
+            target = stack.enter_context(distributed.LocalCluster(
+                n_workers=min(_cores(), n_calls), threads_per_worker=1,
+                processes=True, dashboard_address=None))
+    try:
+        client = stack.enter_context(distributed.Client(
+            target, timeout=f"{timeout}s", set_as_default=False))
+    except OSError as exc:  # timed out, refused
+        raise SweepError(f"cannot reach the Dask scheduler at {address} within "
+                         f"{timeout:g} s: {exc}") from None
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except (OSError, asyncio.TimeoutError):
+        raise SweepError(f"the Dask scheduler at {address} has no workers (waited "
+                         f"{timeout:g} s): start some with: dask worker {address} "
+                         f"--nthreads 1") from None
+    return client
+
+
 class _QuietTeardown:
     """After :meth:`start`, until the block ends, no log lines from Dask: an interrupted
     local cluster closes without the nannies' warnings about the workers they stop (busy in
@@ -334,7 +362,6 @@ def _cores() -> int:
 
 
 def _on_dask(job, calls, start, address, timeout, on_result) -> list:
-    import asyncio
     import uuid
 
     try:
@@ -349,28 +376,18 @@ def _on_dask(job, calls, start, address, timeout, on_result) -> list:
         except ValueError as exc:
             raise SweepError(f"dask={address!r} is not a scheduler address such as "
                              f"tcp://host:8786 (or 'local'): {exc}") from None
+    from .. import interrupt
+
     with contextlib.ExitStack() as stack:
         quiet = stack.enter_context(_QuietTeardown())  # entered first: it exits last
-        target = address
-        if address == "local":
-            # its worker processes start here; an interrupted sweep stops them, so their
-            # own warnings then (a cancelled task, a lost heartbeat) are not shown
-            with _environment({**_WORKER_ENV, "DASK_LOGGING__DISTRIBUTED": "critical"}):
-                target = stack.enter_context(distributed.LocalCluster(
-                    n_workers=min(_cores(), len(calls)), threads_per_worker=1,
-                    processes=True, dashboard_address=None))
-        try:
-            client = stack.enter_context(distributed.Client(
-                target, timeout=f"{timeout}s", set_as_default=False))
-        except OSError as exc:  # timed out, refused
-            raise SweepError(f"cannot reach the Dask scheduler at {address} within "
-                             f"{timeout:g} s: {exc}") from None
-        try:
-            client.wait_for_workers(1, timeout=timeout)
-        except (OSError, asyncio.TimeoutError):
-            raise SweepError(f"the Dask scheduler at {address} has no workers (waited "
-                             f"{timeout:g} s): start some with: dask worker {address} "
-                             f"--nthreads 1") from None
+        # Ctrl-C or SIGTERM while the cluster starts is held until it is up (Dask cannot
+        # close a cluster stopped half-way), then stops the sweep as at any other time
+        with interrupt.deferred_sigint():
+            client = _dask_client(distributed, stack, address, timeout, len(calls))
+            stopped = interrupt.requested()
+        if stopped:
+            quiet.start()
+            raise KeyboardInterrupt
         sweep = f"timpm-{getattr(job.task, '__name__', 'task')}-{uuid.uuid4().hex[:8]}"
         futures = [None] * len(calls)  # keys name the sweep and the call's place in it
         for rank, i in enumerate(start):
