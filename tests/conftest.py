@@ -1,3 +1,4 @@
+import contextlib
 import os
 
 import pytest
@@ -42,6 +43,45 @@ def assert_same_run(actual, desired):
     else:
         np.testing.assert_allclose(actual, desired, rtol=0,
                                    atol=1e-12 * max(1.0, float(np.abs(desired).max())))
+
+
+#: the environment of a ``timpm`` child process in a test: one thread, no banners
+CHILD_ENV = dict(os.environ, TIMPM_THREADS="1", ENABLE_TAICHI_HEADER_PRINT="false",
+                 TI_LOG_LEVEL="warn")
+
+
+def default_signals():
+    """In a child before it starts (``preexec_fn``): SIGINT, SIGTERM and SIGHUP at their
+    defaults, as in a terminal.  A process inherits an ignored signal (Python then
+    installs no handler, and Ctrl-C does nothing): a test worker may have been left
+    ignoring one by a pool of an earlier test, and the child then ran on past the signal
+    (2026-11-25, the full suite on two workers)."""
+    import signal
+
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
+@contextlib.contextmanager
+def killed_at_exit(process):
+    """A failed wait leaves no run behind."""
+    try:
+        yield process
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+
+
+def wait_until(process, ready, timeout=120):
+    """Wait until ``ready()`` holds while ``process`` runs (it failing, or the timeout, is
+    a test failure with its output)."""
+    import time
+
+    deadline = time.monotonic() + timeout
+    while not ready():
+        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+        time.sleep(0.1)
 
 
 def run_script(path, env, timeout):

@@ -1,19 +1,17 @@
 """Checkpoints and Ctrl-C: a saved run goes on bit for bit (in this process and in a new
 one), Ctrl-C stops a run at a step boundary with exit code 130 and keeps its record, and
 bad checkpoints are refused clearly."""
-import contextlib
 import json
-import os
 import re
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from conftest import CHILD_ENV, default_signals, killed_at_exit, wait_until
 from timpm import Body, Box, LinearElastic, Ramp, Sine, Solver, Wall, World
 from timpm.checkpoint import VERSION, load_checkpoint, save_checkpoint
 from timpm.cli import main
@@ -25,27 +23,7 @@ from timpm.problems import get_problem
 from timpm.scenarios.demos import get_demo
 
 ROOT = Path(__file__).resolve().parents[1]
-ENV = dict(os.environ, TIMPM_THREADS="1", ENABLE_TAICHI_HEADER_PRINT="false",
-           TI_LOG_LEVEL="warn")
-
-
-def _default_sigint():
-    """In the child before it starts: SIGINT at its default, as in a terminal.  A process
-    inherits an ignored SIGINT (Python then installs no handler, and Ctrl-C does nothing):
-    the test's own worker may have been left ignoring it by a pool of an earlier test, and
-    the child then ran on past the signal (2026-11-25, the full suite on two workers)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-
-
-@contextlib.contextmanager
-def _killed_at_exit(process):
-    """A failed wait leaves no run behind."""
-    try:
-        yield process
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.communicate()
+ENV = CHILD_ENV
 
 
 def _state(solver):
@@ -180,12 +158,9 @@ def test_ctrl_c_stops_the_run_saves_it_and_exits_130(tmp_path):
          "--allow-many-steps",
          "--checkpoint", str(saved), "--checkpoint-every", "20000", "--json", str(record)],
         env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        preexec_fn=_default_sigint)
-    with _killed_at_exit(run):
-        deadline = time.monotonic() + 120
-        while not saved.exists():  # running: its first checkpoint is on disk
-            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
-            time.sleep(0.1)
+        preexec_fn=default_signals)
+    with killed_at_exit(run):
+        wait_until(run, saved.exists)  # running: its first checkpoint is on disk
         run.send_signal(signal.SIGINT)
         out, err = run.communicate(timeout=60)
     assert run.returncode == 130, err
@@ -279,12 +254,9 @@ def test_ctrl_c_stops_a_scene_file_run_and_keeps_its_frames(tmp_path):
          "--set", "domain.cells=16", "--t-end", "1000", "--frames", "100000",
          "--npz", str(frames), "--json", str(tmp_path / "run.json")],
         cwd=tmp_path, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        preexec_fn=_default_sigint)
-    with _killed_at_exit(run):
-        deadline = time.monotonic() + 120
-        while len(list(frames.glob("particles_*.npz"))) < 3:  # running: frames on disk
-            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
-            time.sleep(0.1)
+        preexec_fn=default_signals)
+    with killed_at_exit(run):
+        wait_until(run, lambda: len(list(frames.glob("particles_*.npz"))) >= 3)  # frames
         run.send_signal(signal.SIGINT)
         out, err = run.communicate(timeout=60)
     assert run.returncode == 130, err

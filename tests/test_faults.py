@@ -2,7 +2,6 @@
 refused before any work; SIGTERM and SIGHUP handled as Ctrl-C; sweep workers that die with
 their parent; step counts checked before any kernel; unique temporary names; stale field
 frames.  The commands are the issue's, as a user types them."""
-import contextlib
 import json
 import os
 import signal
@@ -14,24 +13,17 @@ from pathlib import Path
 
 import pytest
 
+from conftest import CHILD_ENV, default_signals, killed_at_exit, wait_until
 from timpm.checkpoint import load_checkpoint
 from timpm.cli import main
 from timpm.files import OutputError, check_distinct, check_output, replacing, write_json
 
 ROOT = Path(__file__).resolve().parent.parent
-ENV = dict(os.environ, TIMPM_THREADS="1", ENABLE_TAICHI_HEADER_PRINT="false",
-           TI_LOG_LEVEL="warn")
+ENV = CHILD_ENV
 
 
 def _cli(*args):
     return main([str(a) for a in args])
-
-
-def _default_signals():
-    """In the child: the signals at their defaults, as in a terminal (a test worker may
-    have inherited them ignored)."""
-    for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        signal.signal(s, signal.SIG_DFL)
 
 
 @pytest.fixture
@@ -48,16 +40,6 @@ def kernel_calls(monkeypatch):
 
     monkeypatch.setattr(kernel_impl.Kernel, "__call__", call)
     return calls
-
-
-@contextlib.contextmanager
-def _killed_at_exit(process):
-    try:
-        yield process
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.communicate()
 
 
 # ---- outputs checked before any work -----------------------------------------------------
@@ -189,7 +171,7 @@ def test_two_writers_of_one_file_never_leave_it_half_written(tmp_path):
 def test_a_failed_write_names_its_file_and_leaves_nothing(tmp_path):
     target = tmp_path / "out.bin"
     with pytest.raises(OutputError, match=f"could not write {target}"):
-        with replacing(target) as tmp:
+        with replacing(target):
             raise OSError(28, "No space left on device")
     assert not list(tmp_path.iterdir())
 
@@ -221,12 +203,9 @@ def test_sigterm_and_sighup_stop_a_run_like_ctrl_c(tmp_path, sig, code):
          "--allow-many-steps", "--checkpoint", str(saved), "--checkpoint-every", "20000",
          "--json", str(record)],
         env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        preexec_fn=_default_signals)
-    with _killed_at_exit(run):
-        deadline = time.monotonic() + 120
-        while not saved.exists():
-            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
-            time.sleep(0.1)
+        preexec_fn=default_signals)
+    with killed_at_exit(run):
+        wait_until(run, saved.exists)
         run.send_signal(sig)
         out, err = run.communicate(timeout=60)
     assert run.returncode == code, err
@@ -246,7 +225,7 @@ def _sweep_with_workers(command=SWEEP):
     """The issue's --workers 2 sweep (or ``command``), started, and its worker pids once
     both run."""
     run = subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                           text=True, preexec_fn=_default_signals)
+                           text=True, preexec_fn=default_signals)
     deadline = time.monotonic() + 120
     children = []
     while len(children) < 2:
@@ -267,6 +246,14 @@ def _children_of(task):
         return []
 
 
+def _all_gone(pids, within=10.0):
+    """Whether every process of ``pids`` has ended within ``within`` seconds."""
+    deadline = time.monotonic() + within
+    while any(_alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    return not any(_alive(p) for p in pids)
+
+
 def _alive(pid):
     try:
         os.kill(pid, 0)
@@ -285,13 +272,10 @@ def test_sweep_workers_die_with_their_parent(sig):
     """Killing a --workers 2 sweep's main process leaves no worker alive 10 s later (they
     held the caller's stdout open, so a pipeline hung)."""
     run, children = _sweep_with_workers()
-    with _killed_at_exit(run):
+    with killed_at_exit(run):
         run.send_signal(sig)
         run.communicate(timeout=60)
-    deadline = time.monotonic() + 10
-    while any(_alive(p) for p in children) and time.monotonic() < deadline:
-        time.sleep(0.2)
-    assert not any(_alive(p) for p in children)
+    assert _all_gone(children)
 
 
 # ---- messages that say what to fix -----------------------------------------------------------
@@ -395,7 +379,7 @@ def test_sigterm_to_a_sweep_stops_its_workers_cleanly(executor, tmp_path):
         pytest.importorskip("distributed")
     record = tmp_path / "sweep.json"
     run, children = _sweep_with_workers(SWEEP[:-2] + executor + ["--json", str(record)])
-    with _killed_at_exit(run):
+    with killed_at_exit(run):
         run.send_signal(signal.SIGTERM)
         out, err = run.communicate(timeout=60)
     assert run.returncode == 143, err
@@ -409,10 +393,7 @@ def test_sigterm_to_a_sweep_stops_its_workers_cleanly(executor, tmp_path):
     else:
         assert not record.exists()
     assert not list(tmp_path.glob("*.tmp*"))
-    deadline = time.monotonic() + 10
-    while any(_alive(p) for p in children) and time.monotonic() < deadline:
-        time.sleep(0.2)
-    assert not any(_alive(p) for p in children)
+    assert _all_gone(children)
 
 
 INTERRUPTED_CLUSTER_START = """
@@ -441,7 +422,7 @@ def test_sigterm_while_a_dask_cluster_starts_stops_the_sweep_cleanly(tmp_path):
     record = tmp_path / "r.json"
     run = subprocess.run([sys.executable, "-c", INTERRUPTED_CLUSTER_START, str(record)],
                          env=ENV, capture_output=True, text=True, timeout=120,
-                         preexec_fn=_default_signals)
+                         preexec_fn=default_signals)
     said = [line for line in run.stderr.splitlines() if not line.startswith("[W ")]
     assert run.returncode == 143 and said == ["timpm: interrupted after 0 of 2 runs"], \
         run.stderr
@@ -529,12 +510,9 @@ def test_ctrl_c_during_a_demo_leaves_only_whole_png_frames(tmp_path):
         [sys.executable, "-m", "timpm", "demo", "disks", "--out", str(tmp_path / "d.gif"),
          "--png-dir", str(frames), "--frames", "2000", "--param", "cells=32"],
         cwd=tmp_path, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        preexec_fn=_default_signals)
-    with _killed_at_exit(run):
-        deadline = time.monotonic() + 120
-        while len(list(frames.glob("frame_*.png"))) < 5:
-            assert run.poll() is None and time.monotonic() < deadline, run.communicate()
-            time.sleep(0.05)
+        preexec_fn=default_signals)
+    with killed_at_exit(run):
+        wait_until(run, lambda: len(list(frames.glob("frame_*.png"))) >= 5)
         run.send_signal(signal.SIGINT)
         out, err = run.communicate(timeout=60)
     assert run.returncode == 130 and "Traceback" not in err
