@@ -29,7 +29,8 @@ __all__ = ["main", "entry", "demo_script"]
 
 def _add_common(p):
     p.add_argument("problem", help=f"one of: {', '.join(PROBLEMS)}")
-    p.add_argument("--ppc", type=positive_int, help="particles per element (default: the problem's)")
+    p.add_argument("--ppc", type=positive_int,
+                   help="particles per element (default: the problem's)")
     p.add_argument("--basis", default="linear", type=basis_argument,
                    help=f"one of: {', '.join(BASES)}, bsplineN, uniform-bsplineN")
     p.add_argument("--mass", choices=["lumped", "consistent"],

@@ -88,8 +88,9 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     description = None
     if isinstance(problem, str):
         model = run.scene.model
-        description = dict(problem=problem, elements=run.elements, ppc=run.ppc, basis=run.scene.basis.name,
-                           mass=model.mass_matrix, dt=run.scene.dt, placement=run.placement,
+        description = dict(problem=problem, elements=run.elements, ppc=run.ppc,
+                           basis=run.scene.basis.name, mass=model.mass_matrix,
+                           dt=run.scene.dt, placement=run.placement,
                            stress_update=stress_update, damping=damping,
                            allow_unstable_dt=allow_unstable_dt, mode=mode,
                            record_every=run.every, params=dict(params or {}),

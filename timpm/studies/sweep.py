@@ -33,8 +33,8 @@ import numpy as np
 
 from ..argtypes import positive_int
 
-__all__ = ["SweepError", "SweepInterrupted", "interruptible", "check_executor", "map_runs", "add_arguments", "CONNECT_TIMEOUT",
-           "DASK_INSTALL"]
+__all__ = ["SweepError", "SweepInterrupted", "interruptible", "check_executor", "map_runs",
+           "add_arguments", "CONNECT_TIMEOUT", "DASK_INSTALL"]
 
 #: seconds to wait for a Dask scheduler to answer, and for its first worker
 CONNECT_TIMEOUT = 5.0
