@@ -202,7 +202,9 @@ def test_rk4_holds_roller_walls_in_2d_where_the_lumped_mass_sets_the_error():
                                   projection="standard"),
                     mode="serial", energies=False)
     solver.run(n_steps=20)
-    v = solver.read("gp")  # the last stage's nodal velocities, the walls applied
+    v = solver.read("node_velocity")  # the last stage's nodal velocities, walls applied
+    assert v.shape == (*solver.read("gm").shape, 2)  # the live nodes, as the storage's names
+    assert np.array_equal(v, solver.read("gp"))  # (the same field by its storage's name)
     assert np.all(v[0, :, 0] == 0.0) and np.all(v[-1, :, 0] == 0.0)
     assert np.all(v[:, 0, 1] == 0.0) and np.all(v[:, -1, 1] == 0.0)
     assert np.abs(v[0, :, 1]).max() > 0.0  # the tangential velocity is free

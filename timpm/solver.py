@@ -185,7 +185,9 @@ class Solver:
 
     def read(self, name: str) -> np.ndarray:
         """The live values of state field ``name`` (``"x"``, ``"v"``, ``"sigma"``, ``"F"``,
-        ``"gv"``, ...; ``memory()`` lists the particle fields) as NumPy."""
+        the grid's ``"gm"``, ``"gp"``, ``"gf"``, ``"gv"``, ``"gu"`` or the names the kernels
+        give them, ``"node_mass"``, ``"node_velocity"``, ...; ``memory()`` lists the
+        particle fields) as NumPy."""
         prog = self.program()
         if not hasattr(prog, name) or name.startswith("_"):
             raise KeyError(f"this solver has no state field {name!r}")

@@ -73,13 +73,13 @@ class GridNodes:
         """value / m_i at node I; zero at Dirichlet and empty nodes."""
         out = ti.Vector.zero(float, self.dim)
         if self._is_free(I):
-            out = value / self.gm[I]
+            out = value / self.node_mass[I]
         return out
 
     @ti.func
     def _is_free(self, I):
         """Node I carries mass (above ``mass_tol``) and is not a Dirichlet node."""
-        return not (self.is_fixed(I) or self.gm[I] <= self.values.mass_tol())
+        return not (self.is_fixed(I) or self.node_mass[I] <= self.values.mass_tol())
 
 
 class GridSolve:
@@ -88,10 +88,10 @@ class GridSolve:
     @ti.func
     def clear_grid(self):
         for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-            self.gm[I] = 0.0
-            self.gp[I] = ti.Vector.zero(float, self.dim)
+            self.node_mass[I] = 0.0
+            self.node_momentum[I] = ti.Vector.zero(float, self.dim)
             if ti.static(not self.affine or self.midpoint):
-                self.gf[I] = ti.Vector.zero(float, self.dim)
+                self.node_force[I] = ti.Vector.zero(float, self.dim)
         if ti.static(self.consistent and self.dim == 1):
             for i, k in ti.ndrange(self.values.nodes()[0], 2 * self.bandwidth + 1):
                 self.band[i, k] = 0.0

@@ -63,7 +63,8 @@ _GAUSS_3 = ((0.5 - math.sqrt(15.0) / 10.0, 5.0 / 18.0), (0.5, 8.0 / 18.0),
 def midpoint_fields(d, real, affine):
     """Per-particle scratch of a step: F at its start; for MUSL also the velocity at its
     start, the iterate of the velocity at its end and the position the iterate reaches (an
-    affine transfer iterates on the grid: its gp, gv and gf)."""
+    affine transfer iterates on the grid: its node velocities, new velocities and end
+    velocities)."""
     fields = {"F_start": ti.Matrix.field(d, d, real)}
     if not affine:
         fields.update(v_start=ti.Vector.field(d, real), v_end=ti.Vector.field(d, real),
@@ -141,9 +142,9 @@ class Midpoint:
                 row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.row_node(w, dw, r, row, a)
-                    vi = self.gp[base + offset]
+                    vi = self.node_velocity[base + offset]
                     v_mid += phi * vi
-                    accel += phi * self.gf[base + offset]
+                    accel += phi * self.node_acceleration[base + offset]
                     grad_v += vi.outer_product(grad)
             v_end = self.v_start[p] + self.values.dt() * accel
             F0 = self.F_start[p]
@@ -204,14 +205,15 @@ class Midpoint:
     def _affine_midpoint_step(self):
         # P2G at t_n: m_i and P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) (the linear basis:
         # m_p (phi_i v_p + B_p grad phi_i)); v_i^n = P_i / m_i with the wall conditions
-        # (gp), the iterate vbar_i (gv) starts there
+        # (node_velocity), the iterate vbar_i (node_new_velocity, which the scheme's G2P
+        # reads) starts there
         self.clear_grid()
         for p in range(self.values.n_particles()):
             self.F_start[p] = self.F[p]
             self._affine_momentum(p)
-        self.solve_mass(self.gp, True)
+        self.solve_mass(self.node_momentum, True)  # P_i into v_i^n in place
         for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-            self.gv[I] = self.gp[I]
+            self.node_new_velocity[I] = self.node_velocity[I]
         converged = False
         relax = 1.0
         previous = 0.0
@@ -219,7 +221,7 @@ class Midpoint:
             # particles: F_end = (I + dt grad vbar) F_n, sbar; F_i = sum phi_i f_p - sbar_p
             # V_p^n grad phi_i (MLS-MPM: D^-1 (x_i - x_p) phi_i for grad phi_i)
             for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                self.gf[I] = ti.Vector.zero(float, self.dim)
+                self.node_force[I] = ti.Vector.zero(float, self.dim)
             change = ti.Vector.zero(float, 2)
             largest = ti.Vector.zero(float, 2)
             for p in range(self.values.n_particles()):
@@ -228,14 +230,14 @@ class Midpoint:
                 largest[1] = ti.max(largest[1], s)
             if self.err_count[None] != 0:  # off the grid, or an iterate inverted
                 break
-            # grid: a_i = M^-1 F_i (walls), v_i^(n+1) = v_i^n + dt a_i kept in gf; the
-            # residual of vbar_i = (v_i^n + v_i^(n+1)) / 2
-            self.solve_mass(self.gf, True)
+            # grid: a_i = M^-1 F_i (walls), v_i^(n+1) = v_i^n + dt a_i kept in place of a_i
+            # (node_end_velocity); the residual of vbar_i = (v_i^n + v_i^(n+1)) / 2
+            self.solve_mass(self.node_force, True)  # F_i into a_i in place
             for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                v_end = self.gp[I] + self.values.dt() * self.gf[I]
-                self.gf[I] = v_end
-                v_bar = 0.5 * (self.gp[I] + v_end)
-                change[0] = ti.max(change[0], ti.abs(v_bar - self.gv[I]).max())
+                v_end = self.node_velocity[I] + self.values.dt() * self.node_acceleration[I]
+                self.node_end_velocity[I] = v_end
+                v_bar = 0.5 * (self.node_velocity[I] + v_end)
+                change[0] = ti.max(change[0], ti.abs(v_bar - self.node_new_velocity[I]).max())
                 largest[0] = ti.max(largest[0], ti.abs(v_bar).max())
             # (the floor of vbar_i: the velocity whose difference over a cell moves F by its
             # floor in a step; APIC's transfers dissipate, and a velocity fallen to the
@@ -247,14 +249,16 @@ class Midpoint:
             relax = self._midpoint_relaxation(it, change[0], previous, relax)
             previous = change[0]
             for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                self.gv[I] += relax * (0.5 * (self.gp[I] + self.gf[I]) - self.gv[I])
+                self.node_new_velocity[I] += relax * (
+                    0.5 * (self.node_velocity[I] + self.node_end_velocity[I])
+                    - self.node_new_velocity[I])
         if not converged and self.err_count[None] == 0:
             self.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
         if self.err_count[None] == 0:
             # G2P: v_p = sum phi_i v_i^(n+1), C_p from v_i^(n+1), x_p += dt sum phi_i vbar_i
             for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                self.gp[I] = self.gv[I]  # vbar_i
-                self.gv[I] = self.gf[I]  # v_i^(n+1), which affine_gather reads
+                self.node_velocity[I] = self.node_new_velocity[I]  # vbar_i
+                self.node_new_velocity[I] = self.node_end_velocity[I]  # v_i^(n+1): G2P
             for p in range(self.values.n_particles()):
                 self._affine_midpoint_finish(p)
 
@@ -273,11 +277,12 @@ class Midpoint:
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.row_node(w, dw, r, row, a)
                     node = base + offset
-                    self.gm[node] += mp * phi
+                    self.node_mass[node] += mp * phi
                     if ti.static(self.basis.support > 2 or self.mls_mpm):
-                        self.gp[node] += phi * (mom + self.times_offset(h_affine, r, a))
+                        self.node_momentum[node] += phi * (mom + self.times_offset(h_affine, r, a))
                     else:
-                        self.gp[node] += phi * mp * self.v[p] + mp * (self.C[p] @ grad)
+                        self.node_momentum[node] += (phi * mp * self.v[p]
+                                                     + mp * (self.C[p] @ grad))
 
     @ti.func
     def _affine_midpoint_particle(self, p):
@@ -310,7 +315,7 @@ class Midpoint:
                         force -= phi * (self.values.h() * self.times_offset(A, r, a) - A @ d)
                     else:
                         force -= stress_volume @ grad
-                    self.gf[base + offset] += force
+                    self.node_force[base + offset] += force
         return change, size
 
     @ti.func
@@ -324,5 +329,5 @@ class Midpoint:
                 row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.row_node(w, dw, r, row, a)
-                    dx += phi * self.gp[base + offset]
+                    dx += phi * self.node_velocity[base + offset]  # vbar_i
             self._midpoint_end_state(p, self.x[p] + self.values.dt() * dx, v_new)

@@ -136,12 +136,12 @@ class MLSProjection:
                     if ti.static(self.mls_study):
                         rho = _mls_value(self.g_mom[e, g], self.g_rho[e, g])
                         for a in ti.static(range(self.basis.support)):
-                            self.accumulate(self.gm[base + a], jw * rho * w[a])
-                            self.accumulate(self.gf[base + a][0], jw * (
+                            self.accumulate(self.node_mass[base + a], jw * rho * w[a])
+                            self.accumulate(self.node_force[base + a][0], jw * (
                                 rho * self.values.gravity()[0] * w[a] - sig * dw[a] * self.values.inv_h()))
                     else:
                         for a in ti.static(range(self.basis.support)):
-                            self.accumulate(self.gf[base + a][0],
+                            self.accumulate(self.node_force[base + a][0],
                                             -jw * sig * dw[a] * self.values.inv_h())
 
     @ti.func
@@ -165,4 +165,4 @@ class MLSProjection:
             v = 0.0
             if not self.is_fixed(i):
                 v = _mls_value(self.n_mom[i], self.n_vel[i])
-            self.gp[i][0] = v
+            self.node_velocity[i][0] = v

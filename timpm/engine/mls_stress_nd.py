@@ -151,7 +151,7 @@ class MLSStressND:
                         row = self.stencil_row(w, dw, r)
                         for a in ti.static(range(self.basis.support)):
                             offset, phi, grad = self.row_node(w, dw, r, row, a)
-                            self.accumulate(self.gf[base + offset], -scale * (sig @ grad))
+                            self.accumulate(self.node_force[base + offset], -scale * (sig @ grad))
 
     @ti.func
     def _clear_gauss_nd(self):

@@ -179,8 +179,9 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
         # copy axis: no branch on the thread per add), summed into the grid afterwards
         self.copies = {}
         if self.private_scatter:
-            for name in ["gm", "gp"] + ([] if self.affine else ["gf"]):
-                self.copies[name] = ti.field(real) if name == "gm" else ti.Vector.field(d, real)
+            for name in ["node_mass", "node_momentum"] + ([] if self.affine else ["node_force"]):
+                self.copies[name] = (ti.field(real) if name == "node_mass"
+                                     else ti.Vector.field(d, real))
             fb.dense(ti.axes(*range(d + 1)), (self.n_copies, *cap.nodes)).place(
                 *self.copies.values())
         scratch = {}
@@ -262,6 +263,19 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
         for group in (particle, grid, scratch, run):
             for name, fld in group.items():
                 setattr(self, name, fld)
+        # the grid as the kernels name it, by what a field holds in each phase (the
+        # storage's names, Solver.read's and the checkpoints', in brackets): the mass m_i
+        # [gm]; the momentum P_i that P2G scatters, turned into the velocity v_i in place by
+        # the mass solve [gp]; the force F_i, turned into the acceleration a_i in place
+        # [gf; the affine midpoint iteration keeps its v_i^(n+1) there]; the displacement u_i
+        # [gu]; a scheme's new velocity v_i^(n+1), the midpoint's iterate of it [gv]
+        self.node_mass = grid["gm"]
+        self.node_momentum = self.node_velocity = grid["gp"]
+        for names, key in ((("node_force", "node_acceleration", "node_end_velocity"), "gf"),
+                           (("node_displacement",), "gu"), (("node_new_velocity",), "gv")):
+            for name in names:
+                if key in grid:
+                    setattr(self, name, grid[key])
         if history:
             self.h_t, self.h_step = history["t"], history["step"]
             for key, attr in (("energy", "h_energy"), ("x", "h_x"), ("v", "h_v"),

@@ -163,8 +163,9 @@ class Recorder:
                     row = self.stencil_row(w, dw, r)
                     for a in ti.static(range(self.basis.support)):
                         offset, phi, grad = self.row_node(w, dw, r, row, a)
-                        self.accumulate(self.gm[base + offset], self.m[p] * phi)
-                        self.accumulate(self.gp[base + offset], self.m[p] * phi * self.v[p])
+                        self.accumulate(self.node_mass[base + offset], self.m[p] * phi)
+                        self.accumulate(self.node_momentum[base + offset],
+                                        self.m[p] * phi * self.v[p])
 
 
 def series(history, key, empty=None):

@@ -85,9 +85,9 @@ class RungeKutta:
                 row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.row_node(w, dw, r, row, a)
-                    vi = self.gp[base + offset]
+                    vi = self.node_velocity[base + offset]
                     x_rate += phi * vi
-                    v_rate += phi * self.gf[base + offset]
+                    v_rate += phi * self.node_acceleration[base + offset]
                     grad_v += vi.outer_product(grad)
             F_rate = grad_v @ self.F[p]
             weight = 1.0 / 6.0 if s == 0 or s == 3 else 1.0 / 3.0  # B_s

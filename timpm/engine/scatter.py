@@ -15,7 +15,7 @@ import taichi as ti
 __all__ = ["ScatterOps", "SUM_ROWS"]
 
 #: rows of the 1D run sums (see ``FeatureSet.run_sums``)
-SUM_ROWS = {"gm": 0, "gf": 1, "gp": 2}
+SUM_ROWS = {"node_mass": 0, "node_force": 1, "node_momentum": 2}
 
 
 class ScatterOps:
@@ -77,7 +77,7 @@ class ScatterOps:
                     total = fld[at]
                 else:
                     total += fld[at]
-                if ti.static(name == "gm"):
+                if ti.static(name == "node_mass"):
                     fld[at] = 0.0
                 else:
                     fld[at] = ti.Vector.zero(float, self.dim)
@@ -128,7 +128,7 @@ class ScatterOps:
     @ti.func
     def _scatter_particle(self, phase: ti.template(), p, copy):
         """The particle's stencil base, whether it scattered, and (run sums) its node
-        values: rows gm, gf, gp, one column per stencil node."""
+        values: rows m_i, F_i, P_i, one column per stencil node."""
         base = ti.Vector.zero(ti.i32, self.dim)
         inside = 0
         node_values = ti.Matrix.zero(float, 3, self.basis.support)
@@ -143,8 +143,8 @@ class ScatterOps:
             for name in ti.static(rows):
                 row = ti.static(SUM_ROWS[name])
                 for a in ti.static(range(self.basis.support)):
-                    if ti.static(name == "gm"):
-                        self.accumulate(self.gm[first + a], sums[row, a])
+                    if ti.static(name == "node_mass"):
+                        self.accumulate(self.node_mass[first + a], sums[row, a])
                     else:
                         self.accumulate(ti.static(getattr(self, name))[first + a][0], sums[row, a])
 
@@ -154,7 +154,7 @@ class ScatterOps:
         """Scatter ``value`` to grid field ``name`` at ``node``: into the run sums' column
         ``offset`` (returned), or by the scatter strategy (``scatter_add``)."""
         if ti.static(self.run_sums):
-            if ti.static(name == "gm"):
+            if ti.static(name == "node_mass"):
                 node_values[SUM_ROWS[name], offset[0]] = value
             else:
                 node_values[SUM_ROWS[name], offset[0]] = value[0]
@@ -168,7 +168,7 @@ class ScatterOps:
         reached = False
         if ti.static(self.private_scatter):
             for c in ti.static(range(self.n_copies)):
-                reached = reached or self.copies["gm"][self._copy_index(c, I)] != 0.0
+                reached = reached or self.copies["node_mass"][self._copy_index(c, I)] != 0.0
         else:
-            reached = self.gm[I] != 0.0
+            reached = self.node_mass[I] != 0.0
         return reached

@@ -177,7 +177,7 @@ class State:
         fld = getattr(prog, name)
         if name in prog.particle_fields:
             return (self.layout.n_particles,)
-        if name in prog.grid_fields:
+        if any(fld is g for g in prog.grid_fields.values()):  # (also by a kernel's name)
             return tuple(self.layout.nodes)
         if name == "track_ids":
             return (self.layout.n_tracked,)

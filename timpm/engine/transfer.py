@@ -151,8 +151,8 @@ class Transfer:
         self._run_phase(self.scheme.p2g)
         if ti.static(self.mls or self.consistent):
             self.scheme.after_p2g(self)
-        self.solve_mass(self.gf, True)
-        self.solve_mass(self.gp, True)
+        self.solve_mass(self.node_force, True)  # F_i into a_i in place
+        self.solve_mass(self.node_momentum, True)  # P_i into v_i in place
 
     @ti.func
     def _stress_of_F(self, p, F):

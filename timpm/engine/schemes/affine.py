@@ -27,15 +27,16 @@ class Affine:
 
     @staticmethod
     def grid_fields(dim, real):
-        """The grid velocity v_i of the last grid update (G2P reads it)."""
+        """The grid velocity v_i of the last grid update (G2P reads it: node_new_velocity)."""
         return {"gv": ti.Vector.field(dim, real)}
 
     def __init__(self, features):
         self.f = features
         self.p2g = Scatter("P2G: m_i, P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i",
-                           self.p2g_particle, rows=("gm", "gp"))
+                           self.p2g_particle, rows=("node_mass", "node_momentum"))
         self.remap = Scatter("G2P: v_p, C_p; P2G: P'_i = sum m_p phi_i v_p (strain remap)",
-                             self.remap_particle, rows=("gp",), merge=("gp",))
+                             self.remap_particle, rows=("node_momentum",),
+                             merge=("node_momentum",))
 
     def phases(self):
         steps = []
@@ -80,9 +81,9 @@ class Affine:
                     offset, phi, grad = prog.row_node(w, dw, r, row, a)
                     node = base + offset
                     if ti.static(prog.mls_mpm):
-                        prog.scatter_add("gm", copy, node, mp * phi)
-                        prog.scatter_add("gp", copy, node,
-                                  phi * (mom + prog.times_offset(h_affine, r, a)))
+                        prog.scatter_add("node_mass", copy, node, mp * phi)
+                        prog.scatter_add("node_momentum", copy, node,
+                                         phi * (mom + prog.times_offset(h_affine, r, a)))
                     else:
                         # m_p C_p (x_i - x_p) phi_i; the linear basis keeps B_p in C and
                         # applies D_p^-1 at the new position: B_p D_p^-1 (x_i - x_p) phi_i =
@@ -94,8 +95,9 @@ class Affine:
                         else:
                             momentum = (phi * (mp * prog.v[p] + prog.values.dt() * fp)
                                         + mp * (prog.C[p] @ grad))
-                        prog.scatter_add("gm", copy, node, mp * phi)
-                        prog.scatter_add("gp", copy, node, momentum - prog.values.dt() * (stress_volume @ grad))
+                        prog.scatter_add("node_mass", copy, node, mp * phi)
+                        prog.scatter_add("node_momentum", copy, node,
+                                         momentum - prog.values.dt() * (stress_volume @ grad))
         return base, inside, node_values
 
     @ti.func
@@ -104,8 +106,8 @@ class Affine:
         # are summed in and m_i, P_i cleared for the next P2G (a node no particle reached
         # has m = P = 0 and is left alone: G2P weighs it by 0)
         if prog.reached(I):
-            m = prog.merged("gm", I)
-            P = prog.merged("gp", I)
+            m = prog.merged("node_mass", I)
+            P = prog.merged("node_momentum", I)
             v = ti.Vector.zero(float, prog.dim)
             if m > prog.values.mass_tol() and not prog.is_fixed(I):
                 v = P / m
@@ -114,13 +116,13 @@ class Affine:
             if ti.static(prog.prescribed):
                 if prog.is_fixed(I):
                     v = prog.prescribed_velocity(I, True)
-            prog.gv[I] = v
+            prog.node_new_velocity[I] = v
             if ti.static(prog.strain_remap):
-                prog.gm[I] = m  # P cleared for the remap
-                prog.gp[I] = ti.Vector.zero(float, prog.dim)
+                prog.node_mass[I] = m  # P cleared for the remap
+                prog.node_momentum[I] = ti.Vector.zero(float, prog.dim)
             elif ti.static(not prog.private_scatter):
-                prog.gm[I] = 0.0
-                prog.gp[I] = ti.Vector.zero(float, prog.dim)
+                prog.node_mass[I] = 0.0
+                prog.node_momentum[I] = ti.Vector.zero(float, prog.dim)
 
     @ti.func
     def remap_particle(self, prog: ti.template(), p, copy):
@@ -136,13 +138,13 @@ class Affine:
                 row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
                     offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                    node_values = prog.deposit("gp", copy, base + offset, offset,
+                    node_values = prog.deposit("node_momentum", copy, base + offset, offset,
                                                 prog.m[p] * phi * vp, node_values)
         return base, inside, node_values
 
     @ti.func
     def remap_node(self, prog: ti.template(), I):
-        prog.solve_mass_node(prog.gp, True, I)
+        prog.solve_mass_node(prog.node_momentum, True, I)  # P'_i into v'_i in place
 
     @ti.func
     def affine_gather(self, prog: ti.template(), base, w, dw, xi, gradient: ti.template()):
@@ -155,7 +157,7 @@ class Affine:
             row = prog.stencil_row(w, dw, r)
             for a in ti.static(range(prog.basis.support)):
                 offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                vi = prog.gv[base + offset]
+                vi = prog.node_new_velocity[base + offset]
                 vp += phi * vi
                 if ti.static(gradient):
                     grad_du += (vi * prog.values.dt()).outer_product(grad)
@@ -196,7 +198,8 @@ class Affine:
                 row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
                     offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                    grad_du += (prog.gp[base + offset] * prog.values.dt()).outer_product(grad)
+                    grad_du += (prog.node_velocity[base + offset]
+                                * prog.values.dt()).outer_product(grad)
         else:
             B = ti.Matrix.zero(float, prog.dim, prog.dim)
             vp, B, grad_du = self.affine_gather(prog, base, w, dw, xi, not prog.mls_mpm)

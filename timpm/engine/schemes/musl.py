@@ -38,11 +38,13 @@ class MUSL:
         # P2G scatters the momentum where a later phase reads it (the grid phase's damping
         # and walls, the Runge-Kutta and midpoint rates)
         self.scatters_momentum = f.damping or f.has_walls or f.rk4 or f.midpoint
-        momentum = ("gp",) if self.scatters_momentum else ()
+        momentum = ("node_momentum",) if self.scatters_momentum else ()
         self.p2g = Scatter("P2G: m_i, F_i (and P_i) (A.1/A.2)", self.p2g_particle,
-                           rows=("gm", "gf") + momentum, merge=("gm", "gp", "gf"))
+                           rows=("node_mass", "node_force") + momentum,
+                           merge=("node_mass", "node_momentum", "node_force"))
         self.velocity = Scatter("G2P: v_p += dt sum phi_i a_i; P2G: P_i = sum m_p phi_i v_p",
-                                self.velocity_particle, rows=("gp",), merge=("gp",))
+                                self.velocity_particle, rows=("node_momentum",),
+                                merge=("node_momentum",))
 
     def phases(self):
         f = self.f
@@ -102,16 +104,17 @@ class MUSL:
                     offset, phi, grad = prog.row_node(w, dw, r, row, a)
                     node = base + offset
                     if ti.static(not prog.mls):
-                        node_values = prog.deposit("gm", copy, node, offset, mp * phi, node_values)
-                        node_values = prog.deposit("gf", copy, node, offset,
+                        node_values = prog.deposit("node_mass", copy, node, offset, mp * phi,
+                                                    node_values)
+                        node_values = prog.deposit("node_force", copy, node, offset,
                                                     phi * fp - stress_volume @ grad, node_values)
                     else:  # MLS: the stress enters at the Gauss points (integrate_gauss)
                         if ti.static(not prog.mls_study):
-                            prog.accumulate(prog.gm[node], mp * phi)
-                        prog.accumulate(prog.gf[node], phi * fp)
+                            prog.accumulate(prog.node_mass[node], mp * phi)
+                        prog.accumulate(prog.node_force[node], phi * fp)
                     if ti.static(self.scatters_momentum):
-                        node_values = prog.deposit("gp", copy, node, offset, mp * phi * prog.v[p],
-                                                    node_values)
+                        node_values = prog.deposit("node_momentum", copy, node, offset,
+                                                    mp * phi * prog.v[p], node_values)
             if ti.static(prog.consistent and prog.dim == 1):
                 for a, c in ti.static(ti.ndrange(prog.basis.support, prog.basis.support)):
                     prog.accumulate(prog.band[base[0] + a, c - a + prog.bandwidth],
@@ -137,22 +140,24 @@ class MUSL:
         # F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F; at a wall
         # a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
         if ti.static(prog.damping):
-            prog.gf[I] -= prog.values.damping() * ti.math.sign(prog.gp[I]) * ti.abs(prog.gf[I])
+            prog.node_force[I] -= (prog.values.damping() * ti.math.sign(prog.node_momentum[I])
+                                   * ti.abs(prog.node_force[I]))
         if ti.static(prog.has_walls and not prog.consistent):
             a = ti.Vector.zero(float, prog.dim)  # Dirichlet and empty nodes: a = 0
-            if prog.gm[I] > prog.values.mass_tol() and not prog.is_fixed(I):
-                vn = prog.gp[I] / prog.gm[I]
-                a = (prog.apply_walls(I, vn + prog.values.dt() * prog.gf[I] / prog.gm[I]) - vn) / prog.values.dt()
-            prog.gf[I] = a
+            if prog.node_mass[I] > prog.values.mass_tol() and not prog.is_fixed(I):
+                vn = prog.node_momentum[I] / prog.node_mass[I]
+                a = (prog.apply_walls(I, vn + prog.values.dt() * prog.node_force[I]
+                                      / prog.node_mass[I]) - vn) / prog.values.dt()
+            prog.node_acceleration[I] = a
         elif ti.static(not prog.consistent):
-            prog.gf[I] = prog.lumped_solve(I, prog.gf[I])  # a = F / m in the same pass
+            prog.node_acceleration[I] = prog.lumped_solve(I, prog.node_force[I])  # a = F / m
         if ti.static(prog.prescribed):
             if prog.is_fixed(I):  # a Dirichlet node: a = (v(t_n + dt) - v(t_n)) / dt
-                prog.gf[I] = (prog.prescribed_velocity(I, True)
+                prog.node_acceleration[I] = (prog.prescribed_velocity(I, True)
                               - prog.prescribed_velocity(I, False)) / prog.values.dt()
         self.after_acceleration(prog, I)
         if ti.static(self.scatters_momentum):
-            prog.gp[I] = ti.Vector.zero(float, prog.dim)  # P2G scattered P_i
+            prog.node_momentum[I] = ti.Vector.zero(float, prog.dim)  # P2G scattered P_i
 
     @ti.func
     def after_acceleration(self, prog: ti.template(), I):
@@ -161,7 +166,8 @@ class MUSL:
 
     @ti.func
     def acceleration_solve(self, prog: ti.template()):
-        prog.solve_mass(prog.gf, False)  # (in 1D the Model refuses walls with it)
+        # F_i into a_i in place (in 1D the Model refuses walls with the consistent mass)
+        prog.solve_mass(prog.node_force, False)
 
     # ---- G2P of the velocity, P2G of the momentum ------------------------------------------
     @ti.func
@@ -175,7 +181,7 @@ class MUSL:
                 row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
                     offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                    acc += phi * prog.gf[base + offset]
+                    acc += phi * prog.node_acceleration[base + offset]
             vp = self.new_velocity(prog, base, w, dw, prog.v[p] + prog.values.dt() * acc)
             prog.v[p] = vp
             if ti.static(prog.mls_study):
@@ -185,7 +191,7 @@ class MUSL:
                     row = prog.stencil_row(w, dw, r)
                     for a in ti.static(range(prog.basis.support)):
                         offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                        node_values = prog.deposit("gp", copy, base + offset, offset,
+                        node_values = prog.deposit("node_momentum", copy, base + offset, offset,
                                                     prog.m[p] * phi * vp, node_values)
         return base, inside, node_values
 
@@ -199,20 +205,20 @@ class MUSL:
     @ti.func
     def velocity_node(self, prog: ti.template(), I):
         # v_i = P_i / m_i with the walls and the prescribed velocities; u_i += v_i dt (5.2)
-        prog.solve_mass_node(prog.gp, True, I)
+        prog.solve_mass_node(prog.node_momentum, True, I)  # P_i into v_i in place
         if ti.static(prog.grid_displacement):
-            prog.gu[I] += prog.gp[I] * prog.values.dt()
+            prog.node_displacement[I] += prog.node_velocity[I] * prog.values.dt()
 
     @ti.func
     def velocity_solve(self, prog: ti.template()):
         if ti.static(prog.mls_study):
             prog.mls_nodal_velocity()
         else:
-            prog.solve_mass(prog.gp, True)
+            prog.solve_mass(prog.node_momentum, True)  # P_i into v_i in place
 
     @ti.func
     def displacement_node(self, prog: ti.template(), I):
-        prog.gu[I] += prog.gp[I] * prog.values.dt()
+        prog.node_displacement[I] += prog.node_velocity[I] * prog.values.dt()
 
     # ---- G2P of the particle state ---------------------------------------------------------
     @ti.func
@@ -224,7 +230,7 @@ class MUSL:
             row = prog.stencil_row(w, dw, r)
             for a in ti.static(range(prog.basis.support)):
                 offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                vi = prog.gp[base + offset]
+                vi = prog.node_velocity[base + offset]
                 vp += phi * vi
                 grad_du += (vi * prog.values.dt()).outer_product(grad)
         return vp, grad_du

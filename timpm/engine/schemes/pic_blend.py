@@ -31,18 +31,19 @@ class PICBlend(MUSL):
 
     @staticmethod
     def grid_fields(dim, real):
-        """The grid velocity after the update, v_i^L."""
+        """The grid velocity after the update, v_i^L (node_new_velocity)."""
         return {"gv": ti.Vector.field(dim, real)}
 
     @ti.func
     def after_acceleration(self, prog: ti.template(), I):
         # v_i^L = P_i / m_i + dt a_i (a wall's a makes it the wall's velocity; zero at
         # Dirichlet and empty nodes)
-        v_new = prog.lumped_solve(I, prog.gp[I]) + prog.values.dt() * prog.gf[I]
+        v_new = (prog.lumped_solve(I, prog.node_momentum[I])
+                 + prog.values.dt() * prog.node_acceleration[I])
         if ti.static(prog.prescribed):
             if prog.is_fixed(I):
                 v_new = prog.prescribed_velocity(I, True)
-        prog.gv[I] = v_new
+        prog.node_new_velocity[I] = v_new
 
     @ti.func
     def new_velocity(self, prog: ti.template(), base, w, dw, flip):
@@ -52,6 +53,6 @@ class PICBlend(MUSL):
             row = prog.stencil_row(w, dw, r)
             for a in ti.static(range(prog.basis.support)):
                 offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                pic += phi * prog.gv[base + offset]
+                pic += phi * prog.node_new_velocity[base + offset]
         b = prog.values.pic_fraction()
         return (1.0 - b) * flip + b * pic
