@@ -232,7 +232,7 @@ def test_imports_point_down_the_layers():
 def test_no_module_reaches_into_another_units_private_names():
     sources = {m: p.read_text() for m, p in MODULES.items()}
     defined = private_names(sources.values())
-    assert {"_halted", "_one_step", "_state"} <= defined  # the collection sees methods, globals
+    assert {"_team_member", "_one_step", "_state"} <= defined  # it sees methods, globals
     bad = [hit for m, src in sorted(sources.items()) for hit in private_reaches(m, src, defined)]
     assert not bad, "private names used from outside their unit:\n" + "\n".join(bad)
 
@@ -320,7 +320,8 @@ def test_the_units_of_a_program_call_only_the_units_below_them():
     """Program is its units mixed into one ``self`` (failures, stencil, scatter, phase
     runner, grid nodes, consistent mass, MLS, grid solve, transfer, integrators, uploads,
     recorder, drivers), listed lowest first: a unit reads what the units before it define,
-    never one after it (no unit calls back into another), and no two define one name."""
+    never one after it (no unit calls back into another), only their public names, and no
+    two define one name."""
     from timpm.engine.program import Program
 
     units = list(Program.__bases__)  # lowest first
@@ -328,10 +329,16 @@ def test_the_units_of_a_program_call_only_the_units_below_them():
     names = [name for cls in units for name in vars(cls) if not name.startswith("__")]
     assert sorted({n for n in names if names.count(n) > 1}) == []
     rank = {cls: k for k, cls in enumerate(units)}
+    calls = unit_calls(units)
     upward = sorted(f"{cls.__name__}.{name} is {other.__name__}'s, a unit above it"
-                    for cls, found in unit_calls(units).items() for other, name in found
+                    for cls, found in calls.items() for other, name in found
                     if rank[other] > rank[cls])
     assert upward == []
+    # and what a unit offers the others is public (a private name stays in its unit)
+    private = sorted(f"{cls.__name__} calls {other.__name__}.{name}"
+                     for cls, found in calls.items() for other, name in found
+                     if name.startswith("_"))
+    assert private == []
 
 
 def test_a_call_up_the_units_is_found():

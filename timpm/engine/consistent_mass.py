@@ -2,7 +2,7 @@
 
 Mixed into :class:`~timpm.engine.program.Program` (1D scenes with ``mass="consistent"``):
 P2G assembles ``band[i, k] = M[i, i + k - b]``, ``banded_factorise`` factorises it in
-place every step and ``_banded_substitute`` solves ``M x = rhs``.
+place every step and ``banded_substitute`` solves ``M x = rhs``.
 """
 import taichi as ti
 
@@ -51,7 +51,7 @@ class ConsistentMass:
                                 self.band[i, b - r + c] -= lik * self.band[k, b + c]
 
     @ti.func
-    def _banded_substitute(self, rhs: ti.template()):
+    def banded_substitute(self, rhs: ti.template()):
         b = ti.static(self.bandwidth)
         nn = self.values.nodes()[0]
         for _ in range(1):

@@ -48,7 +48,7 @@ class ConsistentMassCG:
             phi = ti.Vector.zero(float, len(offsets))
             if inside:
                 for k in ti.static(range(len(offsets))):
-                    value, _ = self._weight(w, dw, offsets[k])
+                    value, _ = self.node_weight(w, dw, offsets[k])
                     phi[k] = value
             self.cg_base[p] = base
             self.cg_phi[p] = phi  # zero off the grid
@@ -63,7 +63,7 @@ class ConsistentMassCG:
         """C v at node I: zero at Dirichlet and empty nodes, the walls' held components
         zeroed (roller and sticky walls only: the Model refuses the others)."""
         out = ti.Vector.zero(float, self.dim)
-        if self._is_free(I):
+        if self.is_free(I):
             out = self._held_by_walls(I, v)
         return out
 
@@ -85,7 +85,7 @@ class ConsistentMassCG:
         return rz
 
     @ti.func
-    def _cg_solve(self, rhs: ti.template()):
+    def cg_solve(self, rhs: ti.template()):
         """rhs <- x with C M C x = C rhs, x = C x (a velocity or an acceleration)."""
         tol = ti.static(1e-12 if self.f.precision == "f64" else 1e-5)
         offsets = ti.static(self._cg_offsets())

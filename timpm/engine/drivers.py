@@ -37,22 +37,22 @@ class Drivers:
             done += 1
             if ti.static(self.recording):
                 if self.step_count[None] % every == 0:
-                    self._record()
+                    self.record_step()
         return done
 
     @ti.func
     def _one_step(self):
         if ti.static(self.rk4):
-            self._rk4_step()  # four grid solves of the Runge-Kutta stages (rk4.py)
+            self.rk4_step()  # four grid solves of the Runge-Kutta stages (rk4.py)
         elif ti.static(self.midpoint):
             if ti.static(self.affine):  # the energy-conserving midpoint iteration (midpoint.py)
-                self._affine_midpoint_step()
+                self.affine_midpoint_step()
             else:
-                self._midpoint_step()
+                self.midpoint_step()
         else:
             for phase in ti.static(self.phases):  # the scheme's step (schemes/)
-                self._run_phase(phase)
-        self._count_step()
+                self.run_phase(phase)
+        self.count_step()
 
     @ti.func
     def _team_steps(self, n_steps):
@@ -94,7 +94,7 @@ class Drivers:
                 if going:
                     if ti.static(self.phases[k].kind == "scatter"):  # into the thread's copy
                         for p in range(first, end):
-                            self._scatter_particle(self.phases[k], p, c)
+                            self.scatter_particle(self.phases[k], p, c)
                     elif ti.static(self.phases[k].kind == "particles"):
                         for p in range(first, end):
                             self.phases[k].particle(self, p)

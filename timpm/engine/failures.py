@@ -35,7 +35,7 @@ class Failures:
             self.err_where[None] = where
 
     @ti.func
-    def _halted(self, p):
+    def halted(self, p):
         """A step before this one failed: the particles stay as they were at the failure
         (Python reads the error back every ``check_every`` steps).  The fused serial mode
         stops before the step after a failure instead (see ``_advance``), a team at the

@@ -72,12 +72,12 @@ class GridNodes:
     def lumped_solve(self, I, value):
         """value / m_i at node I; zero at Dirichlet and empty nodes."""
         out = ti.Vector.zero(float, self.dim)
-        if self._is_free(I):
+        if self.is_free(I):
             out = value / self.node_mass[I]
         return out
 
     @ti.func
-    def _is_free(self, I):
+    def is_free(self, I):
         """Node I carries mass (above ``mass_tol``) and is not a Dirichlet node."""
         return not (self.is_fixed(I) or self.node_mass[I] <= self.values.mass_tol())
 
@@ -96,7 +96,7 @@ class GridSolve:
             for i, k in ti.ndrange(self.values.nodes()[0], 2 * self.bandwidth + 1):
                 self.band[i, k] = 0.0
         if ti.static(self.mls and self.dim > 1):
-            self._clear_gauss_nd()
+            self.clear_gauss_nd()
         elif ti.static(self.mls):
             for e, g in ti.ndrange(self.values.elements()[0], ti.static(len(GAUSS_POINTS))):
                 self.g_mom[e, g] = ti.Vector.zero(float, 2 * self.mls_order + 1)
@@ -116,9 +116,9 @@ class GridSolve:
             for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                 self.solve_mass_node(rhs, walls, I)
         elif ti.static(self.dim > 1):
-            self._cg_solve(rhs)  # the walls' held components are constraints of the solve
+            self.cg_solve(rhs)  # the walls' held components are constraints of the solve
         else:
-            self._banded_substitute(rhs)
+            self.banded_substitute(rhs)
 
     @ti.func
     def solve_mass_node(self, rhs: ti.template(), walls: ti.template(), I):

@@ -33,7 +33,7 @@ the run stops with ``ErrorCode.MIDPOINT``.  The whole step runs on one thread (t
 serial mode).  A body force enters as b(X_p, t_n + dt / 2), its work m_p b_p . dx_p.
 
 The affine transfers (APIC, MLS-MPM) rebuild the grid velocity from v_p and C_p each
-step, so their iteration runs on the grid (``_affine_midpoint_step``): v_i^n from P2G
+step, so their iteration runs on the grid (``affine_midpoint_step``): v_i^n from P2G
 once, vbar_i = v_i^n + dt / 2 a_i(sbar(vbar)) iterated as above, then v_p and C_p from
 v_i^n + dt a_i and x_p += dt sum phi_i vbar_i.  The grid step conserves the energy; P2G and
 G2P can only lose it (docs/method.md).
@@ -76,7 +76,7 @@ class Midpoint:
     """See the module."""
 
     @ti.func
-    def _midpoint_step(self):
+    def midpoint_step(self):
         # the state at t_n: v_n and F_n kept; V_p stays V_p^n through the iteration
         for p in range(self.values.n_particles()):
             self.v_start[p] = self.v[p]
@@ -87,7 +87,7 @@ class Midpoint:
         for it in range(MIDPOINT_MAX_ITERATIONS):
             # grid: P2G of m_i, P_i = sum m_p phi_i vbar_p and the forces from sbar_p V_p^n;
             # a_i = M^-1 F_i, vbar_i = M^-1 P_i
-            self._grid_rates()
+            self.grid_rates()
             # converged: the residual new - iterate of vbar within tol of the largest vbar,
             # and F_end (sbar's argument) moved by less than tol of the largest increment
             change = ti.Vector.zero(float, 2)
@@ -177,7 +177,7 @@ class Midpoint:
         for q in ti.static(range(3)):
             F = F0 + ti.static(_GAUSS_3[q][0]) * (F1 - F0)
             P_mean += ti.static(_GAUSS_3[q][1]) * (
-                F.determinant() * self._stress_of_F(p, F) @ F.inverse().transpose())
+                F.determinant() * self.stress_of_F(p, F) @ F.inverse().transpose())
         return P_mean @ F0.transpose() / F0.determinant()
 
     @ti.func
@@ -197,12 +197,12 @@ class Midpoint:
             self.accumulate(self.u[p], x_new - self.x[p])
         self.x[p] = x_new
         self.v[p] = v_new
-        sig, vol, jac = self._set_state_of_F(p, self.F[p])
-        self._check_particle(p, x_new, v_new, sig, vol, jac)
+        sig, vol, jac = self.set_state_of_F(p, self.F[p])
+        self.check_particle(p, x_new, v_new, sig, vol, jac)
 
     # ---- the affine transfers (APIC, MLS-MPM): the iteration on the grid ------------------
     @ti.func
-    def _affine_midpoint_step(self):
+    def affine_midpoint_step(self):
         # P2G at t_n: m_i and P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) (the linear basis:
         # m_p (phi_i v_p + B_p grad phi_i)); v_i^n = P_i / m_i with the wall conditions
         # (node_velocity), the iterate vbar_i (node_new_velocity, which the scheme's G2P

@@ -145,7 +145,7 @@ class MLSStressND:
                     for k in ti.static(range(self.dim)):
                         y[k] = I[k] + GAUSS_POINTS[0] + ((g >> k) & 1) * (GAUSS_POINTS[1]
                                                                          - GAUSS_POINTS[0])
-                    base, w, dw, _ = self._stencil_at(y)
+                    base, w, dw, _ = self.stencil_at(y)
                     scale = jw * self.values.h() ** self.dim
                     for r in range(self.stencil_rows):
                         row = self.stencil_row(w, dw, r)
@@ -154,7 +154,7 @@ class MLSStressND:
                             self.accumulate(self.node_force[base + offset], -scale * (sig @ grad))
 
     @ti.func
-    def _clear_gauss_nd(self):
+    def clear_gauss_nd(self):
         n = ti.static(monomial_count(self.dim, self.mls_order))
         for I in ti.grouped(ti.ndrange(*[self.values.elements()[k] for k in range(self.dim)])):
             for g in ti.static(range(2 ** self.dim)):

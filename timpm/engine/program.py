@@ -324,7 +324,7 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
             def rk4_stage(s: ti.i32):
                 self._rk4_stage(s)
                 if s == 3:
-                    self._count_step()
+                    self.count_step()
 
             def step():
                 rk4_begin()
@@ -337,7 +337,7 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
 
         @ti.kernel
         def record():
-            self._one_task(self._record)
+            self._one_task(self.record_step)
 
         @ti.kernel
         def advance(n_steps: ti.i32, every: ti.i32, record_first: ti.i32) -> ti.i32:
@@ -346,7 +346,7 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
             for _ in range(1):  # one task on one thread: the fused serial mode
                 if ti.static(self.recording):
                     if record_first:  # the state before the steps (no record kernel to build)
-                        self._record()
+                        self.record_step()
                 done = self.advance_steps(n_steps, every)
             return done
 

@@ -30,7 +30,7 @@ class Recorder:
     """See the module."""
 
     @ti.func
-    def _record(self):
+    def record_step(self):
         slot = self.rec_count[None]
         self.h_t[slot] = self.time[None]
         self.h_step[slot] = self.step_count[None]

@@ -43,7 +43,7 @@ class RungeKutta:
     """See the module."""
 
     @ti.func
-    def _rk4_step(self):
+    def rk4_step(self):
         # the fused serial step: y_n kept, then the four stages in a run-time loop (one
         # serial task: the stage compiled once).  The parallel mode launches the same
         # phases as kernels, a stage a launch (Program._bind_kernels): its passes must be
@@ -67,7 +67,7 @@ class RungeKutta:
             for p in range(self.values.n_particles()):
                 for k in ti.static(range(self.dim)):
                     self.b[p][k] = self.b_stages[p][slot, k]
-        self._grid_rates()  # the stage's a_i and v_i (transfer.py)
+        self.grid_rates()  # the stage's a_i and v_i (transfer.py)
         for p in range(self.values.n_particles()):
             self._rk4_particle(p, s)
 
@@ -77,7 +77,7 @@ class RungeKutta:
         # grad phi_i^T) F; their sums weighted by B; the next stage's state (the step's end
         # after the fourth) with sigma(F) and V = det F V0
         base, w, dw, xi, inside = self.stencil(p)
-        if inside and not self._halted(p):
+        if inside and not self.halted(p):
             x_rate = ti.Vector.zero(float, self.dim)
             v_rate = ti.Vector.zero(float, self.dim)
             grad_v = ti.Matrix.zero(float, self.dim, self.dim)
@@ -118,8 +118,8 @@ class RungeKutta:
             self.x[p] = x_new
             self.v[p] = v_new
             self.F[p] = F_new
-            sig, vol, jac = self._set_state_of_F(p, F_new)
+            sig, vol, jac = self.set_state_of_F(p, F_new)
             if s == 3:
                 if ti.static(self.has_u):
                     self.accumulate(self.u[p], x_new - self.x_start[p])
-                self._check_particle(p, x_new, v_new, sig, vol, jac)
+                self.check_particle(p, x_new, v_new, sig, vol, jac)

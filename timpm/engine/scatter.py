@@ -8,7 +8,7 @@ strategy is a compile-time choice of the feature set:
 - ``serial``: the scatter loop on one thread with plain adds (1D: a run of particles in
   one element summed in registers first, the *run sums*);
 - ``private``: thread c adds into its own copy c of each scattered grid field, summed
-  into the grid afterwards (``merged``, ``_merge_copies``).
+  into the grid afterwards (``merged``, ``merge_copies``).
 """
 import taichi as ti
 
@@ -84,7 +84,7 @@ class ScatterOps:
         return total
 
     @ti.func
-    def _merge_copies(self, names: ti.template()):
+    def merge_copies(self, names: ti.template()):
         # private scatter: sum the threads' grid copies into the grid, and clear them
         for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
             for name in ti.static(names):
@@ -92,7 +92,7 @@ class ScatterOps:
                 grid[I] = self.merged(name, I)  # a plain store: no other thread writes I
 
     @ti.func
-    def _scatter_particles(self, phase: ti.template()):
+    def scatter_particles(self, phase: ti.template()):
         """Run a scheme's scattering particle phase (a ``schemes.Scatter``) for every
         particle, by the scatter strategy."""
         if ti.static(self.private_scatter):
@@ -101,7 +101,7 @@ class ScatterOps:
             B = self.values.scatter_block()
             for p in range(self.n_copies * B):
                 if p < self.values.n_particles():
-                    self._scatter_particle(phase, p, p // B)
+                    self.scatter_particle(phase, p, p // B)
         elif ti.static(self.run_sums):
             ti.loop_config(serialize=True)
             for _ in range(1):  # one task: the sums stay in registers
@@ -109,7 +109,7 @@ class ScatterOps:
                 first = -1  # first node of the run's stencil
                 sums = ti.Matrix.zero(float, 3, self.basis.support)
                 for p in range(self.values.n_particles()):
-                    base, inside, node_values = self._scatter_particle(phase, p, 0)
+                    base, inside, node_values = self.scatter_particle(phase, p, 0)
                     if inside:
                         if base[0] != first:
                             self._add_sums(rows, first, sums)
@@ -120,19 +120,19 @@ class ScatterOps:
         elif ti.static(self.serial_scatter):
             ti.loop_config(serialize=True)  # plain adds instead of contended atomics
             for p in range(self.values.n_particles()):
-                self._scatter_particle(phase, p, 0)
+                self.scatter_particle(phase, p, 0)
         else:
             for p in range(self.values.n_particles()):
-                self._scatter_particle(phase, p, 0)
+                self.scatter_particle(phase, p, 0)
 
     @ti.func
-    def _scatter_particle(self, phase: ti.template(), p, copy):
+    def scatter_particle(self, phase: ti.template(), p, copy):
         """The particle's stencil base, whether it scattered, and (run sums) its node
         values: rows m_i, F_i, P_i, one column per stencil node."""
         base = ti.Vector.zero(ti.i32, self.dim)
         inside = 0
         node_values = ti.Matrix.zero(float, 3, self.basis.support)
-        if not self._halted(p):
+        if not self.halted(p):
             base, inside, node_values = phase.particle(self, p, copy)
         return base, inside, node_values
 

@@ -31,11 +31,11 @@ class StencilOps:
         xi = ti.Vector.zero(float, self.dim)
         for k in ti.static(range(self.dim)):
             xi[k] = (self.x[p][k] - self.values.origin()[k]) * self.values.inv_h()
-        base, w, dw, inside = self._stencil_at(xi)
+        base, w, dw, inside = self.stencil_at(xi)
         return base, w, dw, xi, inside
 
     @ti.func
-    def _stencil_at(self, xi):
+    def stencil_at(self, xi):
         """Node base, weights and gradients at a point ``xi`` (element units), and whether
         it is on the grid."""
         base = ti.Vector.zero(ti.i32, self.dim)
@@ -56,7 +56,7 @@ class StencilOps:
         return base, w, dw, inside
 
     @ti.func
-    def _weight(self, w, dw, offset):
+    def node_weight(self, w, dw, offset):
         """Tensor-product value and gradient of the basis function at stencil ``offset``."""
         phi = 1.0
         grad = ti.Vector.zero(float, self.dim)
@@ -107,7 +107,7 @@ class StencilOps:
         """Node a of stencil row r: its offset, basis value and gradient (the loop
         ``for r in range(self.stencil_rows): for a in ti.static(range(support))``)."""
         offset = self._offset_of(r, a)
-        phi, grad = self._weight(w, dw, offset)
+        phi, grad = self.node_weight(w, dw, offset)
         return offset, phi, grad
 
     @ti.func
@@ -171,7 +171,7 @@ class StencilOps:
         return out
 
     @ti.func
-    def _element(self, xi):
+    def element_of(self, xi):
         """Element of a point at ``xi`` (element units), clamped to the grid."""
         e = ti.Vector.zero(ti.i32, self.dim)
         for k in ti.static(range(self.dim)):

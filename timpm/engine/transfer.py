@@ -17,7 +17,7 @@ class Transfer:
     """See the module."""
 
     @ti.func
-    def _material_update(self, p, grad_du, sig_old):
+    def material_update(self, p, grad_du, sig_old):
         """New Cauchy stress from the particle's material (one compiled unit per material)."""
         sig_new = sig_old
         if ti.static(not self.multi_material):
@@ -29,7 +29,7 @@ class Transfer:
         return sig_new
 
     @ti.func
-    def _jacobian(self, grad_du):
+    def jacobian(self, grad_du):
         """det(I + grad du): the step's volume ratio."""
         jac = 1.0 + grad_du[0, 0]
         if ti.static(self.dim > 1):
@@ -77,7 +77,7 @@ class Transfer:
     @ti.func
     def g2p_update_particle(self, p):
         base, w, dw, xi, inside = self.stencil(p)
-        if inside and not self._halted(p):
+        if inside and not self.halted(p):
             # the scheme's G2P of the grid velocity: v_p and grad du = sum_i v_i dt grad phi_i^T
             vp, grad_du = self.scheme.gather(self, p, base, w, dw, xi)
             du = vp * self.values.dt()
@@ -87,10 +87,10 @@ class Transfer:
             jac = 1.0
             vol_new = vol_old
             if ti.static(self.update_volume):
-                jac = self._jacobian(grad_du)
+                jac = self.jacobian(grad_du)
                 vol_new = vol_old * jac
                 self.vol[p] = vol_new  # the materials read the new volume
-            sig_new = self._material_update(p, grad_du, sig_old)
+            sig_new = self.material_update(p, grad_du, sig_old)
             self.sigma[p] = sig_new
             if ti.static(self.path_work):
                 # strain energy: trapezoidal path integral of sigma : d_eps V
@@ -110,10 +110,10 @@ class Transfer:
                 self.accumulate(self.u[p], du)
             x_new = self.x[p] + du
             self.x[p] = x_new
-            self._check_particle(p, x_new, vp, sig_new, vol_new, jac)
+            self.check_particle(p, x_new, vp, sig_new, vol_new, jac)
 
     @ti.func
-    def _check_particle(self, p, x_new, vp, sig_new, vol_new, jac):
+    def check_particle(self, p, x_new, vp, sig_new, vol_new, jac):
         # checks on the new state, from registers (a NaN in the MUSL particle velocity
         # reaches vp through the grid); the first failure of the run is the one reported
         xn = ti.Vector.zero(float, self.dim)
@@ -134,13 +134,13 @@ class Transfer:
         if code != 0:
             self.fail(code, p)
         if ti.static(self.track_crossings):
-            e = self._element(xn)
+            e = self.element_of(xn)
             if (e != self.elem[p]).any():
                 self.accumulate(self.crossings[None], 1)
                 self.elem[p] = e
 
     @ti.func
-    def _grid_rates(self):
+    def grid_rates(self):
         # P2G of the particles' state (a Runge-Kutta stage, a midpoint iterate): m_i, P_i =
         # sum m_p phi_i v_p, F_i = sum phi_i m_p (g + b_p) - sigma_p V_p grad phi_i (at the
         # Gauss points with the MLS projection); then a_i = M^-1 F_i and v_i = M^-1 P_i,
@@ -148,14 +148,14 @@ class Transfer:
         # constraints, the same on both (the consistent mass's solve takes them as such;
         # MUSL's acceleration_node is no fit: it clears P_i at walls)
         self.scheme.clear(self)
-        self._run_phase(self.scheme.p2g)
+        self.run_phase(self.scheme.p2g)
         if ti.static(self.mls or self.consistent):
             self.scheme.after_p2g(self)
         self.solve_mass(self.node_force, True)  # F_i into a_i in place
         self.solve_mass(self.node_momentum, True)  # P_i into v_i in place
 
     @ti.func
-    def _stress_of_F(self, p, F):
+    def stress_of_F(self, p, F):
         """sigma(F) of the particle's law."""
         sig = ti.Matrix.zero(float, self.dim, self.dim)
         if ti.static(not self.multi_material):
@@ -167,11 +167,11 @@ class Transfer:
         return sig
 
     @ti.func
-    def _set_state_of_F(self, p, F):
+    def set_state_of_F(self, p, F):
         """sigma_p = sigma(F) and V_p = det F V0_p stored; returns (sigma, V, det F) for the
         particle's checks."""
         jac = F.determinant()
-        sig = self._stress_of_F(p, F)
+        sig = self.stress_of_F(p, F)
         vol = jac * self._reference_volume_of(p)
         self.sigma[p] = sig
         self.vol[p] = vol
@@ -190,8 +190,8 @@ class Transfer:
         return vol0
 
     @ti.func
-    def _count_step(self):
+    def count_step(self):
         # the step is done: n += 1, t = n dt (not after a failed step)
-        if not self._halted(0):
+        if not self.halted(0):
             self.accumulate(self.step_count[None], 1)
             self.time[None] = self.step_count[None] * self.values.dt()

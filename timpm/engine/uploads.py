@@ -52,10 +52,10 @@ class Uploads:
         vol_old = self.vol[p]
         vol_new = vol_old
         if ti.static(self.update_volume):
-            vol_new = vol_old * self._jacobian(grad_u0)
+            vol_new = vol_old * self.jacobian(grad_u0)
             self.vol[p] = vol_new
         sig_old = self.sigma[p]
-        sig_new = self._material_update(p, grad_u0, sig_old)
+        sig_new = self.material_update(p, grad_u0, sig_old)
         self.sigma[p] = sig_new
         if ti.static(self.path_work):
             deps = 0.5 * (grad_u0 + grad_u0.transpose())

@@ -48,13 +48,13 @@ class PhaseRunner:
     """Runs one phase over its particles or nodes."""
 
     @ti.func
-    def _run_phase(self, phase: ti.template()):
+    def run_phase(self, phase: ti.template()):
         """One phase of a scheme for every particle or node (``schemes.phases``): its loop
         parallel over the CPU threads, or a part of the one serial task."""
         if ti.static(phase.kind == "scatter"):
-            self._scatter_particles(phase)
+            self.scatter_particles(phase)
             if ti.static(self.private_scatter and len(phase.merge) > 0):
-                self._merge_copies(phase.merge)
+                self.merge_copies(phase.merge)
         elif ti.static(phase.kind == "particles"):
             for p in range(self.values.n_particles()):
                 phase.particle(self, p)
