@@ -1,7 +1,8 @@
 """Golden outputs: runs of many scenes x modes x scatters on ONE thread, recorded before the
 engine redesign and compared bit for bit after it.
 
-    python tests/golden/golden.py record [--precision f64|f32]   # writes golden_<prec>.npz
+    python tests/golden/golden.py record [--precision f64|f32] [--only CASE...]   # writes
+        golden_<prec>.npz (with --only: those cases added or replaced, the others kept)
     python tests/golden/golden.py update --only CASE... --keys ARRAY... [--rtol R]   # an intended change
     python tests/golden/golden.py check  [--precision f64|f32]   # exit 1 on any difference
 
@@ -114,6 +115,43 @@ def _mpm88(steps, **solver_kw):
     return build
 
 
+def _affine_midpoint(transfer, steps, **solver_kw):
+    """The affine transfers' midpoint iteration on the manufactured 2D square, under
+    gravity between roller walls (tests/test_midpoint.py's scene)."""
+    def build():
+        import dataclasses
+
+        from timpm.problems import get_problem
+
+        problem = get_problem("mms-2d", G=1e-3)
+        scene = problem.scene(elements=8, basis="uniform-bspline2", transfer=transfer,
+                              mass="lumped", projection="standard")
+        model = dataclasses.replace(scene.model, body_force=None, integrator="midpoint",
+                                    gravity=(0.0, -200.0),
+                                    dt=0.9 * scene.model.h / problem.material_law.wave_speed)
+        return model, None, steps, dict(solver_kw, energy_guard=None)
+    return build
+
+
+def _square_2d(steps, solver_kw=None, **scene_kw):
+    """The manufactured 2D square (G = 1e-3) with scene options (consistent mass, MLS
+    stress at the Gauss points, an integrator)."""
+    def build():
+        import dataclasses
+
+        from timpm.problems import get_problem
+
+        problem = get_problem("mms-2d", G=1e-3)
+        integrator = scene_kw.pop("integrator", None)
+        scene = problem.scene(elements=8, basis="bspline2", **scene_kw)
+        if integrator is None:
+            return scene, None, steps, dict(solver_kw or {})
+        model = dataclasses.replace(scene.model, body_force=None, integrator=integrator,
+                                    dt=0.04 * scene.model.h / problem.material_law.wave_speed)
+        return model, None, steps, dict(solver_kw or {}, energy_guard=None)
+    return build
+
+
 S = {"mode": "serial"}
 P = {"mode": "parallel"}
 
@@ -175,6 +213,22 @@ CASES = {
     "box3d-mlsmpm-private": _box3d("mls-mpm", 20, **P, scatter="private"),
     "mpm88-serial": _mpm88(100, **S, energies=False),
     "mpm88-private": _mpm88(100, **P, scatter="private", energies=False),
+    # added 2026-11-28 (recorded from the engine of that day, which gave these final states
+    # bit for bit with the commit before it): the integrators, the PIC blend, 2D MLS
+    # stress and the 2D consistent mass, which the cases above do not reach
+    "string-rk4-serial": _problem("vibrating-string", 300, S, basis="bspline2", elements=16,
+                                  integrator="rk4", stress_update="study-exact"),
+    "string-midpoint-serial": _problem("vibrating-string", 300, S, basis="bspline2",
+                                       elements=16, integrator="midpoint",
+                                       stress_update="study-exact"),
+    "oedometer-pic-serial": _problem("oedometer", 300, S, elements=8),
+    "oedometer-pic-atomic": _problem("oedometer", 300, dict(P, scatter="atomic"), elements=8),
+    "square-apic-midpoint": _affine_midpoint("apic", 30, **S),
+    "square-mlsmpm-midpoint": _affine_midpoint("mls-mpm", 30, **S),
+    "square-mls-serial": _square_2d(30, S, mass="lumped", projection="mls"),
+    "square-consistent-serial": _square_2d(30, S, mass="consistent"),
+    "square-consistent-rk4": _square_2d(20, S, mass="consistent", integrator="rk4"),
+    "square-consistent-midpoint": _square_2d(20, S, mass="consistent", integrator="midpoint"),
 }
 
 
@@ -298,8 +352,13 @@ def main(argv=None):
     names = args.only or list(CASES)
     got = compute(names, args.precision, strict=not args.fast_math)
     if args.action == "record":
-        np.savez_compressed(path, **got)
-        print(f"recorded {len(got)} arrays of {len(names)} cases in {path}")
+        kept = {}
+        if args.only and path.exists():  # new cases added to the file, the others kept
+            with np.load(path) as old:
+                kept = {k: old[k] for k in old.files if k.split("/")[0] not in names}
+        np.savez_compressed(path, **kept, **got)
+        print(f"recorded {len(got)} arrays of {len(names)} cases in {path}"
+              + (f" (beside {len(kept)} arrays kept)" if kept else ""))
         return 0
     ref = np.load(path)
     if args.action == "update":
