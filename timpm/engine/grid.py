@@ -8,7 +8,16 @@ import taichi as ti
 
 from .mls_projection import GAUSS_POINTS
 
-__all__ = ["GridNodes", "GridSolve"]
+__all__ = ["GridNodes", "GridSolve", "NODE_NAMES"]
+
+#: the grid as the kernels name it, by what a field holds in each phase -> its storage (the
+#: names Solver.read and the checkpoints take): the mass m_i; the momentum P_i that P2G
+#: scatters, turned into the velocity v_i in place by the mass solve; the force F_i, turned
+#: into the acceleration a_i in place (the affine midpoint iteration keeps its v_i^(n+1)
+#: there); the displacement u_i; a scheme's new velocity v_i^(n+1), the midpoint's iterate
+NODE_NAMES = {"node_mass": "gm", "node_momentum": "gp", "node_velocity": "gp",
+              "node_force": "gf", "node_acceleration": "gf", "node_end_velocity": "gf",
+              "node_displacement": "gu", "node_new_velocity": "gv"}
 
 
 class GridNodes:

@@ -25,7 +25,7 @@ from .consistent_mass import ConsistentMass
 from .consistent_mass_cg import ConsistentMassCG, cg_fields, cg_particle_fields
 from .drivers import Drivers
 from .failures import Failures
-from .grid import GridNodes, GridSolve
+from .grid import NODE_NAMES, GridNodes, GridSolve
 from .mls_projection import GAUSS_POINTS, MLSProjection
 from .mls_stress_nd import MLSStressND, mls_nd_fields
 from .params import ParamBlock
@@ -263,19 +263,9 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
         for group in (particle, grid, scratch, run):
             for name, fld in group.items():
                 setattr(self, name, fld)
-        # the grid as the kernels name it, by what a field holds in each phase (the
-        # storage's names, Solver.read's and the checkpoints', in brackets): the mass m_i
-        # [gm]; the momentum P_i that P2G scatters, turned into the velocity v_i in place by
-        # the mass solve [gp]; the force F_i, turned into the acceleration a_i in place
-        # [gf; the affine midpoint iteration keeps its v_i^(n+1) there]; the displacement u_i
-        # [gu]; a scheme's new velocity v_i^(n+1), the midpoint's iterate of it [gv]
-        self.node_mass = grid["gm"]
-        self.node_momentum = self.node_velocity = grid["gp"]
-        for names, key in ((("node_force", "node_acceleration", "node_end_velocity"), "gf"),
-                           (("node_displacement",), "gu"), (("node_new_velocity",), "gv")):
-            for name in names:
-                if key in grid:
-                    setattr(self, name, grid[key])
+        for name, key in NODE_NAMES.items():  # the grid as the kernels name it (grid.py)
+            if key in grid:
+                setattr(self, name, grid[key])
         if history:
             self.h_t, self.h_step = history["t"], history["step"]
             for key, attr in (("energy", "h_energy"), ("x", "h_x"), ("v", "h_v"),

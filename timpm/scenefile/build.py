@@ -5,11 +5,11 @@ import re
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from ..basis import get_basis
 from ..loads import Ramp, SurfaceTraction
 from ..materials import MATERIALS, get_material
 from ..model import SIDES
 from ..problems import PROBLEMS
-from ..basis import get_basis
 from ..geostatic import K0, GravityLoading
 from ..world import PRESETS, Ball, Body, Box, Polygon, Prism, Wall, World
 from .keypaths import key_lines, parse_path
