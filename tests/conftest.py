@@ -74,13 +74,16 @@ def killed_at_exit(process):
 
 
 def wait_until(process, ready, timeout=120):
-    """Wait until ``ready()`` holds while ``process`` runs (it failing, or the timeout, is
-    a test failure with its output)."""
+    """Wait until ``ready()`` holds while ``process`` runs: it ending first, or the timeout
+    (the process then killed, not waited for), is a test failure with its output."""
     import time
 
     deadline = time.monotonic() + timeout
     while not ready():
-        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+        if process.poll() is None and time.monotonic() > deadline:
+            process.kill()
+        if process.poll() is not None or time.monotonic() > deadline:
+            pytest.fail(f"not ready within {timeout} s: {process.communicate()}")
         time.sleep(0.1)
 
 

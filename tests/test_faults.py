@@ -226,24 +226,21 @@ def _sweep_with_workers(command=SWEEP):
     both run."""
     run = subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                            text=True, preexec_fn=default_signals)
-    deadline = time.monotonic() + 120
-    children = []
-    while len(children) < 2:
-        if run.poll() is not None or time.monotonic() > deadline:
-            run.kill()
-            pytest.fail(f"the sweep did not start its workers: {run.communicate()}")
-        time.sleep(0.2)
-        children = [int(p) for task in Path(f"/proc/{run.pid}/task").glob("*")
-                    for p in _children_of(task)]  # any thread's (Dask starts them off main)
+    wait_until(run, lambda: len(_children(run.pid)) >= 2)
     time.sleep(1.0)
-    return run, children
+    return run, _children(run.pid)
 
 
-def _children_of(task):
-    try:
-        return (task / "children").read_text().split()
-    except OSError:  # the thread ended
-        return []
+def _children(pid):
+    """The child processes of ``pid``, started by any of its threads (Dask starts them off
+    the main thread)."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            found += [int(p) for p in (task / "children").read_text().split()]
+        except OSError:  # the thread ended
+            pass
+    return found
 
 
 def _all_gone(pids, within=10.0):

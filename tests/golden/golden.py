@@ -115,41 +115,35 @@ def _mpm88(steps, **solver_kw):
     return build
 
 
-def _affine_midpoint(transfer, steps, **solver_kw):
-    """The affine transfers' midpoint iteration on the manufactured 2D square, under
-    gravity between roller walls (tests/test_midpoint.py's scene)."""
+def _square_2d(steps, solver_kw, integrator=None, courant=None, gravity=None, **scene_kw):
+    """The manufactured 2D square (G = 1e-3, 8 x 8 cells) with scene options; with an
+    ``integrator``, its model without the body force at dt = courant h / c (and, given,
+    ``gravity``: tests/test_midpoint.py's scenes)."""
     def build():
         import dataclasses
 
         from timpm.problems import get_problem
 
         problem = get_problem("mms-2d", G=1e-3)
-        scene = problem.scene(elements=8, basis="uniform-bspline2", transfer=transfer,
-                              mass="lumped", projection="standard")
-        model = dataclasses.replace(scene.model, body_force=None, integrator="midpoint",
-                                    gravity=(0.0, -200.0),
-                                    dt=0.9 * scene.model.h / problem.material_law.wave_speed)
-        return model, None, steps, dict(solver_kw, energy_guard=None)
-    return build
-
-
-def _square_2d(steps, solver_kw=None, **scene_kw):
-    """The manufactured 2D square (G = 1e-3) with scene options (consistent mass, MLS
-    stress at the Gauss points, an integrator)."""
-    def build():
-        import dataclasses
-
-        from timpm.problems import get_problem
-
-        problem = get_problem("mms-2d", G=1e-3)
-        integrator = scene_kw.pop("integrator", None)
-        scene = problem.scene(elements=8, basis="bspline2", **scene_kw)
+        scene = problem.scene(elements=8, **scene_kw)
         if integrator is None:
-            return scene, None, steps, dict(solver_kw or {})
-        model = dataclasses.replace(scene.model, body_force=None, integrator=integrator,
-                                    dt=0.04 * scene.model.h / problem.material_law.wave_speed)
-        return model, None, steps, dict(solver_kw or {}, energy_guard=None)
+            return scene, None, steps, dict(solver_kw)
+        model = scene.model
+        changes = dict(body_force=None, integrator=integrator,
+                       dt=courant * model.h / problem.material_law.wave_speed)
+        if gravity is not None:
+            changes["gravity"] = gravity
+        return (dataclasses.replace(model, **changes), None, steps,
+                dict(solver_kw, energy_guard=None))
     return build
+
+
+def _affine_midpoint(transfer, steps, **solver_kw):
+    """The affine transfers' midpoint iteration on the square, under gravity between
+    roller walls."""
+    return _square_2d(steps, solver_kw, "midpoint", 0.9, (0.0, -200.0),
+                      basis="uniform-bspline2", transfer=transfer, mass="lumped",
+                      projection="standard")
 
 
 S = {"mode": "serial"}
@@ -225,10 +219,12 @@ CASES = {
     "oedometer-pic-atomic": _problem("oedometer", 300, dict(P, scatter="atomic"), elements=8),
     "square-apic-midpoint": _affine_midpoint("apic", 30, **S),
     "square-mlsmpm-midpoint": _affine_midpoint("mls-mpm", 30, **S),
-    "square-mls-serial": _square_2d(30, S, mass="lumped", projection="mls"),
-    "square-consistent-serial": _square_2d(30, S, mass="consistent"),
-    "square-consistent-rk4": _square_2d(20, S, mass="consistent", integrator="rk4"),
-    "square-consistent-midpoint": _square_2d(20, S, mass="consistent", integrator="midpoint"),
+    "square-mls-serial": _square_2d(30, S, basis="bspline2", mass="lumped", projection="mls"),
+    "square-consistent-serial": _square_2d(30, S, basis="bspline2", mass="consistent"),
+    "square-consistent-rk4": _square_2d(20, S, "rk4", 0.04, basis="bspline2",
+                                        mass="consistent"),
+    "square-consistent-midpoint": _square_2d(20, S, "midpoint", 0.04, basis="bspline2",
+                                             mass="consistent"),
 }
 
 
