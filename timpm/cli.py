@@ -17,6 +17,7 @@ from .checks import MAX_STEPS, step_count
 from .engine.features import MODES
 from .files import replacing, write_json as _write_json
 from .model import INTEGRATORS
+from .output.tables import run_table, scheme_line
 from .problems import PROBLEMS, get_problem
 from .runtime import exit_process
 from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
@@ -355,8 +356,8 @@ def _run(args, start):
     doc = {"command": args.command, "problem": result.record["problem"],
            "runs": [result.record]}
     if not args.quiet:
-        print(_scheme(result.record))
-        print(_table(doc["runs"]))
+        print(scheme_line(result.record))
+        print(run_table(doc["runs"]))
         extra = {k: v for k, v in result.record.items() if k in
                  ("strain", "exact_strain", "strain_relative_error", "energy_drift")}
         if extra:
@@ -380,36 +381,6 @@ def _options(args):
                 allow_many_steps=args.allow_many_steps,
                 projection=args.projection, transfer=args.transfer,
                 integrator=args.integrator, mode=args.mode, params=dict(args.param))
-
-
-def _scheme(record) -> str:
-    """The line above a table: the scheme the runs used (defaults depend on the problem
-    and the basis, e.g. mms-1d and mms-2d)."""
-    return (f"{record['problem']}: {record['basis']} basis, {record['mass']} mass, "
-            f"{record['projection']} projection, {record['transfer']} transfer, "
-            f"{record['integrator']}, {record['placement']} placement")
-
-
-def _table(records, rates=None):
-    l2 = " " + f"{'e_L2':>12}" if "l2_error" in records[0] else ""
-    head = (f"{'elements':>8} {'ppc':>4} {'e_RMS':>12}{l2} {'ratio':>7} {'log2':>6} "
-            f"{'crossings':>9} {'steps':>7} {'wall [s]':>9} {'compile [s]':>11}")
-    lines = [head]
-    for i, r in enumerate(records):
-        ratio = log2 = ""
-        if rates and i > 0:
-            ratio, log2 = f"{rates[i - 1]['ratio']:7.3f}", f"{rates[i - 1]['rate']:6.3f}"
-        err = f"{r['rms_error']:12.4e}" if r["rms_error"] is not None else f"{'-':>12}"
-        if "l2_error" in r:
-            err += f" {r['l2_error']:12.4e}"
-        lines.append(f"{r['elements']:>8} {r['ppc']:>4} {err} {ratio:>7} {log2:>6} "
-                     f"{_or_dash(r['grid_crossings']):>9} {r['steps']:>7} {r['wall_seconds']:9.3f} "
-                     f"{r['compile_seconds']:11.3f}")
-    return "\n".join(lines)
-
-
-def _or_dash(value):
-    return "-" if value is None else value
 
 
 def _demo(args):
@@ -585,8 +556,8 @@ def _main(argv=None):
                               dask=args.dask, **opts)
             doc["command"] = "convergence"
             if not args.quiet:
-                print(_scheme(doc["runs"][0]))
-                print(_table(doc["runs"], doc.get("rates")))
+                print(scheme_line(doc["runs"][0]))
+                print(run_table(doc["runs"], doc.get("rates")))
             if args.json:
                 _write_json(args.json, doc)
             if args.plot:
