@@ -113,6 +113,7 @@ def main(argv=None):
     p.add_argument("--cpu-threads", type=int, default=os.cpu_count(),
                    help="threads of the CPU comparison (default: all)")
     p.add_argument("--no-cpu", action="store_true", help="the GPU backend only")
+    p.add_argument("--no-table", action="store_true", help="without Table 3.2 end to end")
     p.add_argument("--json", metavar="FILE")
     p.add_argument("--md", metavar="FILE")
     args = p.parse_args(argv)
@@ -136,7 +137,7 @@ def main(argv=None):
     archs = [args.arch] + ([] if args.no_cpu else ["cpu"])
     for arch in archs:
         res["mpm88"] += _mpm88_pair(arch, args.counts, args.frames, args.cpu_threads, progress)
-    for arch in archs:
+    for arch in ([] if args.no_table else archs):
         progress(f"Table 3.2 end to end on {arch}")
         res["table_3_2"].append(_table_3_2(arch))
     text = markdown(res)

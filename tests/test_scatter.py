@@ -185,3 +185,34 @@ def test_team_stops_at_a_nan_naming_step_and_particle():
     finally:
         s.release()
 
+
+
+@pytest.mark.cpu_only("compares the CPU program with the GPU's compiled for the CPU")
+@pytest.mark.parametrize("transfer", ["mls-mpm", "musl"])
+def test_gpu_program_compiled_for_the_cpu_gives_the_same_bits(transfer, strict_arithmetic,
+                                                              monkeypatch):
+    """A GPU's program differs from the CPU's in its layout (each particle field its own
+    array) and its loops (over the capacity, the count checked inside: no serial task for
+    the bounds).  Compiled for the CPU it steps the CPU program's run bit for bit (one
+    thread: atomic adds in particle order)."""
+    import dataclasses
+
+    import timpm.solver
+
+    scene = sand_column(transfer)
+    cpu = run(scene, "atomic", 40)
+    plan = timpm.solver.plan
+
+    def gpu_plan(*args, **kwargs):
+        features, layout = plan(*args, **kwargs)
+        return dataclasses.replace(features, arch="cuda"), layout
+
+    monkeypatch.setattr(timpm.solver, "plan", gpu_plan)
+    s = Solver(scene, mode="parallel", scatter="atomic", energies=False)
+    try:
+        assert s.program().on_device and s.features.on_device
+        s.run(n_steps=40)
+        assert np.array_equal(s.positions(), cpu[1])
+        assert np.array_equal(s.velocities(), cpu[2])
+    finally:
+        s.release()

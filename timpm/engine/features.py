@@ -146,6 +146,13 @@ class FeatureSet:
         return self.energies or self.tracking
 
     @property
+    def on_device(self) -> bool:
+        """A GPU backend: each particle and node field its own array (a warp's loads
+        coalesce), and the step's loops over the capacity (no serial task for bounds read
+        from fields); the CPU keeps a particle's fields together and loops to the count."""
+        return self.arch != "cpu"
+
+    @property
     def private_scatter(self) -> bool:
         return self.n_copies > 1
 

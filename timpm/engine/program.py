@@ -86,6 +86,7 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
         # the stencil's rows: every axis but the last (stencil.py)
         self.stencil_rows = self.basis.support ** (self.dim - 1)
         self.transfer, self.mode, self.team = f.transfer, f.mode, f.team
+        self.on_device = f.on_device
         self.affine, self.mls_mpm, self.strain_remap = f.affine, f.mls_mpm, f.strain_remap
         self.consistent, self.mls, self.damping = f.consistent, f.mls, f.damping
         self.mls_study, self.mls_order = f.mls_study, f.mls_stress_order
@@ -120,6 +121,16 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
         self.compiled = set()  # the kernels that ran once (compiled)
 
     # ---- fields ------------------------------------------------------------------------
+    def _place(self, fb, axes, shape, fields):
+        """Per-particle fields on one dense layout: together per particle on the CPU (one
+        or two cache lines a particle), each its own array on a GPU (FeatureSet.on_device:
+        a warp's 32 threads read 32 neighbouring values in one transaction)."""
+        if self.on_device:
+            for one in fields.values():
+                fb.dense(axes, shape).place(one)
+        else:
+            fb.dense(axes, shape).place(*fields.values())
+
     def _allocate(self, cap):
         d, n = self.dim, cap.particles
         fb = ti.FieldsBuilder()
@@ -159,7 +170,7 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
             particle["work"] = ti.field(real)  # strain energy, integrated along the path
         if self.track_crossings:
             particle["elem"] = ti.Vector.field(d, ti.i32)
-        fb.dense(ti.i, n).place(*particle.values())
+        self._place(fb, ti.i, n, particle)
         self.particle_fields = particle
         # grid: mass, momentum then velocity, force then acceleration (the affine transfer
         # folds the force into the momentum), Dirichlet mask (1D)
@@ -173,6 +184,8 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
             grid["fixed_v"] = ti.Vector.field(d, real)  # prescribed velocity (times f(t))
         if self.grid_displacement:
             grid["gu"] = ti.Vector.field(d, real)
+        # (together per node on every backend: on an H200, mpm88's P2G at 1M particles took
+        # 635 us so, 725 us with each grid field its own array, docs/performance.md)
         fb.dense(ti.axes(*range(d)), cap.nodes).place(*grid.values())
         self.grid_fields = grid
         # private scatter: thread k fills copy k of each scattered grid field (a leading

@@ -121,6 +121,10 @@ class ScatterOps:
             ti.loop_config(serialize=True)  # plain adds instead of contended atomics
             for p in range(self.values.n_particles()):
                 self.scatter_particle(phase, p, 0)
+        elif ti.static(self.on_device):  # to the capacity: no serial task for the bound
+            for p in range(self.capacity.particles):
+                if p < self.values.n_particles():
+                    self.scatter_particle(phase, p, 0)
         else:
             for p in range(self.values.n_particles()):
                 self.scatter_particle(phase, p, 0)

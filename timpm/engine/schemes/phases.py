@@ -56,10 +56,21 @@ class PhaseRunner:
             if ti.static(self.private_scatter and len(phase.merge) > 0):
                 self.merge_copies(phase.merge)
         elif ti.static(phase.kind == "particles"):
-            for p in range(self.values.n_particles()):
-                phase.particle(self, p)
+            if ti.static(self.on_device):  # to the capacity: no serial task for the bound
+                for p in range(self.capacity.particles):
+                    if p < self.values.n_particles():
+                        phase.particle(self, p)
+            else:
+                for p in range(self.values.n_particles()):
+                    phase.particle(self, p)
         elif ti.static(phase.kind == "nodes"):
-            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                phase.node(self, I)
+            if ti.static(self.on_device):
+                for I in ti.grouped(ti.ndrange(*self.capacity.nodes)):
+                    if (I < self.values.nodes()).all():
+                        phase.node(self, I)
+            else:
+                for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k]
+                                                 for k in range(self.dim)])):
+                    phase.node(self, I)
         else:
             phase.body(self)
