@@ -23,9 +23,7 @@ failed too; one that stops for another reason (the energy guard: an instability)
 the study, since no factor can be read from it.  The bracket is reported with the
 factor, which is its midpoint.
 """
-import argparse
 import math
-import sys
 import time
 from dataclasses import replace
 
