@@ -82,6 +82,16 @@ def test_a_bad_environment_variable_is_named(tmp_path, variable, value, message)
     assert f"ValueError: the environment variable {variable} {message}, got {value!r}" in err
 
 
+def test_taichi_opt_level_zero_is_refused(tmp_path):
+    """TI_OPT_LEVEL=0 (read by Taichi itself) computes an integer times a float as 0.0 in
+    taichi 1.7.4 on the CPU: refused by name before Taichi starts; other levels run."""
+    rc, _, err = _script(tmp_path, "timpm.init()\n", env={"TI_OPT_LEVEL": "0"})
+    assert rc != 0
+    assert "ValueError: the environment variable TI_OPT_LEVEL=0 makes taichi" in err
+    rc, _, err = _script(tmp_path, "timpm.init()\n", env={"TI_OPT_LEVEL": "1"})
+    assert rc == 0, err
+
+
 def test_TIMPM_THREADS_sets_the_default(tmp_path):
     rc, out, err = _script(tmp_path, "print('threads', runtime.cpu_threads())\n",
                            env={"TIMPM_THREADS": " 1 "})

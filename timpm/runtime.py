@@ -104,9 +104,21 @@ def _optimize(optimize):
     return optimize
 
 
+def _check_opt_level():
+    """Taichi reads ``TI_OPT_LEVEL`` (its LLVM optimisation level) from the environment; at
+    0, taichi 1.7.4 on the CPU turns an integer times a float into 0.0 (``t = n dt`` is 0:
+    Table 3.2 stopped after one step with a wrong error), so that setting is refused."""
+    text = os.environ.get("TI_OPT_LEVEL", "").strip()
+    if text == "0":
+        raise ValueError("the environment variable TI_OPT_LEVEL=0 makes taichi 1.7.4 compute "
+                         "integer-times-float products as 0.0 on the CPU (wrong results, no "
+                         "error): unset it or set it to 1, 2 or 3")
+
+
 def _settings(threads=None, debug=False, precision="f64", pin=True, arch=None,
               optimize=None, fast_math=True) -> dict:
     """The settings of a start, checked before Taichi is touched."""
+    _check_opt_level()
     arch = _arch(arch)
     if precision not in ("f64", "f32"):
         raise ValueError(f"precision must be 'f64' or 'f32', got {precision!r}")
