@@ -12,6 +12,7 @@ timpm defines elsewhere, through ``obj._x`` on anything but ``self``/``cls`` or 
 ``from module import _x``.
 """
 import ast
+import re
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "timpm"
@@ -351,3 +352,40 @@ def test_a_call_up_the_units_is_found():
             return self.f()
 
     assert unit_calls([Low, High]) == {Low: {(High, "g")}, High: {(Low, "f")}}
+
+
+def state_names():
+    """What a phase reads as state: the names Program gives its particle, grid, scratch and
+    run fields (``"x": ti.Vector.field``, ``particle["C"] = ti.Matrix.field``, ...), the
+    grid's kernel names (grid.NODE_NAMES) and ``values``."""
+    source = (PACKAGE / "engine" / "program.py").read_text()
+    names = set(re.findall(r'"(\w+)": ti\.(?:Vector\.|Matrix\.)?field', source))
+    names |= set(re.findall(r'\w+\["(\w+)"\] = ti\.(?:Vector\.|Matrix\.)?field', source))
+    tree = ast.parse((PACKAGE / "engine" / "grid.py").read_text())
+    node_names = next(node.value for node in ast.walk(tree) if isinstance(node, ast.Assign)
+                      and getattr(node.targets[0], "id", None) == "NODE_NAMES")
+    return names | set(ast.literal_eval(node_names)) | {"values"}
+
+
+def state_reads_through_the_program(source):
+    """(line, name) of every ``prog.NAME`` in ``source`` that names state."""
+    names = state_names()
+    return sorted((node.lineno, node.attr) for node in ast.walk(ast.parse(source))
+                  if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                  and node.value.id == "prog" and node.attr in names)
+
+
+def test_a_scheme_reads_its_state_from_its_arguments():
+    """A scheme's phases receive the particle fields, the grid fields and the run-time
+    values (``particles.v[p]``, ``grid.node_mass[I]``, ``values.dt()``); through the
+    program they reach its units' operations and compile-time choices only."""
+    assert {"x", "v", "sigma", "C", "node_mass", "node_velocity", "band", "values"} <= \
+        state_names()
+    found = {path.name: state_reads_through_the_program(path.read_text())
+             for path in sorted((PACKAGE / "engine" / "schemes").glob("*.py"))}
+    assert {name: reads for name, reads in found.items() if reads} == {}
+
+
+def test_a_state_read_through_the_program_is_found():
+    source = "def f(self, prog, grid, p):\n    return prog.v[p] + grid.node_mass[p] + prog.dim\n"
+    assert state_reads_through_the_program(source) == [(2, "v")]

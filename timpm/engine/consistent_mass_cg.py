@@ -43,7 +43,7 @@ class ConsistentMassCG:
     def cg_keep_weights(self):
         # the particles' node bases and weights phi_i(x_p) for the mass products of the step
         for p in range(self.values.n_particles()):
-            base, w, dw, xi, inside = self.stencil(p)
+            base, w, dw, xi, inside = self.stencil(self.x[p])
             offsets = ti.static(self._cg_offsets())
             phi = ti.Vector.zero(float, len(offsets))
             if inside:

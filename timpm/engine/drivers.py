@@ -97,13 +97,14 @@ class Drivers:
                             self.scatter_particle(self.phases[k], p, c)
                     elif ti.static(self.phases[k].kind == "particles"):
                         for p in range(first, end):
-                            self.phases[k].particle(self, p)
+                            self.phases[k].particle(self, self.particles, self.grid,
+                                                    self.values, p)
                     else:  # on its nodes, the copies of the scatter before summed in
                         for f in range(lo, hi):
                             I = self._node_of(f)
                             for name in ti.static(self.merged_before[k]):
                                 ti.static(getattr(self, name))[I] = self.merged(name, I)
-                            self.phases[k].node(self, I)
+                            self.phases[k].node(self, self.grid, self.values, I)
             if not going:
                 break
             if c == 0:

@@ -131,7 +131,7 @@ class Midpoint:
         # G2P of the iterate: v_end = v_n + dt sum phi_i a_i, F_end = (I + dt grad vbar) F_n,
         # x_end = x_n + dt sum phi_i vbar_i; the next iterate's vbar_p (relaxed) and sbar_p.
         # Returns the residual of vbar_p, the change of F_end and their scales (max norms)
-        base, w, dw, xi, inside = self.stencil(p)
+        base, w, dw, xi, inside = self.stencil(self.x[p])
         change = ti.Vector.zero(float, 2)
         size = ti.Vector.zero(float, 2)
         if inside:
@@ -183,7 +183,7 @@ class Midpoint:
     @ti.func
     def _midpoint_finish(self, p):
         # the step's end: x, v, F of the converged iterate, sigma(F) and V = det F V0
-        base, w, dw, xi, inside = self.stencil(p)
+        base, w, dw, xi, inside = self.stencil(self.x[p])
         if inside:
             self._midpoint_end_state(p, self.x_end[p], self.v_end[p])
 
@@ -264,7 +264,7 @@ class Midpoint:
 
     @ti.func
     def _affine_momentum(self, p):
-        base, w, dw, xi, inside = self.stencil(p)
+        base, w, dw, xi, inside = self.stencil(self.x[p])
         if not inside:
             self.fail(ErrorCode.OFF_GRID, p)
         else:
@@ -287,11 +287,12 @@ class Midpoint:
     @ti.func
     def _affine_midpoint_particle(self, p):
         # returns the change of F_end and the largest F increment
-        base, w, dw, xi, inside = self.stencil(p)
+        base, w, dw, xi, inside = self.stencil(self.x[p])
         change = 0.0
         size = 0.0
         if inside:
-            _, B, grad_du = self.scheme.affine_gather(self, base, w, dw, xi, not self.mls_mpm)
+            _, B, grad_du = self.scheme.affine_gather(self, self.grid, self.values, base, w, dw, xi,
+                                                      not self.mls_mpm)
             if ti.static(self.mls_mpm):
                 grad_du = B * self.values.D_inv() * self.values.dt()
             F0 = self.F_start[p]
@@ -320,10 +321,11 @@ class Midpoint:
 
     @ti.func
     def _affine_midpoint_finish(self, p):
-        base, w, dw, xi, inside = self.stencil(p)
+        base, w, dw, xi, inside = self.stencil(self.x[p])
         if inside:
-            v_new, B, _ = self.scheme.affine_gather(self, base, w, dw, xi, False)
-            self.C[p] = self.scheme.affine_of(self, B, base, w, xi)
+            v_new, B, _ = self.scheme.affine_gather(self, self.grid, self.values, base, w, dw, xi,
+                                                     False)
+            self.C[p] = self.scheme.affine_of(self, self.values, B, base, w, xi)
             dx = ti.Vector.zero(float, self.dim)
             for r in range(self.stencil_rows):
                 row = self.stencil_row(w, dw, r)

@@ -38,6 +38,7 @@ from .scatter import ScatterOps
 from .stencil import StencilOps
 from .transfer import Transfer
 from .uploads import Uploads
+from .views import FieldView
 
 __all__ = ["Program"]
 
@@ -279,6 +280,11 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
         for name, key in NODE_NAMES.items():  # the grid as the kernels name it (grid.py)
             if key in grid:
                 setattr(self, name, grid[key])
+        # the state a scheme's phase receives (views.py)
+        self.particles = FieldView("particle", particle)
+        self.grid = FieldView("grid", {
+            **{name: grid[key] for name, key in NODE_NAMES.items() if key in grid},
+            **({"band": scratch["band"]} if "band" in scratch else {})})
         if history:
             self.h_t, self.h_step = history["t"], history["step"]
             for key, attr in (("energy", "h_energy"), ("x", "h_x"), ("v", "h_v"),

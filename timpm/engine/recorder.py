@@ -157,7 +157,7 @@ class Recorder:
     def _project(self):
         # P2G of mass and momentum alone: m_i = sum m_p phi_i, P_i = sum m_p phi_i v_p
         for p in range(self.values.n_particles()):
-            base, w, dw, xi, inside = self.stencil(p)
+            base, w, dw, xi, inside = self.stencil(self.x[p])
             if inside:
                 for r in range(self.stencil_rows):
                     row = self.stencil_row(w, dw, r)

@@ -76,7 +76,7 @@ class RungeKutta:
         # G2P of the stage's rates: x' = sum phi_i v_i, v' = sum phi_i a_i, F' = (sum v_i
         # grad phi_i^T) F; their sums weighted by B; the next stage's state (the step's end
         # after the fourth) with sigma(F) and V = det F V0
-        base, w, dw, xi, inside = self.stencil(p)
+        base, w, dw, xi, inside = self.stencil(self.x[p])
         if inside and not self.halted(p):
             x_rate = ti.Vector.zero(float, self.dim)
             v_rate = ti.Vector.zero(float, self.dim)

@@ -137,7 +137,8 @@ class ScatterOps:
         inside = 0
         node_values = ti.Matrix.zero(float, 3, self.basis.support)
         if not self.halted(p):
-            base, inside, node_values = phase.particle(self, p, copy)
+            base, inside, node_values = phase.particle(self, self.particles, self.grid,
+                                                       self.values, p, copy)
         return base, inside, node_values
 
     @ti.func

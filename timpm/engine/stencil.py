@@ -1,7 +1,7 @@
 """The stencil of a particle: its nodes, the basis weights and gradients (any dimension).
 
-Mixed into :class:`~timpm.engine.program.Program`.  Reads ``x`` and the run-time grid
-values (``self.values``); the basis (``self.basis``) is a compile-time class whose ``stencil``
+Mixed into :class:`~timpm.engine.program.Program`.  Reads a particle's position (given)
+and the run-time grid values (``self.values``); the basis (``self.basis``) is a compile-time class whose ``stencil``
 ``ti.func`` gives the 1D weights, combined here as tensor products.
 
 The phases loop over a particle's stencil nodes row by row: a run-time loop over the
@@ -25,12 +25,12 @@ class StencilOps:
     """See the module."""
 
     @ti.func
-    def stencil(self, p):
-        """Node base, weights and gradients of particle p, its coordinate in element units,
-        and whether p is on the grid."""
+    def stencil(self, x):
+        """Node base, weights and gradients of a particle at ``x``, its coordinate in
+        element units, and whether it is on the grid."""
         xi = ti.Vector.zero(float, self.dim)
         for k in ti.static(range(self.dim)):
-            xi[k] = (self.x[p][k] - self.values.origin()[k]) * self.values.inv_h()
+            xi[k] = (x[k] - self.values.origin()[k]) * self.values.inv_h()
         base, w, dw, inside = self.stencil_at(xi)
         return base, w, dw, xi, inside
 

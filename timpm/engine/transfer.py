@@ -76,10 +76,11 @@ class Transfer:
 
     @ti.func
     def g2p_update_particle(self, p):
-        base, w, dw, xi, inside = self.stencil(p)
+        base, w, dw, xi, inside = self.stencil(self.x[p])
         if inside and not self.halted(p):
             # the scheme's G2P of the grid velocity: v_p and grad du = sum_i v_i dt grad phi_i^T
-            vp, grad_du = self.scheme.gather(self, p, base, w, dw, xi)
+            vp, grad_du = self.scheme.gather(self, self.particles, self.grid, self.values, p,
+                                             base, w, dw, xi)
             du = vp * self.values.dt()
             deps = 0.5 * (grad_du + grad_du.transpose())
             vol_old = self.vol[p]
@@ -147,10 +148,10 @@ class Transfer:
         # zero at Dirichlet and empty nodes.  Roller and sticky walls are linear
         # constraints, the same on both (the consistent mass's solve takes them as such;
         # MUSL's acceleration_node is no fit: it clears P_i at walls)
-        self.scheme.clear(self)
+        self.scheme.clear(self, self.particles, self.grid, self.values)
         self.run_phase(self.scheme.p2g)
         if ti.static(self.mls or self.consistent):
-            self.scheme.after_p2g(self)
+            self.scheme.after_p2g(self, self.particles, self.grid, self.values)
         self.solve_mass(self.node_force, True)  # F_i into a_i in place
         self.solve_mass(self.node_momentum, True)  # P_i into v_i in place
 

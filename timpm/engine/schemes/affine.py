@@ -49,32 +49,34 @@ class Affine:
         return tuple(steps)
 
     @ti.func
-    def clear(self, prog: ti.template()):
+    def clear(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+              values: ti.template()):
         prog.clear_grid()
 
     @ti.func
-    def p2g_particle(self, prog: ti.template(), p, copy):
+    def p2g_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+                     values: ti.template(), p, copy):
         # P2G: m_i = sum m_p phi_i; P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i,
         # F_i = sum phi_i m_p (g + b_p) - sigma_p V_p grad phi_i (MLS-MPM: the stress as
         # -dt D^-1 sigma_p V_p (x_i - x_p) phi_i, in the affine matrix)
-        base, w, dw, xi, inside = prog.stencil(p)
+        base, w, dw, xi, inside = prog.stencil(particles.x[p])
         node_values = ti.Matrix.zero(float, 3, prog.basis.support)
         if not inside:
             prog.fail(ErrorCode.OFF_GRID, p)
         else:
-            mp = prog.m[p]
+            mp = particles.m[p]
             fp = prog.external_force(p)
-            stress_volume = prog.sigma[p] * prog.vol[p]
+            stress_volume = particles.sigma[p] * particles.vol[p]
             affine = ti.Matrix.zero(float, prog.dim, prog.dim)
             if ti.static(prog.mls_mpm):
-                affine = mp * prog.C[p] - prog.values.dt_D_inv() * stress_volume
+                affine = mp * particles.C[p] - values.dt_D_inv() * stress_volume
             # the affine momentum A (x_i - x_p) with x_i - x_p = h o - d (o: the node's
             # offset in the stencil) is h A o - A d: one vector per particle, then adds
             d = prog.from_first_node(xi, base)
             if ti.static(not prog.mls_mpm and prog.basis.support > 2):
-                affine = mp * prog.C[p]  # APIC: the stress enters through grad phi
-            mom = mp * prog.v[p] + prog.values.dt() * fp - affine @ d
-            h_affine = prog.values.h() * affine
+                affine = mp * particles.C[p]  # APIC: the stress enters through grad phi
+            mom = mp * particles.v[p] + values.dt() * fp - affine @ d
+            h_affine = values.h() * affine
             for r in range(prog.stencil_rows):
                 row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
@@ -93,15 +95,15 @@ class Affine:
                         if ti.static(prog.basis.support > 2):
                             momentum = phi * (mom + prog.times_offset(h_affine, r, a))
                         else:
-                            momentum = (phi * (mp * prog.v[p] + prog.values.dt() * fp)
-                                        + mp * (prog.C[p] @ grad))
+                            momentum = (phi * (mp * particles.v[p] + values.dt() * fp)
+                                        + mp * (particles.C[p] @ grad))
                         prog.scatter_add("node_mass", copy, node, mp * phi)
                         prog.scatter_add("node_momentum", copy, node,
-                                         momentum - prog.values.dt() * (stress_volume @ grad))
+                                         momentum - values.dt() * (stress_volume @ grad))
         return base, inside, node_values
 
     @ti.func
-    def velocity_node(self, prog: ti.template(), I):
+    def velocity_node(self, prog: ti.template(), grid: ti.template(), values: ti.template(), I):
         # v_i = P_i / m_i, wall conditions applied; in the same pass the private copies
         # are summed in and m_i, P_i cleared for the next P2G (a node no particle reached
         # has m = P = 0 and is left alone: G2P weighs it by 0)
@@ -109,45 +111,47 @@ class Affine:
             m = prog.merged("node_mass", I)
             P = prog.merged("node_momentum", I)
             v = ti.Vector.zero(float, prog.dim)
-            if m > prog.values.mass_tol() and not prog.is_fixed(I):
+            if m > values.mass_tol() and not prog.is_fixed(I):
                 v = P / m
                 if ti.static(prog.has_walls):
                     v = prog.apply_walls(I, v)
             if ti.static(prog.prescribed):
                 if prog.is_fixed(I):
                     v = prog.prescribed_velocity(I, True)
-            prog.node_new_velocity[I] = v
+            grid.node_new_velocity[I] = v
             if ti.static(prog.strain_remap):
-                prog.node_mass[I] = m  # P cleared for the remap
-                prog.node_momentum[I] = ti.Vector.zero(float, prog.dim)
+                grid.node_mass[I] = m  # P cleared for the remap
+                grid.node_momentum[I] = ti.Vector.zero(float, prog.dim)
             elif ti.static(not prog.private_scatter):
-                prog.node_mass[I] = 0.0
-                prog.node_momentum[I] = ti.Vector.zero(float, prog.dim)
+                grid.node_mass[I] = 0.0
+                grid.node_momentum[I] = ti.Vector.zero(float, prog.dim)
 
     @ti.func
-    def remap_particle(self, prog: ti.template(), p, copy):
+    def remap_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+                       values: ti.template(), p, copy):
         # the strain remap: v_p = sum_i phi_i v_i, C_p = B_p (as update_particle), then
         # P'_i = sum m_p phi_i v_p
-        base, w, dw, xi, inside = prog.stencil(p)
+        base, w, dw, xi, inside = prog.stencil(particles.x[p])
         node_values = ti.Matrix.zero(float, 3, prog.basis.support)
         if inside:
-            vp, B, _ = self.affine_gather(prog, base, w, dw, xi, False)
-            prog.C[p] = B  # the linear basis keeps B_p (see p2g_particle)
-            prog.v[p] = vp
+            vp, B, _ = self.affine_gather(prog, grid, values, base, w, dw, xi, False)
+            particles.C[p] = B  # the linear basis keeps B_p (see p2g_particle)
+            particles.v[p] = vp
             for r in range(prog.stencil_rows):
                 row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
                     offset, phi, grad = prog.row_node(w, dw, r, row, a)
                     node_values = prog.deposit("node_momentum", copy, base + offset, offset,
-                                                prog.m[p] * phi * vp, node_values)
+                                                particles.m[p] * phi * vp, node_values)
         return base, inside, node_values
 
     @ti.func
-    def remap_node(self, prog: ti.template(), I):
-        prog.solve_mass_node(prog.node_momentum, True, I)  # P'_i into v'_i in place
+    def remap_node(self, prog: ti.template(), grid: ti.template(), values: ti.template(), I):
+        prog.solve_mass_node(grid.node_momentum, True, I)  # P'_i into v'_i in place
 
     @ti.func
-    def affine_gather(self, prog: ti.template(), base, w, dw, xi, gradient: ti.template()):
+    def affine_gather(self, prog: ti.template(), grid: ti.template(), values: ti.template(), base,
+                      w, dw, xi, gradient: ti.template()):
         """G2P of the grid velocity: v_p = sum_i phi_i v_i, B_p = sum_i phi_i v_i (x_i -
         x_p)^T and, with ``gradient``, grad du = sum_i v_i dt grad phi_i^T."""
         vp = ti.Vector.zero(float, prog.dim)
@@ -157,58 +161,61 @@ class Affine:
             row = prog.stencil_row(w, dw, r)
             for a in ti.static(range(prog.basis.support)):
                 offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                vi = prog.node_new_velocity[base + offset]
+                vi = grid.node_new_velocity[base + offset]
                 vp += phi * vi
                 if ti.static(gradient):
-                    grad_du += (vi * prog.values.dt()).outer_product(grad)
+                    grad_du += (vi * values.dt()).outer_product(grad)
                 B += prog.outer_offset(phi * vi, r, a)
         # sum_i phi_i v_i (x_i - x_p)^T = h sum_i phi_i v_i o_i^T - v_p d^T
         d = prog.from_first_node(xi, base)
-        return vp, prog.values.h() * B - vp.outer_product(d), grad_du
+        return vp, values.h() * B - vp.outer_product(d), grad_du
 
     @ti.func
-    def affine_of(self, prog: ti.template(), B, base, w, xi):
+    def affine_of(self, prog: ti.template(), values: ti.template(), B, base, w, xi):
         """C_p = B_p D_p^-1 from B_p = sum_i phi_i v_i (x_i - x_p)^T: D^-1 the constant of
         MLS-MPM, else D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T, diagonal for tensor
         products of a basis reproducing linear fields (the linear basis keeps B_p, see
         p2g_particle)."""
         C = B
         if ti.static(prog.mls_mpm):
-            C = B * prog.values.D_inv()
+            C = B * values.D_inv()
         elif ti.static(prog.basis.support > 2):
             for k in ti.static(range(prog.dim)):
                 dk = 0.0
                 for a in ti.static(range(prog.basis.support)):
-                    r = (base[k] + a - prog.node_offset - xi[k]) * prog.values.h()
+                    r = (base[k] + a - prog.node_offset - xi[k]) * values.h()
                     dk += w[a, k] * r * r
                 for j in ti.static(range(prog.dim)):
                     C[j, k] /= dk
         return C
 
     @ti.func
-    def gather(self, prog: ti.template(), p, base, w, dw, xi):
+    def gather(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+               values: ti.template(), p, base, w, dw, xi):
         """v_p and grad du: from the remapped P'_i (the strain remap: v_p and C_p came with
         it), else v_p = sum_i phi_i v_i, C_p = B_p D_p^-1 stored and grad du from the grid
         (MLS-MPM: C_p dt)."""
         vp = ti.Vector.zero(float, prog.dim)
         grad_du = ti.Matrix.zero(float, prog.dim, prog.dim)
         if ti.static(prog.strain_remap):
-            vp = prog.v[p]
+            vp = particles.v[p]
             for r in range(prog.stencil_rows):
                 row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
                     offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                    grad_du += (prog.node_velocity[base + offset]
-                                * prog.values.dt()).outer_product(grad)
+                    grad_du += (grid.node_velocity[base + offset]
+                                * values.dt()).outer_product(grad)
         else:
             B = ti.Matrix.zero(float, prog.dim, prog.dim)
-            vp, B, grad_du = self.affine_gather(prog, base, w, dw, xi, not prog.mls_mpm)
-            prog.v[p] = vp
-            prog.C[p] = self.affine_of(prog, B, base, w, xi)
+            vp, B, grad_du = self.affine_gather(prog, grid, values, base, w, dw, xi,
+                                                not prog.mls_mpm)
+            particles.v[p] = vp
+            particles.C[p] = self.affine_of(prog, values, B, base, w, xi)
             if ti.static(prog.mls_mpm):
-                grad_du = prog.C[p] * prog.values.dt()
+                grad_du = particles.C[p] * values.dt()
         return vp, grad_du
 
     @ti.func
-    def update_particle(self, prog: ti.template(), p):
+    def update_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+                        values: ti.template(), p):
         prog.g2p_update_particle(p)

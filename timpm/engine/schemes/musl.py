@@ -18,8 +18,10 @@ __all__ = ["MUSL"]
 
 @ti.data_oriented
 class MUSL:
-    """See the module.  Its functions take the program (fields, run-time values, the
-    stencil and scatter helpers) as their first argument."""
+    """See the module.  Its phases take the program (whose units they call: the stencil,
+    the scatter, the mass solves, the walls, the failure record) and the state they read:
+    ``particles``, ``grid`` (:class:`~timpm.engine.views.FieldView`) and the run-time
+    ``values``; a node phase the grid and the values only."""
 
     #: run-time values of its own (name: "real" or "int"), read from the Model's attribute
     PARAMS = {}
@@ -73,27 +75,29 @@ class MUSL:
 
     # ---- P2G -----------------------------------------------------------------------------
     @ti.func
-    def clear(self, prog: ti.template()):
+    def clear(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+              values: ti.template()):
         # the grid cleared; with the MLS projection in 1D the body's extent
         prog.clear_grid()
         if ti.static(prog.mls and prog.dim == 1):
             prog.body_extent()
 
     @ti.func
-    def p2g_particle(self, prog: ti.template(), p, copy):
+    def p2g_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+                     values: ti.template(), p, copy):
         # P2G (2.2.4): M_ij = sum m_p phi_i phi_j (A.1) or M_ii = sum m_p phi_i (A.2);
         # F_i = sum phi_i (m_p (g + b_p(t)) + f_trac(t)) - sigma_p V_p dphi_i
-        base, w, dw, xi, inside = prog.stencil(p)
+        base, w, dw, xi, inside = prog.stencil(particles.x[p])
         node_values = ti.Matrix.zero(float, 3, prog.basis.support)
         if not inside:
             prog.fail(ErrorCode.OFF_GRID, p)
         else:
-            mp = prog.m[p]
+            mp = particles.m[p]
             fp = prog.external_force(p)
-            stress_volume = prog.sigma[p] * prog.vol[p]
+            stress_volume = particles.sigma[p] * particles.vol[p]
             if ti.static(prog.mls):
                 if ti.static(prog.mls_study):
-                    fp[0] -= mp * prog.values.gravity()[0]  # gravity and mass: from the Gauss points
+                    fp[0] -= mp * values.gravity()[0]  # gravity and mass: from the Gauss points
                 if ti.static(prog.dim == 1):
                     prog.scatter_gauss_moments(p)
                 else:
@@ -110,19 +114,20 @@ class MUSL:
                                                     phi * fp - stress_volume @ grad, node_values)
                     else:  # MLS: the stress enters at the Gauss points (integrate_gauss)
                         if ti.static(not prog.mls_study):
-                            prog.accumulate(prog.node_mass[node], mp * phi)
-                        prog.accumulate(prog.node_force[node], phi * fp)
+                            prog.accumulate(grid.node_mass[node], mp * phi)
+                        prog.accumulate(grid.node_force[node], phi * fp)
                     if ti.static(self.scatters_momentum):
                         node_values = prog.deposit("node_momentum", copy, node, offset,
-                                                    mp * phi * prog.v[p], node_values)
+                                                    mp * phi * particles.v[p], node_values)
             if ti.static(prog.consistent and prog.dim == 1):
                 for a, c in ti.static(ti.ndrange(prog.basis.support, prog.basis.support)):
-                    prog.accumulate(prog.band[base[0] + a, c - a + prog.bandwidth],
+                    prog.accumulate(grid.band[base[0] + a, c - a + prog.bandwidth],
                                     mp * w[a, 0] * w[c, 0])
         return base, inside, node_values
 
     @ti.func
-    def after_p2g(self, prog: ti.template()):
+    def after_p2g(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+                  values: ti.template()):
         # MLS: the stress integrated at the Gauss points; the consistent mass factorised
         # (1D banded LU) or its weights kept for the conjugate gradients
         if ti.static(prog.mls and prog.dim == 1):
@@ -136,44 +141,48 @@ class MUSL:
 
     # ---- the grid: accelerations -----------------------------------------------------------
     @ti.func
-    def acceleration_node(self, prog: ti.template(), I):
+    def acceleration_node(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
+                          I):
         # F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F; at a wall
         # a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
         if ti.static(prog.damping):
-            prog.node_force[I] -= (prog.values.damping() * ti.math.sign(prog.node_momentum[I])
-                                   * ti.abs(prog.node_force[I]))
+            grid.node_force[I] -= (values.damping() * ti.math.sign(grid.node_momentum[I])
+                                   * ti.abs(grid.node_force[I]))
         if ti.static(prog.has_walls and not prog.consistent):
             a = ti.Vector.zero(float, prog.dim)  # Dirichlet and empty nodes: a = 0
-            if prog.node_mass[I] > prog.values.mass_tol() and not prog.is_fixed(I):
-                vn = prog.node_momentum[I] / prog.node_mass[I]
-                a = (prog.apply_walls(I, vn + prog.values.dt() * prog.node_force[I]
-                                      / prog.node_mass[I]) - vn) / prog.values.dt()
-            prog.node_acceleration[I] = a
+            if grid.node_mass[I] > values.mass_tol() and not prog.is_fixed(I):
+                vn = grid.node_momentum[I] / grid.node_mass[I]
+                a = (prog.apply_walls(I, vn + values.dt() * grid.node_force[I]
+                                      / grid.node_mass[I]) - vn) / values.dt()
+            grid.node_acceleration[I] = a
         elif ti.static(not prog.consistent):
-            prog.node_acceleration[I] = prog.lumped_solve(I, prog.node_force[I])  # a = F / m
+            grid.node_acceleration[I] = prog.lumped_solve(I, grid.node_force[I])  # a = F / m
         if ti.static(prog.prescribed):
             if prog.is_fixed(I):  # a Dirichlet node: a = (v(t_n + dt) - v(t_n)) / dt
-                prog.node_acceleration[I] = (prog.prescribed_velocity(I, True)
-                              - prog.prescribed_velocity(I, False)) / prog.values.dt()
-        self.after_acceleration(prog, I)
+                grid.node_acceleration[I] = (prog.prescribed_velocity(I, True)
+                              - prog.prescribed_velocity(I, False)) / values.dt()
+        self.after_acceleration(prog, grid, values, I)
         if ti.static(self.scatters_momentum):
-            prog.node_momentum[I] = ti.Vector.zero(float, prog.dim)  # P2G scattered P_i
+            grid.node_momentum[I] = ti.Vector.zero(float, prog.dim)  # P2G scattered P_i
 
     @ti.func
-    def after_acceleration(self, prog: ti.template(), I):
+    def after_acceleration(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
+                           I):
         """A hook of the grid phase at node I, after a_i (nothing here)."""
         pass
 
     @ti.func
-    def acceleration_solve(self, prog: ti.template()):
+    def acceleration_solve(self, prog: ti.template(), particles: ti.template(),
+                           grid: ti.template(), values: ti.template()):
         # F_i into a_i in place (in 1D the Model refuses walls with the consistent mass)
-        prog.solve_mass(prog.node_force, False)
+        prog.solve_mass(grid.node_force, False)
 
     # ---- G2P of the velocity, P2G of the momentum ------------------------------------------
     @ti.func
-    def velocity_particle(self, prog: ti.template(), p, copy):
+    def velocity_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+                          values: ti.template(), p, copy):
         # G2P: v_p += dt sum_i phi_i(x_p) a_i; P2G: P_i = sum m_p phi_i(x_p) v_p (2.2.4)
-        base, w, dw, xi, inside = prog.stencil(p)
+        base, w, dw, xi, inside = prog.stencil(particles.x[p])
         node_values = ti.Matrix.zero(float, 3, prog.basis.support)
         if inside:
             acc = ti.Vector.zero(float, prog.dim)
@@ -181,9 +190,10 @@ class MUSL:
                 row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
                     offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                    acc += phi * prog.node_acceleration[base + offset]
-            vp = self.new_velocity(prog, base, w, dw, prog.v[p] + prog.values.dt() * acc)
-            prog.v[p] = vp
+                    acc += phi * grid.node_acceleration[base + offset]
+            vp = self.new_velocity(prog, grid, values, base, w, dw,
+                                   particles.v[p] + values.dt() * acc)
+            particles.v[p] = vp
             if ti.static(prog.mls_study):
                 prog.scatter_node_moments(p, vp[0])
             else:
@@ -192,37 +202,41 @@ class MUSL:
                     for a in ti.static(range(prog.basis.support)):
                         offset, phi, grad = prog.row_node(w, dw, r, row, a)
                         node_values = prog.deposit("node_momentum", copy, base + offset, offset,
-                                                    prog.m[p] * phi * vp, node_values)
+                                                    particles.m[p] * phi * vp, node_values)
         return base, inside, node_values
 
     @ti.func
-    def new_velocity(self, prog: ti.template(), base, w, dw, flip):
+    def new_velocity(self, prog: ti.template(), grid: ti.template(), values: ti.template(), base,
+                     w, dw, flip):
         """The particle's new velocity from its FLIP update v_p + dt sum phi_i a_i (a hook:
         that update itself here)."""
         return flip
 
     # ---- the grid: velocities --------------------------------------------------------------
     @ti.func
-    def velocity_node(self, prog: ti.template(), I):
+    def velocity_node(self, prog: ti.template(), grid: ti.template(), values: ti.template(), I):
         # v_i = P_i / m_i with the walls and the prescribed velocities; u_i += v_i dt (5.2)
-        prog.solve_mass_node(prog.node_momentum, True, I)  # P_i into v_i in place
+        prog.solve_mass_node(grid.node_momentum, True, I)  # P_i into v_i in place
         if ti.static(prog.grid_displacement):
-            prog.node_displacement[I] += prog.node_velocity[I] * prog.values.dt()
+            grid.node_displacement[I] += grid.node_velocity[I] * values.dt()
 
     @ti.func
-    def velocity_solve(self, prog: ti.template()):
+    def velocity_solve(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+                       values: ti.template()):
         if ti.static(prog.mls_study):
             prog.mls_nodal_velocity()
         else:
-            prog.solve_mass(prog.node_momentum, True)  # P_i into v_i in place
+            prog.solve_mass(grid.node_momentum, True)  # P_i into v_i in place
 
     @ti.func
-    def displacement_node(self, prog: ti.template(), I):
-        prog.node_displacement[I] += prog.node_velocity[I] * prog.values.dt()
+    def displacement_node(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
+                          I):
+        grid.node_displacement[I] += grid.node_velocity[I] * values.dt()
 
     # ---- G2P of the particle state ---------------------------------------------------------
     @ti.func
-    def gather(self, prog: ti.template(), p, base, w, dw, xi):
+    def gather(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+               values: ti.template(), p, base, w, dw, xi):
         """v_p = sum_i phi_i v_i and grad du = sum_i v_i dt grad phi_i^T."""
         vp = ti.Vector.zero(float, prog.dim)
         grad_du = ti.Matrix.zero(float, prog.dim, prog.dim)
@@ -230,11 +244,12 @@ class MUSL:
             row = prog.stencil_row(w, dw, r)
             for a in ti.static(range(prog.basis.support)):
                 offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                vi = prog.node_velocity[base + offset]
+                vi = grid.node_velocity[base + offset]
                 vp += phi * vi
-                grad_du += (vi * prog.values.dt()).outer_product(grad)
+                grad_du += (vi * values.dt()).outer_product(grad)
         return vp, grad_du
 
     @ti.func
-    def update_particle(self, prog: ti.template(), p):
+    def update_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+                        values: ti.template(), p):
         prog.g2p_update_particle(p)

@@ -10,8 +10,8 @@ __all__ = ["Scatter", "Particles", "Nodes", "Whole", "PhaseRunner"]
 
 @dataclass(frozen=True)
 class Scatter:
-    """A particle loop adding to the grid by the scatter strategy: ``particle(program, p,
-    copy) -> (stencil base, inside, node values)``; ``rows``: the grid fields it adds to
+    """A particle loop adding to the grid by the scatter strategy: ``particle(program,
+    particles, grid, values, p, copy) -> (stencil base, inside, node values)``; ``rows``: the grid fields it adds to
     (the 1D run sums' rows); ``merge``: the private copies summed into the grid after it."""
     label: str
     particle: object
@@ -22,7 +22,7 @@ class Scatter:
 
 @dataclass(frozen=True)
 class Particles:
-    """A loop over the particles: ``particle(program, p)``."""
+    """A loop over the particles: ``particle(program, particles, grid, values, p)``."""
     label: str
     particle: object
     kind: str = "particles"
@@ -30,7 +30,7 @@ class Particles:
 
 @dataclass(frozen=True)
 class Nodes:
-    """A loop over the live grid nodes: ``node(program, I)``."""
+    """A loop over the live grid nodes: ``node(program, grid, values, I)``."""
     label: str
     node: object
     kind: str = "nodes"
@@ -38,7 +38,8 @@ class Nodes:
 
 @dataclass(frozen=True)
 class Whole:
-    """A phase with its own loops, ``body(program)`` (no team runs it)."""
+    """A phase with its own loops, ``body(program, particles, grid, values)`` (no team
+    runs it)."""
     label: str
     body: object
     kind: str = "whole"
@@ -59,18 +60,18 @@ class PhaseRunner:
             if ti.static(self.on_device):  # to the capacity: no serial task for the bound
                 for p in range(self.capacity.particles):
                     if p < self.values.n_particles():
-                        phase.particle(self, p)
+                        phase.particle(self, self.particles, self.grid, self.values, p)
             else:
                 for p in range(self.values.n_particles()):
-                    phase.particle(self, p)
+                    phase.particle(self, self.particles, self.grid, self.values, p)
         elif ti.static(phase.kind == "nodes"):
             if ti.static(self.on_device):
                 for I in ti.grouped(ti.ndrange(*self.capacity.nodes)):
                     if (I < self.values.nodes()).all():
-                        phase.node(self, I)
+                        phase.node(self, self.grid, self.values, I)
             else:
                 for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k]
                                                  for k in range(self.dim)])):
-                    phase.node(self, I)
+                    phase.node(self, self.grid, self.values, I)
         else:
-            phase.body(self)
+            phase.body(self, self.particles, self.grid, self.values)

@@ -35,24 +35,26 @@ class PICBlend(MUSL):
         return {"gv": ti.Vector.field(dim, real)}
 
     @ti.func
-    def after_acceleration(self, prog: ti.template(), I):
+    def after_acceleration(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
+                           I):
         # v_i^L = P_i / m_i + dt a_i (a wall's a makes it the wall's velocity; zero at
         # Dirichlet and empty nodes)
-        v_new = (prog.lumped_solve(I, prog.node_momentum[I])
-                 + prog.values.dt() * prog.node_acceleration[I])
+        v_new = (prog.lumped_solve(I, grid.node_momentum[I])
+                 + values.dt() * grid.node_acceleration[I])
         if ti.static(prog.prescribed):
             if prog.is_fixed(I):
                 v_new = prog.prescribed_velocity(I, True)
-        prog.node_new_velocity[I] = v_new
+        grid.node_new_velocity[I] = v_new
 
     @ti.func
-    def new_velocity(self, prog: ti.template(), base, w, dw, flip):
+    def new_velocity(self, prog: ti.template(), grid: ti.template(), values: ti.template(), base,
+                     w, dw, flip):
         # v_p = (1 - b) v_p^FLIP + b sum_i phi_i v_i^L
         pic = ti.Vector.zero(float, prog.dim)
         for r in range(prog.stencil_rows):
             row = prog.stencil_row(w, dw, r)
             for a in ti.static(range(prog.basis.support)):
                 offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                pic += phi * prog.node_new_velocity[base + offset]
-        b = prog.values.pic_fraction()
+                pic += phi * grid.node_new_velocity[base + offset]
+        b = values.pic_fraction()
         return (1.0 - b) * flip + b * pic

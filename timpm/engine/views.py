@@ -1,0 +1,29 @@
+"""The state a scheme's phase reads and writes, by name: the particle fields
+(``particles.x``, ``particles.sigma``, ...) and the grid fields as the kernels name them
+(``grid.node_mass``, ``grid.node_momentum``, ...; ``grid.band``, the 1D consistent mass).
+
+A phase receives these and the run-time values (``values.dt()``) as arguments, beside the
+program whose units it calls: the stencil, the scatter, the mass solves, the walls and
+the failure record (:mod:`timpm.engine.schemes.phases`).  The views hold the program's own
+fields, so a phase compiles to the same kernel as one reading them from the program."""
+
+__all__ = ["FieldView"]
+
+
+class FieldView:
+    """Fields by attribute (``view.x`` is the field named "x"); ``names`` lists them."""
+
+    def __init__(self, what: str, fields: dict):
+        self._what = what
+        self.names = tuple(fields)
+        for name, fld in fields.items():
+            setattr(self, name, fld)
+
+    def __getattr__(self, name):  # a name not set: the feature set has no such field
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise AttributeError(f"this program has no {self._what} field {name!r} (its "
+                             f"{self._what} fields: {', '.join(self.names)})")
+
+    def __repr__(self):
+        return f"<{self._what} fields {', '.join(self.names)}>"
