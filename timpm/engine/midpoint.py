@@ -302,7 +302,7 @@ class Midpoint:
             size = ti.abs(F1 - F0).max()
             self.F[p] = F1
             stress_volume = self._averaged_stress(p, F0, F1) * self.vol[p]
-            fp = self.external_force(p)
+            fp = self.external_force(self.particles, self.values, p)
             A = stress_volume  # MLS-MPM: D^-1 sbar V
             if ti.static(self.mls_mpm):
                 A = self.values.D_inv() * stress_volume

@@ -38,7 +38,7 @@ from .scatter import ScatterOps
 from .stencil import StencilOps
 from .transfer import Transfer
 from .uploads import Uploads
-from .views import FieldView
+from .views import FieldView, MaterialState
 
 __all__ = ["Program"]
 
@@ -282,6 +282,8 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
                 setattr(self, name, grid[key])
         # the state a scheme's phase receives (views.py)
         self.particles = FieldView("particle", particle)
+        self.material_state = MaterialState(particle, self.dim, self.update_volume,
+                                            self.accumulate)
         self.grid = FieldView("grid", {
             **{name: grid[key] for name, key in NODE_NAMES.items() if key in grid},
             **({"band": scratch["band"]} if "band" in scratch else {})})

@@ -77,7 +77,7 @@ class Recorder:
     def _unit_strain_energy(self, unit: ti.template(), p):
         energy = 0.0
         if ti.static(unit.stores_energy):
-            energy = unit.energy(self, p)
+            energy = unit.energy(self.material_state, p)
         else:
             energy = self.work[p]
         return energy

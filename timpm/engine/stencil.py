@@ -1,8 +1,9 @@
 """The stencil of a particle: its nodes, the basis weights and gradients (any dimension).
 
 Mixed into :class:`~timpm.engine.program.Program`.  Reads a particle's position (given)
-and the run-time grid values (``self.values``); the basis (``self.basis``) is a compile-time class whose ``stencil``
-``ti.func`` gives the 1D weights, combined here as tensor products.
+and the run-time grid values (``self.values``); the basis (``self.basis``) is a
+compile-time class whose ``stencil`` ``ti.func`` gives the 1D weights, combined here as
+tensor products.
 
 The phases loop over a particle's stencil nodes row by row: a run-time loop over the
 rows (every axis but the last: ``stencil_rows`` = support^(dim - 1), one in 1D), the row's

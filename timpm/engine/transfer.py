@@ -21,11 +21,12 @@ class Transfer:
         """New Cauchy stress from the particle's material (one compiled unit per material)."""
         sig_new = sig_old
         if ti.static(not self.multi_material):
-            sig_new = self.material_units[0].update(self, p, grad_du, sig_old)
+            sig_new = self.material_units[0].update(self.material_state, p, grad_du, sig_old)
         else:
             for k in ti.static(range(len(self.material_units))):
                 if self.mat[p] == k:
-                    sig_new = self.material_units[k].update(self, p, grad_du, sig_old)
+                    sig_new = self.material_units[k].update(self.material_state, p, grad_du,
+                                                            sig_old)
         return sig_new
 
     @ti.func
@@ -58,59 +59,61 @@ class Transfer:
         return ok
 
     @ti.func
-    def external_force(self, p):
+    def external_force(self, particles: ti.template(), values: ti.template(), p):
         """The particle's external force: m_p (g + b_p) + its tractions at the step's time."""
-        mp = self.m[p]
+        mp = particles.m[p]
         fp = ti.Vector.zero(float, self.dim)
         for k in ti.static(range(self.dim)):
             if ti.static(self.f.gravity[k]):
-                fp[k] += mp * self.values.gravity()[k]
+                fp[k] += mp * values.gravity()[k]
         if ti.static(self.has_traction):
-            if p == self.values.traction_particle():
-                fp[0] += self.values.traction_amplitude() * self.traction_fn.at(self.time[None], self.values.traction_param())
+            if p == values.traction_particle():
+                fp[0] += values.traction_amplitude() * self.traction_fn.at(
+                    self.time[None], values.traction_param())
         if ti.static(self.body_force):
-            fp += mp * self.b[p]
+            fp += mp * particles.b[p]
         if ti.static(self.surface_force):
-            fp += self.f_ext[p] * self.surface_fn.at(self.time[None], self.values.surface_param())
+            fp += particles.f_ext[p] * self.surface_fn.at(self.time[None], values.surface_param())
         return fp
 
     @ti.func
-    def g2p_update_particle(self, p):
-        base, w, dw, xi, inside = self.stencil(self.x[p])
+    def g2p_update_particle(self, particles: ti.template(), grid: ti.template(),
+                            values: ti.template(), p):
+        base, w, dw, xi, inside = self.stencil(particles.x[p])
         if inside and not self.halted(p):
             # the scheme's G2P of the grid velocity: v_p and grad du = sum_i v_i dt grad phi_i^T
-            vp, grad_du = self.scheme.gather(self, self.particles, self.grid, self.values, p,
-                                             base, w, dw, xi)
-            du = vp * self.values.dt()
+            vp, grad_du = self.scheme.gather(self, particles, grid, values, p, base, w, dw, xi)
+            du = vp * values.dt()
             deps = 0.5 * (grad_du + grad_du.transpose())
-            vol_old = self.vol[p]
-            sig_old = self.sigma[p]
+            vol_old = particles.vol[p]
+            sig_old = particles.sigma[p]
             jac = 1.0
             vol_new = vol_old
             if ti.static(self.update_volume):
                 jac = self.jacobian(grad_du)
                 vol_new = vol_old * jac
-                self.vol[p] = vol_new  # the materials read the new volume
+                particles.vol[p] = vol_new  # the materials read the new volume
             sig_new = self.material_update(p, grad_du, sig_old)
-            self.sigma[p] = sig_new
+            particles.sigma[p] = sig_new
             if ti.static(self.path_work):
                 # strain energy: trapezoidal path integral of sigma : d_eps V
-                self.accumulate(self.work[p],
+                self.accumulate(particles.work[p],
                                0.5 * ((sig_old * vol_old + sig_new * vol_new) * deps).sum())
             if ti.static(self.record_energies):
                 if ti.static(self.has_traction):
-                    if p == self.values.traction_particle():
-                        self.accumulate(self.ext_work[None], self.values.traction_amplitude() *
-                                       self.traction_fn.at(self.time[None], self.values.traction_param()) * du[0])
+                    if p == values.traction_particle():
+                        self.accumulate(self.ext_work[None], values.traction_amplitude()
+                                        * self.traction_fn.at(self.time[None],
+                                                              values.traction_param()) * du[0])
                 if ti.static(self.body_force):
-                    self.accumulate(self.ext_work[None], self.m[p] * self.b[p].dot(du))
+                    self.accumulate(self.ext_work[None], particles.m[p] * particles.b[p].dot(du))
                 if ti.static(self.surface_force):
-                    f_t = self.surface_fn.at(self.time[None], self.values.surface_param())
-                    self.accumulate(self.ext_work[None], f_t * self.f_ext[p].dot(du))
+                    f_t = self.surface_fn.at(self.time[None], values.surface_param())
+                    self.accumulate(self.ext_work[None], f_t * particles.f_ext[p].dot(du))
             if ti.static(self.has_u):
-                self.accumulate(self.u[p], du)
-            x_new = self.x[p] + du
-            self.x[p] = x_new
+                self.accumulate(particles.u[p], du)
+            x_new = particles.x[p] + du
+            particles.x[p] = x_new
             self.check_particle(p, x_new, vp, sig_new, vol_new, jac)
 
     @ti.func
@@ -160,11 +163,11 @@ class Transfer:
         """sigma(F) of the particle's law."""
         sig = ti.Matrix.zero(float, self.dim, self.dim)
         if ti.static(not self.multi_material):
-            sig = self.material_units[0].stress(self, p, F)
+            sig = self.material_units[0].stress(self.material_state, p, F)
         else:
             for k in ti.static(range(len(self.material_units))):
                 if self.mat[p] == k:
-                    sig = self.material_units[k].stress(self, p, F)
+                    sig = self.material_units[k].stress(self.material_state, p, F)
         return sig
 
     @ti.func
@@ -183,11 +186,11 @@ class Transfer:
         """V0_p = m_p / density of the particle's law."""
         vol0 = 0.0
         if ti.static(not self.multi_material):
-            vol0 = self.material_units[0].reference_volume(self, p)
+            vol0 = self.material_units[0].reference_volume(self.material_state, p)
         else:
             for k in ti.static(range(len(self.material_units))):
                 if self.mat[p] == k:
-                    vol0 = self.material_units[k].reference_volume(self, p)
+                    vol0 = self.material_units[k].reference_volume(self.material_state, p)
         return vol0
 
     @ti.func

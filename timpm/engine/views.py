@@ -4,10 +4,13 @@
 
 A phase receives these and the run-time values (``values.dt()``) as arguments, beside the
 program whose units it calls: the stencil, the scatter, the mass solves, the walls and
-the failure record (:mod:`timpm.engine.schemes.phases`).  The views hold the program's own
-fields, so a phase compiles to the same kernel as one reading them from the program."""
+the failure record (:mod:`timpm.engine.schemes.phases`); so do the G2P update and the
+external force of :mod:`timpm.engine.transfer`.  A material's law receives the particle
+fields with the little else it needs (:class:`MaterialState`).  The views hold the
+program's own fields, so a phase compiles to the same kernel as one reading them from
+the program."""
 
-__all__ = ["FieldView"]
+__all__ = ["FieldView", "MaterialState"]
 
 
 class FieldView:
@@ -27,3 +30,14 @@ class FieldView:
 
     def __repr__(self):
         return f"<{self._what} fields {', '.join(self.names)}>"
+
+
+class MaterialState(FieldView):
+    """What a material's law reads and writes of a particle (:mod:`timpm.materials.base`):
+    the particle fields (``s.F[p]``, ``s.vol[p]``, ``s.plastic[p]``, ...), the dimension
+    ``dim``, whether the volumes change (``update_volume``) and ``accumulate(ref, value)``,
+    ``ref += value`` as the driver needs it.  The laws receive this, not the program."""
+
+    def __init__(self, fields: dict, dim: int, update_volume: bool, accumulate):
+        super().__init__("particle", fields)
+        self.dim, self.update_volume, self.accumulate = dim, update_volume, accumulate

@@ -27,9 +27,10 @@ The compiled unit is the same class built by :meth:`unit` with a getter per cons
 
 called in G2P with the displacement-increment gradient ``grad_du`` of particle ``p``
 after the engine stored the particle's new volume in ``s.vol[p]``.  ``s`` is the engine's
-particle state: fields ``m, vol, F, J, plastic, eps``, the dimension ``s.dim``, the flag
-``s.update_volume`` and ``s.accumulate(ref, value)`` (``ref += value`` as the driver needs
-it).  The update advances the state the law owns and returns the new Cauchy stress.
+particle state (:class:`timpm.engine.views.MaterialState`, not the program): fields ``m,
+vol, F, J, plastic, eps, ezz``, the dimension ``s.dim``, the flag ``s.update_volume`` and
+``s.accumulate(ref, value)`` (``ref += value`` as the driver needs it).  The update
+advances the state the law owns and returns the new Cauchy stress.
 """
 import math
 

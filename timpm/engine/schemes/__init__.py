@@ -11,10 +11,11 @@ under a one-line label (``Scheme.phases``), with the ``ti.func``s that make them
 A phase receives the state it reads as arguments: the particle fields and the grid fields
 by name (``particles.v``, ``grid.node_mass``: :class:`~timpm.engine.views.FieldView`) and
 the run-time values (``values.dt()``), beside the program whose units it calls (the
-stencil of a position, the scatter, the mass solves, the walls, the failure record; the
-shared G2P update of :mod:`timpm.engine.transfer` and the materials still read the
-particles through the program).  ``tests/test_layers.py`` checks that no scheme reads a
-field through the program.
+stencil of a position, the scatter, the mass solves, the walls, the failure record, the
+shared G2P update and external force of :mod:`timpm.engine.transfer`, which receive the
+state too; a material's law gets the particle state alone,
+:class:`~timpm.engine.views.MaterialState`).  ``tests/test_layers.py`` checks that no
+scheme reads a field through the program.
 
 Every driver (``engine/drivers.py``) runs the same list: one launch per step with each
 phase its parallel loop, the fused serial loop, or a team of threads with a barrier

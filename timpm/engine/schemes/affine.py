@@ -65,7 +65,7 @@ class Affine:
             prog.fail(ErrorCode.OFF_GRID, p)
         else:
             mp = particles.m[p]
-            fp = prog.external_force(p)
+            fp = prog.external_force(particles, values, p)
             stress_volume = particles.sigma[p] * particles.vol[p]
             affine = ti.Matrix.zero(float, prog.dim, prog.dim)
             if ti.static(prog.mls_mpm):
@@ -218,4 +218,4 @@ class Affine:
     @ti.func
     def update_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
                         values: ti.template(), p):
-        prog.g2p_update_particle(p)
+        prog.g2p_update_particle(particles, grid, values, p)

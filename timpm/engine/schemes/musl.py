@@ -93,7 +93,7 @@ class MUSL:
             prog.fail(ErrorCode.OFF_GRID, p)
         else:
             mp = particles.m[p]
-            fp = prog.external_force(p)
+            fp = prog.external_force(particles, values, p)
             stress_volume = particles.sigma[p] * particles.vol[p]
             if ti.static(prog.mls):
                 if ti.static(prog.mls_study):
@@ -252,4 +252,4 @@ class MUSL:
     @ti.func
     def update_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
                         values: ti.template(), p):
-        prog.g2p_update_particle(p)
+        prog.g2p_update_particle(particles, grid, values, p)

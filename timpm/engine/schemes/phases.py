@@ -11,8 +11,9 @@ __all__ = ["Scatter", "Particles", "Nodes", "Whole", "PhaseRunner"]
 @dataclass(frozen=True)
 class Scatter:
     """A particle loop adding to the grid by the scatter strategy: ``particle(program,
-    particles, grid, values, p, copy) -> (stencil base, inside, node values)``; ``rows``: the grid fields it adds to
-    (the 1D run sums' rows); ``merge``: the private copies summed into the grid after it."""
+    particles, grid, values, p, copy) -> (stencil base, inside, node values)``; ``rows``:
+    the grid fields it adds to (the 1D run sums' rows); ``merge``: the private copies
+    summed into the grid after it."""
     label: str
     particle: object
     rows: tuple = ()
