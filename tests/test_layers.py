@@ -389,3 +389,20 @@ def test_a_scheme_reads_its_state_from_its_arguments():
 def test_a_state_read_through_the_program_is_found():
     source = "def f(self, prog, grid, p):\n    return prog.v[p] + grid.node_mass[p] + prog.dim\n"
     assert state_reads_through_the_program(source) == [(2, "v")]
+
+
+def test_a_field_the_program_lacks_is_named():
+    """A view answers a name its program lacks with the names it has (a phase or a law
+    reading a field the feature set does not allocate fails at its compile so)."""
+    import pytest
+
+    from timpm.engine.views import FieldView, MaterialState
+
+    view = FieldView("particle", {"x": 1, "v": 2})
+    assert (view.x, view.v, view.names) == (1, 2, ("x", "v"))
+    with pytest.raises(AttributeError, match=r"no particle field 'F' \(its particle fields: "
+                                             r"x, v\)"):
+        view.F
+    state = MaterialState({"F": 3}, 2, True, print)
+    assert (state.F, state.dim, state.update_volume, state.accumulate) == (3, 2, True, print)
+    assert not hasattr(state, "J")
