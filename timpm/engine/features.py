@@ -147,9 +147,9 @@ class FeatureSet:
 
     @property
     def on_device(self) -> bool:
-        """A GPU backend: each particle and node field its own array (a warp's loads
-        coalesce), and the step's loops over the capacity (no serial task for bounds read
-        from fields); the CPU keeps a particle's fields together and loops to the count."""
+        """A GPU backend: each particle field its own array (a warp's loads coalesce), and
+        the step's loops over the capacity (no serial task for bounds read from fields);
+        the CPU keeps a particle's fields together and loops to the count."""
         return self.arch != "cpu"
 
     @property

@@ -23,10 +23,11 @@ class FieldView:
             setattr(self, name, fld)
 
     def __getattr__(self, name):  # a name not set: the feature set has no such field
-        if name.startswith("__"):
+        what, names = self.__dict__.get("_what"), self.__dict__.get("names", ())
+        if name.startswith("__") or what is None:
             raise AttributeError(name)
-        raise AttributeError(f"this program has no {self._what} field {name!r} (its "
-                             f"{self._what} fields: {', '.join(self.names)})")
+        raise AttributeError(f"this program has no {what} field {name!r} (its {what} "
+                             f"fields: {', '.join(names)})")
 
     def __repr__(self):
         return f"<{self._what} fields {', '.join(self.names)}>"
