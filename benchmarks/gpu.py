@@ -4,10 +4,13 @@
 
 For each particle count: Taichi's mpm88 example run headless (float32, its own code) and
 timpm's mpm88 physics (:func:`timpm.scenarios.mpm88.mpm88_world`; float32 and float64,
-atomic scatter, one launch per pass), particle-substeps per second (the fastest timed
-chunk, each ending with ``ti.sync()``), the first step's seconds (compilation), and the
-largest difference of timpm's positions from mpm88's after its first frame (50 substeps
-from mpm88's own initial particles).  Then the same on this machine's CPU (all its
+atomic scatter, one launch per pass), particle-substeps per second, both timed alike
+(``--frames`` frames of 50 substeps, each ending with the positions on the host and the
+device finished, the fastest after the first: the same states of the falling fluid;
+before 2026-11-28 timpm was timed in chunks of about 0.1 s, thousands of steps further
+on), the first step's seconds (compilation), and the largest difference of timpm's
+positions from mpm88's after its first frame (50 substeps from mpm88's own initial
+particles).  Then the same on this machine's CPU (all its
 threads, timpm's private scatter), and the study's Table 3.2 end to end, ``timpm
 convergence vibrating-string --arch ARCH`` against ``--arch cpu`` (fresh processes, Python
 start and compilation counted), with the RMS errors of both.
@@ -47,7 +50,8 @@ def _mpm88_pair(arch, counts, frames, cpu_threads, progress):
             progress(f"timpm, mpm88's physics on {arch}, {precision}")
             res = _spawn({"task": "mpm88", "threads": cpu_threads if arch == "cpu" else None,
                           "precision": precision, "arch": arch, "counts": list(counts),
-                          "strategies": [scatter], "x0_file": x0_file})
+                          "strategies": [scatter], "x0_file": x0_file,
+                          "frames": frames})
             for r in res["runs"]:
                 # the agreement runs compiled the kernels before the timed runs
                 rows.append({**r, "code": "timpm", "arch": arch,
@@ -109,7 +113,7 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--arch", default="cuda", choices=["cuda", "vulkan", "metal"])
     p.add_argument("--counts", type=int, nargs="+", default=[8192, 131072, 1048576])
-    p.add_argument("--frames", type=int, default=8, help="mpm88 frames (50 substeps each)")
+    p.add_argument("--frames", type=int, default=8, help="frames of 50 substeps each code runs, the first compiling")
     p.add_argument("--cpu-threads", type=int, default=os.cpu_count(),
                    help="threads of the CPU comparison (default: all)")
     p.add_argument("--no-cpu", action="store_true", help="the GPU backend only")
