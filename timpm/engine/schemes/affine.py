@@ -150,8 +150,8 @@ class Affine:
         prog.solve_mass_node(grid.node_momentum, True, I)  # P'_i into v'_i in place
 
     @ti.func
-    def affine_gather(self, prog: ti.template(), grid: ti.template(), values: ti.template(), base,
-                      w, dw, xi, gradient: ti.template()):
+    def affine_gather(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
+                      base, w, dw, xi, gradient: ti.template()):
         """G2P of the grid velocity: v_p = sum_i phi_i v_i, B_p = sum_i phi_i v_i (x_i -
         x_p)^T and, with ``gradient``, grad du = sum_i v_i dt grad phi_i^T."""
         vp = ti.Vector.zero(float, prog.dim)

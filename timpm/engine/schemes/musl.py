@@ -141,8 +141,8 @@ class MUSL:
 
     # ---- the grid: accelerations -----------------------------------------------------------
     @ti.func
-    def acceleration_node(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
-                          I):
+    def acceleration_node(self, prog: ti.template(), grid: ti.template(),
+                          values: ti.template(), I):
         # F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F; at a wall
         # a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
         if ti.static(prog.damping):
@@ -166,8 +166,8 @@ class MUSL:
             grid.node_momentum[I] = ti.Vector.zero(float, prog.dim)  # P2G scattered P_i
 
     @ti.func
-    def after_acceleration(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
-                           I):
+    def after_acceleration(self, prog: ti.template(), grid: ti.template(),
+                           values: ti.template(), I):
         """A hook of the grid phase at node I, after a_i (nothing here)."""
         pass
 
@@ -206,8 +206,8 @@ class MUSL:
         return base, inside, node_values
 
     @ti.func
-    def new_velocity(self, prog: ti.template(), grid: ti.template(), values: ti.template(), base,
-                     w, dw, flip):
+    def new_velocity(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
+                     base, w, dw, flip):
         """The particle's new velocity from its FLIP update v_p + dt sum phi_i a_i (a hook:
         that update itself here)."""
         return flip
@@ -229,8 +229,8 @@ class MUSL:
             prog.solve_mass(grid.node_momentum, True)  # P_i into v_i in place
 
     @ti.func
-    def displacement_node(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
-                          I):
+    def displacement_node(self, prog: ti.template(), grid: ti.template(),
+                          values: ti.template(), I):
         grid.node_displacement[I] += grid.node_velocity[I] * values.dt()
 
     # ---- G2P of the particle state ---------------------------------------------------------

@@ -35,8 +35,8 @@ class PICBlend(MUSL):
         return {"gv": ti.Vector.field(dim, real)}
 
     @ti.func
-    def after_acceleration(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
-                           I):
+    def after_acceleration(self, prog: ti.template(), grid: ti.template(),
+                           values: ti.template(), I):
         # v_i^L = P_i / m_i + dt a_i (a wall's a makes it the wall's velocity; zero at
         # Dirichlet and empty nodes)
         v_new = (prog.lumped_solve(I, grid.node_momentum[I])
@@ -47,8 +47,8 @@ class PICBlend(MUSL):
         grid.node_new_velocity[I] = v_new
 
     @ti.func
-    def new_velocity(self, prog: ti.template(), grid: ti.template(), values: ti.template(), base,
-                     w, dw, flip):
+    def new_velocity(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
+                     base, w, dw, flip):
         # v_p = (1 - b) v_p^FLIP + b sum_i phi_i v_i^L
         pic = ti.Vector.zero(float, prog.dim)
         for r in range(prog.stencil_rows):
