@@ -101,7 +101,7 @@ class Drivers:
                                                     self.values, p)
                     else:  # on its nodes, the copies of the scatter before summed in
                         for f in range(lo, hi):
-                            I = self._node_of(f)
+                            I = self.node_of(f)
                             for name in ti.static(self.merged_before[k]):
                                 ti.static(getattr(self, name))[I] = self.merged(name, I)
                             self.phases[k].node(self, self.grid, self.values, I)
@@ -128,7 +128,7 @@ class Drivers:
                     break
 
     @ti.func
-    def _node_of(self, f):
+    def node_of(self, f):
         """Grid index of the node at flat index f (the order of ti.ndrange)."""
         I = ti.Vector.zero(ti.i32, self.dim)
         rest = f
