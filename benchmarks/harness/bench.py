@@ -47,15 +47,17 @@ CHUNKS = 5
 
 
 # ---- measurements that run inside a worker process -----------------------------------
-def _best_rate(step, n_items, seconds, chunks=CHUNKS):
+def _best_rate(step, n_items, seconds, chunks=CHUNKS, k=None):
     """Items per second of ``step(k)`` (k steps of n_items each): about ``seconds`` of
-    stepping in ``chunks`` timed chunks, the fastest chunk counted (``mean``: all of them).
-    A shared machine only ever slows a chunk down, so the fastest is the estimate least
-    disturbed by the neighbours; mpm88 and NumPy are timed the same way."""
-    t0 = time.perf_counter()
-    step(1)
-    once = max(time.perf_counter() - t0, 1e-7)
-    k = max(1, int(seconds / chunks / once))
+    stepping in ``chunks`` timed chunks (or chunks of ``k`` steps where given), the fastest
+    chunk counted (``mean``: all of them).  A shared machine only ever slows a chunk down,
+    so the fastest is the estimate least disturbed by the neighbours; mpm88 and NumPy are
+    timed the same way."""
+    if k is None:
+        t0 = time.perf_counter()
+        step(1)
+        once = max(time.perf_counter() - t0, 1e-7)
+        k = max(1, int(seconds / chunks / once))
     walls = []
     for _ in range(chunks):
         t0 = time.perf_counter()
@@ -88,19 +90,14 @@ def _frame_rate(solver, frames, per_frame=AGREE_STEPS):
     steps slower once it packs against the floor)."""
     import taichi as ti
 
-    solver.run(n_steps=max(per_frame - solver.step, 0))  # the rest of the first frame
-    ti.sync()
-    walls = []
-    for _ in range(frames - 1):
-        t0 = time.perf_counter()
-        solver.run(n_steps=per_frame)
+    def frame(k):
+        solver.run(n_steps=k)
         solver.read("x")
         ti.sync()
-        walls.append(time.perf_counter() - t0)
-    n = solver.n_particles
-    return {"steps": per_frame * len(walls), "seconds": sum(walls),
-            "mpss": n * per_frame / min(walls) / 1e6,
-            "mpss_mean": n * per_frame * len(walls) / sum(walls) / 1e6}
+
+    solver.run(n_steps=max(per_frame - solver.step, 0))  # the rest of the first frame
+    ti.sync()
+    return _best_rate(frame, solver.n_particles, None, chunks=frames - 1, k=per_frame)
 
 
 def _probes(threads):
