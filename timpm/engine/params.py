@@ -10,25 +10,20 @@ constants) is computed once in Python and stored, so the kernels see the same nu
 """
 import numpy as np
 import taichi as ti
+from taichi.lang import impl
+
+from .expressions import expression
 
 __all__ = ["ParamBlock"]
 
 
 def _scalar(arr, i):
-    @ti.func
-    def get():
-        return arr[i]
-    return get
+    # the load arr[i] where the getter is called (expressions.py)
+    return expression(lambda: impl.subscript(None, arr, i))
 
 
 def _vector(arr, i, n):
-    @ti.func
-    def get():
-        v = ti.Vector.zero(arr.dtype, n)
-        for k in ti.static(range(n)):
-            v[k] = arr[i + k]
-        return v
-    return get
+    return expression(lambda: ti.Vector([impl.subscript(None, arr, i + k) for k in range(n)]))
 
 
 class Group:

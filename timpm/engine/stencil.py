@@ -19,6 +19,8 @@ column adds of ``times_offset``; 1D stencils are unrolled whole, as before
 """
 import taichi as ti
 
+from .expressions import expression
+
 __all__ = ["StencilOps"]
 
 
@@ -79,29 +81,21 @@ class StencilOps:
         at stencil offset o (the factored affine terms of P2G and G2P)."""
         return (xi - ti.cast(base, float) + self.node_offset) * self.values.h()
 
-    @ti.func
+    @expression
     def _row_offsets(self, r):
         """(o_0, o_1) of stencil row r: the offsets along every axis but the last (the
-        rows run in C order; unused axes zero)."""
-        o0, o1 = 0, 0
-        if ti.static(self.dim == 3):
-            o0 = r // self.basis.support
-            o1 = r % self.basis.support
-        elif ti.static(self.dim == 2):
-            o1 = r
-        return o0, o1
+        rows run in C order; unused axes zero); expressions, not variables."""
+        if self.dim == 3:
+            return r // self.basis.support, r % self.basis.support
+        if self.dim == 2:
+            return 0, r
+        return 0, 0
 
-    @ti.func
-    def _offset_of(self, r, a: ti.template()):
-        """The stencil offset of node a of row r."""
+    @expression
+    def _offset_of(self, r, a):
+        """The stencil offset of node a of row r (a a Python integer)."""
         o0, o1 = self._row_offsets(r)
-        o = ti.Vector.zero(ti.i32, self.dim)
-        o[self.dim - 1] = a
-        if ti.static(self.dim > 1):
-            o[self.dim - 2] = o1
-        if ti.static(self.dim > 2):
-            o[0] = o0
-        return o
+        return ti.Vector([o0, o1, a][3 - self.dim:])
 
     @ti.func
     def stencil_node(self, w, dw, r, a: ti.template()):
