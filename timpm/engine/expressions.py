@@ -12,7 +12,9 @@ so (docs/performance.md).
 """
 import types
 
-__all__ = ["expression"]
+from taichi.lang import impl
+
+__all__ = ["at", "expression"]
 
 
 def expression(fn):
@@ -21,3 +23,9 @@ def expression(fn):
     fn._is_taichi_function = True
     fn.func = types.SimpleNamespace(has_print=False)
     return fn
+
+
+def at(value, *index):
+    """``value[index]`` of a Taichi vector, matrix or field in a helper (what Taichi makes
+    of the subscript in a kernel)."""
+    return impl.subscript(None, value, *index)

@@ -11,7 +11,9 @@ import math
 
 import numpy as np
 import taichi as ti
+from taichi.lang import impl
 
+from .expressions import expression
 from .recorder import NUMPY_DTYPES, components, entry_size
 
 __all__ = ["HostState"]
@@ -68,31 +70,23 @@ class HostState:
         spec = {b: [(getattr(self, name), col, components(getattr(self, name)))
                     for name, col, _ in entries] for b, entries in blocks.items()}
 
-        @ti.func
-        def entry(fld: ti.template(), I):
+        @expression
+        def entry(fld, I):
             # fld[I], or fld[None] for a 0-D field (I unused)
-            if ti.static(len(fld.shape) == 0):
-                return fld[None]
-            else:
-                return fld[I]
+            return impl.subscript(None, fld, None if len(fld.shape) == 0 else I)
 
-        @ti.func
-        def put(fld: ti.template(), I, arr: ti.template(), row, col: ti.template(),
-                shape: ti.template()):
-            # state field at I (any index for a 0-D field) <- arr[row, col + component]
-            v = entry(fld, I)
-            if ti.static(shape[1] > 0):
-                for i, j in ti.static(ti.ndrange(shape[0], shape[1])):
-                    v[i, j] = ti.cast(arr[row, col + i * shape[1] + j], fld.dtype)
-            elif ti.static(shape[1] == 0):
-                for i in ti.static(range(shape[0])):
-                    v[i] = ti.cast(arr[row, col + i], fld.dtype)
-            else:
-                v = ti.cast(arr[row, col], fld.dtype)
-            if ti.static(len(fld.shape) == 0):
-                fld[None] = v
-            else:
-                fld[I] = v
+        @expression
+        def host_value(fld, arr, row, col, shape):
+            # a state field's entry from its host columns arr[row, col + component], in the
+            # field's type
+            def at(c):
+                return ti.cast(impl.subscript(None, arr, row, col + c), fld.dtype)
+            if shape[1] > 0:
+                return ti.Matrix([[at(i * shape[1] + j) for j in range(shape[1])]
+                                  for i in range(shape[0])])
+            if shape[1] == 0:
+                return ti.Vector([at(i) for i in range(shape[0])])
+            return at(0)
 
         @ti.func
         def get(fld: ti.template(), I, arr: ti.template(), row, col: ti.template(),
@@ -146,21 +140,22 @@ class HostState:
             for i in range(rows):
                 if i < self.values.n_particles():
                     for k in ti.static(range(len(P))):
-                        put(P[k][0], i, particles, i, P[k][1], P[k][2])
+                        P[k][0][i] = host_value(P[k][0], particles, i, P[k][1], P[k][2])
                     for k in ti.static(range(len(PI))):
-                        put(PI[k][0], i, particle_ints, i, PI[k][1], PI[k][2])
+                        PI[k][0][i] = host_value(PI[k][0], particle_ints, i, PI[k][1],
+                                                 PI[k][2])
                 if i < self.values.node_count():
                     I = self.node_of(i)
                     for k in ti.static(range(len(N))):
-                        put(N[k][0], I, nodes, i, N[k][1], N[k][2])
+                        N[k][0][I] = host_value(N[k][0], nodes, i, N[k][1], N[k][2])
                     for k in ti.static(range(len(NI))):
-                        put(NI[k][0], I, node_ints, i, NI[k][1], NI[k][2])
+                        NI[k][0][I] = host_value(NI[k][0], node_ints, i, NI[k][1], NI[k][2])
                 if ti.static(tracking):
                     if i < self.values.n_tracked():
                         track[i] = track_ids[i]
-                if i == 0:
+                if i == 0:  # the scalars: 0-D fields
                     for k in ti.static(range(len(S))):
-                        put(S[k][0], 0, scalars, 0, S[k][1], S[k][2])
+                        S[k][0][None] = host_value(S[k][0], scalars, 0, S[k][1], S[k][2])
                     if ti.static(self.recording):
                         self.rec_count[None] = 0
 

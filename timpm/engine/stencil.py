@@ -19,7 +19,7 @@ column adds of ``times_offset``; 1D stencils are unrolled whole, as before
 """
 import taichi as ti
 
-from .expressions import expression
+from .expressions import at, expression
 
 __all__ = ["StencilOps"]
 
@@ -105,33 +105,32 @@ class StencilOps:
         phi, grad = self.node_weight(w, dw, offset)
         return offset, phi, grad
 
-    @ti.func
+    @expression
     def stencil_row(self, w, dw, r):
         """The products of stencil row r over every axis but the last, computed once per
         row: (w_0 w_1, dw_0 w_1, w_0 dw_1) in 3D, (w_0, dw_0, 0) in 2D, (1, 0, 0) in 1D."""
-        row = ti.Vector([1.0, 0.0, 0.0])
         o0, o1 = self._row_offsets(r)
-        if ti.static(self.dim == 3):
-            row = ti.Vector([w[o0, 0] * w[o1, 1], dw[o0, 0] * w[o1, 1], w[o0, 0] * dw[o1, 1]])
-        elif ti.static(self.dim == 2):
-            row = ti.Vector([w[o1, 0], dw[o1, 0], 0.0])
-        return row
+        if self.dim == 3:
+            return ti.Vector([at(w, o0, 0) * at(w, o1, 1), at(dw, o0, 0) * at(w, o1, 1),
+                              at(w, o0, 0) * at(dw, o1, 1)])
+        if self.dim == 2:
+            return ti.Vector([at(w, o1, 0), at(dw, o1, 0), 0.0])
+        return ti.Vector([1.0, 0.0, 0.0])
 
-    @ti.func
-    def row_node(self, w, dw, r, row, a: ti.template()):
+    @expression
+    def row_node(self, w, dw, r, row, a):
         """Node a of stencil row r from the row's products (``stencil_row``): its offset,
         basis value and gradient, the same numbers as ``stencil_node``."""
-        offset = self._offset_of(r, a)
-        last = ti.static(self.dim - 1)
-        phi = row[0] * w[a, last]
-        grad = ti.Vector.zero(float, self.dim)
-        if ti.static(self.dim == 3):
-            grad = ti.Vector([row[1] * w[a, last], row[2] * w[a, last], row[0] * dw[a, last]])
-        elif ti.static(self.dim == 2):
-            grad = ti.Vector([row[1] * w[a, last], row[0] * dw[a, last]])
+        last = self.dim - 1
+        w_a, dw_a = at(w, a, last), at(dw, a, last)
+        phi = at(row, 0) * w_a
+        if self.dim == 3:
+            grad = ti.Vector([at(row, 1) * w_a, at(row, 2) * w_a, at(row, 0) * dw_a])
+        elif self.dim == 2:
+            grad = ti.Vector([at(row, 1) * w_a, at(row, 0) * dw_a])
         else:
-            grad[0] = row[0] * dw[a, last]
-        return offset, phi, grad
+            grad = ti.Vector([at(row, 0) * dw_a])
+        return self._offset_of(r, a), phi, grad
 
     @ti.func
     def times_offset(self, A, r, a: ti.template()):
