@@ -32,7 +32,7 @@ class Recorder:
     @ti.func
     def record_step(self):
         slot = self.rec_count[None]
-        self.h_t[slot] = self.time[None]
+        self.h_t[slot] = ti.cast(self.time[None], self.h_t.dtype)  # f32 records: rounded
         self.h_step[slot] = self.step_count[None]
         if ti.static(self.tracking):
             for j in range(self.values.n_tracked()):
