@@ -15,6 +15,8 @@ import ast
 import re
 from pathlib import Path
 
+import pytest
+
 PACKAGE = Path(__file__).resolve().parent.parent / "timpm"
 
 #: the layers, lowest first: a module may import modules of its own layer and of the layers
@@ -358,8 +360,10 @@ def state_names():
     """What a phase reads as state: the names Program gives its particle, grid, scratch and
     run fields (``"x": ti.Vector.field``, ``particle["C"] = ti.Matrix.field``, ...), the
     grid's kernel names (grid.NODE_NAMES) and ``values``."""
-    source = (PACKAGE / "engine" / "program.py").read_text()
+    source = "".join((PACKAGE / "engine" / name).read_text()  # the integrators' scratch
+                     for name in ("program.py", "rk4.py", "midpoint.py"))
     names = set(re.findall(r'"(\w+)": ti\.(?:Vector\.|Matrix\.)?field', source))
+    names |= set(re.findall(r'(\w+)=ti\.(?:Vector\.|Matrix\.)?field', source))
     names |= set(re.findall(r'\w+\["(\w+)"\] = ti\.(?:Vector\.|Matrix\.)?field', source))
     tree = ast.parse((PACKAGE / "engine" / "grid.py").read_text())
     node_names = next(node.value for node in ast.walk(tree) if isinstance(node, ast.Assign)
@@ -367,12 +371,13 @@ def state_names():
     return names | set(ast.literal_eval(node_names)) | {"values"}
 
 
-def state_reads_through_the_program(source):
-    """(line, name) of every ``prog.NAME`` in ``source`` that names state."""
+def state_reads_through_the_program(source, program="prog"):
+    """(line, name) of every ``prog.NAME`` (``program.NAME``) in ``source`` that names
+    state."""
     names = state_names()
     return sorted((node.lineno, node.attr) for node in ast.walk(ast.parse(source))
                   if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
-                  and node.value.id == "prog" and node.attr in names)
+                  and node.value.id == program and node.attr in names)
 
 
 def test_a_scheme_reads_its_state_from_its_arguments():
@@ -386,16 +391,26 @@ def test_a_scheme_reads_its_state_from_its_arguments():
     assert {name: reads for name, reads in found.items() if reads} == {}
 
 
+@pytest.mark.parametrize("unit", ["rk4.py", "midpoint.py"])
+def test_an_integrator_reads_its_state_from_its_arguments(unit):
+    """The integrators' functions receive the particle and grid fields, their own scratch
+    (``stages.x_start[p]``, ``iterate.v_end[p]``) and the run-time values; through
+    ``self`` they reach the program's operations and compile-time choices only."""
+    assert {"x_start", "F_rate", "b_stages", "F_start", "v_end", "x_end"} <= state_names()
+    source = (PACKAGE / "engine" / unit).read_text()
+    assert state_reads_through_the_program(source, program="self") == []
+
+
 def test_a_state_read_through_the_program_is_found():
     source = "def f(self, prog, grid, p):\n    return prog.v[p] + grid.node_mass[p] + prog.dim\n"
     assert state_reads_through_the_program(source) == [(2, "v")]
+    source = "def f(self, stages, p):\n    return self.x_start[p] + stages.v_start[p]\n"
+    assert state_reads_through_the_program(source, program="self") == [(2, "x_start")]
 
 
 def test_a_field_the_program_lacks_is_named():
     """A view answers a name its program lacks with the names it has (a phase or a law
     reading a field the feature set does not allocate fails at its compile so)."""
-    import pytest
-
     from timpm.engine.views import FieldView, MaterialState
 
     view = FieldView("particle", {"x": 1, "v": 2})

@@ -225,6 +225,11 @@ CASES = {
                                         mass="consistent"),
     "square-consistent-midpoint": _square_2d(20, S, "midpoint", 0.04, basis="bspline2",
                                              mass="consistent"),
+    # added 2026-11-28 (recorded from 5d3bc46, before rk4.py took its state as arguments):
+    # the Runge-Kutta step with a body force (its stage values, the external work), the
+    # consistent mass and the MLS projection, fused and as the parallel mode's launches
+    "mms1d-rk4-serial": _problem("mms-1d", 40, S, basis="bspline3", elements=16),
+    "mms1d-rk4-parallel": _problem("mms-1d", 40, P, basis="bspline3", elements=16),
 }
 
 

@@ -45,7 +45,7 @@ class ConsistentMassCG:
         for p in range(self.values.n_particles()):
             base, w, dw, xi, inside = self.stencil(self.x[p])
             offsets = ti.static(self._cg_offsets())
-            phi = ti.Vector.zero(float, len(offsets))
+            phi = ti.Vector.zero(float, ti.static(len(offsets)))
             if inside:
                 for k in ti.static(range(len(offsets))):
                     value, _ = self.node_weight(w, dw, offsets[k])

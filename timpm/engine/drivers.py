@@ -43,12 +43,16 @@ class Drivers:
     @ti.func
     def _one_step(self):
         if ti.static(self.rk4):
-            self.rk4_step()  # four grid solves of the Runge-Kutta stages (rk4.py)
+            # four grid solves of the Runge-Kutta stages (rk4.py)
+            self.rk4_step(self.particles, self.grid, self.rk4_stages, self.values)
         elif ti.static(self.midpoint):
-            if ti.static(self.affine):  # the energy-conserving midpoint iteration (midpoint.py)
-                self.affine_midpoint_step()
+            # the energy-conserving midpoint iteration (midpoint.py)
+            if ti.static(self.affine):
+                self.affine_midpoint_step(self.particles, self.grid, self.midpoint_iterate,
+                                          self.values)
             else:
-                self.midpoint_step()
+                self.midpoint_step(self.particles, self.grid, self.midpoint_iterate,
+                                   self.values)
         else:
             for phase in ti.static(self.phases):  # the scheme's step (schemes/)
                 self.run_phase(phase)

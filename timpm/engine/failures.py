@@ -35,6 +35,11 @@ class Failures:
             self.err_where[None] = where
 
     @ti.func
+    def failed(self):
+        """Whether the run has recorded an error (in this step or before)."""
+        return self.err_count[None] != 0
+
+    @ti.func
     def halted(self, p):
         """A step before this one failed: the particles stay as they were at the failure
         (Python reads the error back every ``check_every`` steps).  The fused serial mode

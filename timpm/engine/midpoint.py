@@ -73,14 +73,19 @@ def midpoint_fields(d, real, affine):
 
 
 class Midpoint:
-    """See the module."""
+    """See the module.  The step's functions receive the state they read: the particle
+    fields (``particles``), the grid fields (``grid``), the iteration's scratch
+    (``iterate``: F at the step's start, and for MUSL v_start, v_end and x_end) and the
+    run-time values (``values``); through ``self`` they reach the program's operations
+    (the stencil, the grid solve, the law, the checks, the failure record)."""
 
     @ti.func
-    def midpoint_step(self):
+    def midpoint_step(self, particles: ti.template(), grid: ti.template(),
+                      iterate: ti.template(), values: ti.template()):
         # the state at t_n: v_n and F_n kept; V_p stays V_p^n through the iteration
-        for p in range(self.values.n_particles()):
-            self.v_start[p] = self.v[p]
-            self.F_start[p] = self.F[p]
+        for p in range(values.n_particles()):
+            iterate.v_start[p] = particles.v[p]
+            iterate.F_start[p] = particles.F[p]
         converged = False
         relax = 1.0  # plain passes while the residual falls fast, then relaxed
         previous = 0.0
@@ -92,22 +97,22 @@ class Midpoint:
             # and F_end (sbar's argument) moved by less than tol of the largest increment
             change = ti.Vector.zero(float, 2)
             largest = ti.Vector.zero(float, 2)
-            for p in range(self.values.n_particles()):
-                c, s = self._midpoint_particle(p, relax)
+            for p in range(values.n_particles()):
+                c, s = self._midpoint_particle(particles, grid, iterate, values, p, relax)
                 change = ti.max(change, c)
                 largest = ti.max(largest, s)
-            if self.err_count[None] != 0:  # an iterate inverted or left the finite numbers
+            if self.failed():  # an iterate inverted or left the finite numbers
                 break
             if it > 0 and self._midpoint_converged(change, largest, 0.0):
                 converged = True
                 break
-            relax = self._midpoint_relaxation(it, change[0], previous, relax)
+            relax = self._midpoint_relaxation(values, it, change[0], previous, relax)
             previous = change[0]
-        if not converged and self.err_count[None] == 0:
+        if not converged and not self.failed():
             self.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
-        if self.err_count[None] == 0:
-            for p in range(self.values.n_particles()):
-                self._midpoint_finish(p)
+        if not self.failed():
+            for p in range(values.n_particles()):
+                self._midpoint_finish(particles, iterate, values, p)
 
     @ti.func
     def _midpoint_converged(self, change, largest, v_floor):
@@ -118,20 +123,21 @@ class Midpoint:
         return (change <= tol * largest + ti.Vector([v_floor, floor])).all()
 
     @ti.func
-    def _midpoint_relaxation(self, it, change, previous, relax):
+    def _midpoint_relaxation(self, values: ti.template(), it, change, previous, relax):
         """The relaxation of the next pass: r once the residual falls by less than half in
         a pass (a fast mode near +-i mu), else as it was."""
         out = relax
         if it > 1 and change > 0.5 * previous:
-            out = self.values.midpoint_relaxation()
+            out = values.midpoint_relaxation()
         return out
 
     @ti.func
-    def _midpoint_particle(self, p, relax):
+    def _midpoint_particle(self, particles: ti.template(), grid: ti.template(),
+                           iterate: ti.template(), values: ti.template(), p, relax):
         # G2P of the iterate: v_end = v_n + dt sum phi_i a_i, F_end = (I + dt grad vbar) F_n,
         # x_end = x_n + dt sum phi_i vbar_i; the next iterate's vbar_p (relaxed) and sbar_p.
         # Returns the residual of vbar_p, the change of F_end and their scales (max norms)
-        base, w, dw, xi, inside = self.stencil(self.x[p])
+        base, w, dw, xi, inside = self.stencil(particles.x[p])
         change = ti.Vector.zero(float, 2)
         size = ti.Vector.zero(float, 2)
         if inside:
@@ -142,23 +148,24 @@ class Midpoint:
                 row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.row_node(w, dw, r, row, a)
-                    vi = self.node_velocity[base + offset]
+                    vi = grid.node_velocity[base + offset]
                     v_mid += phi * vi
-                    accel += phi * self.node_acceleration[base + offset]
+                    accel += phi * grid.node_acceleration[base + offset]
                     grad_v += vi.outer_product(grad)
-            v_end = self.v_start[p] + self.values.dt() * accel
-            F0 = self.F_start[p]
-            F1 = (ti.Matrix.identity(float, self.dim) + self.values.dt() * grad_v) @ F0
-            v_bar = 0.5 * (self.v_start[p] + v_end)
+            v_end = iterate.v_start[p] + values.dt() * accel
+            F0 = iterate.F_start[p]
+            F1 = (ti.Matrix.identity(float, self.dim) + values.dt() * grad_v) @ F0
+            v_bar = 0.5 * (iterate.v_start[p] + v_end)
             self._check_iterate(p, F1, v_bar)
-            change = ti.Vector([ti.abs(v_bar - self.v[p]).max(), ti.abs(F1 - self.F[p]).max()])
+            change = ti.Vector([ti.abs(v_bar - particles.v[p]).max(),
+                                ti.abs(F1 - particles.F[p]).max()])
             size = ti.Vector([ti.abs(v_bar).max(), ti.abs(F1 - F0).max()])
-            self.v_end[p] = v_end
-            self.x_end[p] = self.x[p] + self.values.dt() * v_mid
-            self.F[p] = F1
+            iterate.v_end[p] = v_end
+            iterate.x_end[p] = particles.x[p] + values.dt() * v_mid
+            particles.F[p] = F1
             # the next iterate: vbar relaxed, (1 - r) old + r new; sbar that of F1
-            self.v[p] += relax * (v_bar - self.v[p])
-            self.sigma[p] = self._averaged_stress(p, F0, F1)
+            particles.v[p] += relax * (v_bar - particles.v[p])
+            particles.sigma[p] = self._averaged_stress(p, F0, F1)
         return change, size
 
     @ti.func
@@ -181,131 +188,135 @@ class Midpoint:
         return P_mean @ F0.transpose() / F0.determinant()
 
     @ti.func
-    def _midpoint_finish(self, p):
+    def _midpoint_finish(self, particles: ti.template(), iterate: ti.template(),
+                         values: ti.template(), p):
         # the step's end: x, v, F of the converged iterate, sigma(F) and V = det F V0
-        base, w, dw, xi, inside = self.stencil(self.x[p])
+        base, w, dw, xi, inside = self.stencil(particles.x[p])
         if inside:
-            self._midpoint_end_state(p, self.x_end[p], self.v_end[p])
+            self._midpoint_end_state(particles, p, iterate.x_end[p], iterate.v_end[p])
 
     @ti.func
-    def _midpoint_end_state(self, p, x_new, v_new):
+    def _midpoint_end_state(self, particles: ti.template(), p, x_new, v_new):
         # x, v and F of the converged iterate (F in place), sigma(F) and V = det F V0; the
         # body force's work m_p b_p . (x_new - x_n)
         if ti.static(self.body_force and self.record_energies):
-            self.accumulate(self.ext_work[None], self.m[p] * self.b[p].dot(x_new - self.x[p]))
+            self.add_external_work(particles.m[p] * particles.b[p].dot(x_new - particles.x[p]))
         if ti.static(self.has_u):
-            self.accumulate(self.u[p], x_new - self.x[p])
-        self.x[p] = x_new
-        self.v[p] = v_new
-        sig, vol, jac = self.set_state_of_F(p, self.F[p])
+            self.accumulate(particles.u[p], x_new - particles.x[p])
+        particles.x[p] = x_new
+        particles.v[p] = v_new
+        sig, vol, jac = self.set_state_of_F(p, particles.F[p])
         self.check_particle(p, x_new, v_new, sig, vol, jac)
 
     # ---- the affine transfers (APIC, MLS-MPM): the iteration on the grid ------------------
     @ti.func
-    def affine_midpoint_step(self):
+    def affine_midpoint_step(self, particles: ti.template(), grid: ti.template(),
+                             iterate: ti.template(), values: ti.template()):
         # P2G at t_n: m_i and P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) (the linear basis:
         # m_p (phi_i v_p + B_p grad phi_i)); v_i^n = P_i / m_i with the wall conditions
         # (node_velocity), the iterate vbar_i (node_new_velocity, which the scheme's G2P
         # reads) starts there
         self.clear_grid()
-        for p in range(self.values.n_particles()):
-            self.F_start[p] = self.F[p]
-            self._affine_momentum(p)
-        self.solve_mass(self.node_momentum, True)  # P_i into v_i^n in place
-        for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-            self.node_new_velocity[I] = self.node_velocity[I]
+        for p in range(values.n_particles()):
+            iterate.F_start[p] = particles.F[p]
+            self._affine_momentum(particles, grid, values, p)
+        self.solve_mass(grid.node_momentum, True)  # P_i into v_i^n in place
+        for I in ti.grouped(ti.ndrange(*[values.nodes()[k] for k in range(self.dim)])):
+            grid.node_new_velocity[I] = grid.node_velocity[I]
         converged = False
         relax = 1.0
         previous = 0.0
         for it in range(MIDPOINT_MAX_ITERATIONS):
             # particles: F_end = (I + dt grad vbar) F_n, sbar; F_i = sum phi_i f_p - sbar_p
             # V_p^n grad phi_i (MLS-MPM: D^-1 (x_i - x_p) phi_i for grad phi_i)
-            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                self.node_force[I] = ti.Vector.zero(float, self.dim)
+            for I in ti.grouped(ti.ndrange(*[values.nodes()[k] for k in range(self.dim)])):
+                grid.node_force[I] = ti.Vector.zero(float, self.dim)
             change = ti.Vector.zero(float, 2)
             largest = ti.Vector.zero(float, 2)
-            for p in range(self.values.n_particles()):
-                c, s = self._affine_midpoint_particle(p)
+            for p in range(values.n_particles()):
+                c, s = self._affine_midpoint_particle(particles, grid, iterate, values, p)
                 change[1] = ti.max(change[1], c)
                 largest[1] = ti.max(largest[1], s)
-            if self.err_count[None] != 0:  # off the grid, or an iterate inverted
+            if self.failed():  # off the grid, or an iterate inverted
                 break
             # grid: a_i = M^-1 F_i (walls), v_i^(n+1) = v_i^n + dt a_i kept in place of a_i
             # (node_end_velocity); the residual of vbar_i = (v_i^n + v_i^(n+1)) / 2
-            self.solve_mass(self.node_force, True)  # F_i into a_i in place
-            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                v_end = self.node_velocity[I] + self.values.dt() * self.node_acceleration[I]
-                self.node_end_velocity[I] = v_end
-                v_bar = 0.5 * (self.node_velocity[I] + v_end)
-                change[0] = ti.max(change[0], ti.abs(v_bar - self.node_new_velocity[I]).max())
+            self.solve_mass(grid.node_force, True)  # F_i into a_i in place
+            for I in ti.grouped(ti.ndrange(*[values.nodes()[k] for k in range(self.dim)])):
+                v_end = grid.node_velocity[I] + values.dt() * grid.node_acceleration[I]
+                grid.node_end_velocity[I] = v_end
+                v_bar = 0.5 * (grid.node_velocity[I] + v_end)
+                change[0] = ti.max(change[0], ti.abs(v_bar - grid.node_new_velocity[I]).max())
                 largest[0] = ti.max(largest[0], ti.abs(v_bar).max())
             # (the floor of vbar_i: the velocity whose difference over a cell moves F by its
             # floor in a step; APIC's transfers dissipate, and a velocity fallen to the
             # rounding of the forces would otherwise never settle)
-            v_floor = ti.static(F_FLOOR[self.f.precision]) * self.values.h() / self.values.dt()
+            v_floor = ti.static(F_FLOOR[self.f.precision]) * values.h() / values.dt()
             if it > 0 and self._midpoint_converged(change, largest, v_floor):
                 converged = True  # F_end and x_end from this iterate, v from its forces
                 break
-            relax = self._midpoint_relaxation(it, change[0], previous, relax)
+            relax = self._midpoint_relaxation(values, it, change[0], previous, relax)
             previous = change[0]
-            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                self.node_new_velocity[I] += relax * (
-                    0.5 * (self.node_velocity[I] + self.node_end_velocity[I])
-                    - self.node_new_velocity[I])
-        if not converged and self.err_count[None] == 0:
+            for I in ti.grouped(ti.ndrange(*[values.nodes()[k] for k in range(self.dim)])):
+                grid.node_new_velocity[I] += relax * (
+                    0.5 * (grid.node_velocity[I] + grid.node_end_velocity[I])
+                    - grid.node_new_velocity[I])
+        if not converged and not self.failed():
             self.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
-        if self.err_count[None] == 0:
+        if not self.failed():
             # G2P: v_p = sum phi_i v_i^(n+1), C_p from v_i^(n+1), x_p += dt sum phi_i vbar_i
-            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                self.node_velocity[I] = self.node_new_velocity[I]  # vbar_i
-                self.node_new_velocity[I] = self.node_end_velocity[I]  # v_i^(n+1): G2P
-            for p in range(self.values.n_particles()):
-                self._affine_midpoint_finish(p)
+            for I in ti.grouped(ti.ndrange(*[values.nodes()[k] for k in range(self.dim)])):
+                grid.node_velocity[I] = grid.node_new_velocity[I]  # vbar_i
+                grid.node_new_velocity[I] = grid.node_end_velocity[I]  # v_i^(n+1): G2P
+            for p in range(values.n_particles()):
+                self._affine_midpoint_finish(particles, grid, values, p)
 
     @ti.func
-    def _affine_momentum(self, p):
-        base, w, dw, xi, inside = self.stencil(self.x[p])
+    def _affine_momentum(self, particles: ti.template(), grid: ti.template(),
+                         values: ti.template(), p):
+        base, w, dw, xi, inside = self.stencil(particles.x[p])
         if not inside:
             self.fail(ErrorCode.OFF_GRID, p)
         else:
-            mp = self.m[p]
-            affine = mp * self.C[p]
-            mom = mp * self.v[p] - affine @ self.from_first_node(xi, base)
-            h_affine = self.values.h() * affine
+            mp = particles.m[p]
+            affine = mp * particles.C[p]
+            mom = mp * particles.v[p] - affine @ self.from_first_node(xi, base)
+            h_affine = values.h() * affine
             for r in range(self.stencil_rows):
                 row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.row_node(w, dw, r, row, a)
                     node = base + offset
-                    self.node_mass[node] += mp * phi
+                    grid.node_mass[node] += mp * phi
                     if ti.static(self.basis.support > 2 or self.mls_mpm):
-                        self.node_momentum[node] += phi * (mom + self.times_offset(h_affine, r, a))
+                        grid.node_momentum[node] += phi * (mom + self.times_offset(h_affine, r, a))
                     else:
-                        self.node_momentum[node] += (phi * mp * self.v[p]
-                                                     + mp * (self.C[p] @ grad))
+                        grid.node_momentum[node] += (phi * mp * particles.v[p]
+                                                     + mp * (particles.C[p] @ grad))
 
     @ti.func
-    def _affine_midpoint_particle(self, p):
+    def _affine_midpoint_particle(self, particles: ti.template(), grid: ti.template(),
+                                  iterate: ti.template(), values: ti.template(), p):
         # returns the change of F_end and the largest F increment
-        base, w, dw, xi, inside = self.stencil(self.x[p])
+        base, w, dw, xi, inside = self.stencil(particles.x[p])
         change = 0.0
         size = 0.0
         if inside:
-            _, B, grad_du = self.scheme.affine_gather(self, self.grid, self.values, base, w, dw, xi,
+            _, B, grad_du = self.scheme.affine_gather(self, grid, values, base, w, dw, xi,
                                                       not self.mls_mpm)
             if ti.static(self.mls_mpm):
-                grad_du = B * self.values.D_inv() * self.values.dt()
-            F0 = self.F_start[p]
+                grad_du = B * values.D_inv() * values.dt()
+            F0 = iterate.F_start[p]
             F1 = (ti.Matrix.identity(float, self.dim) + grad_du) @ F0
             self._check_iterate(p, F1, ti.Vector.zero(float, self.dim))
-            change = ti.abs(F1 - self.F[p]).max()
+            change = ti.abs(F1 - particles.F[p]).max()
             size = ti.abs(F1 - F0).max()
-            self.F[p] = F1
-            stress_volume = self._averaged_stress(p, F0, F1) * self.vol[p]
-            fp = self.external_force(self.particles, self.values, p)
+            particles.F[p] = F1
+            stress_volume = self._averaged_stress(p, F0, F1) * particles.vol[p]
+            fp = self.external_force(particles, values, p)
             A = stress_volume  # MLS-MPM: D^-1 sbar V
             if ti.static(self.mls_mpm):
-                A = self.values.D_inv() * stress_volume
+                A = values.D_inv() * stress_volume
             d = self.from_first_node(xi, base)
             for r in range(self.stencil_rows):
                 row = self.stencil_row(w, dw, r)
@@ -313,23 +324,23 @@ class Midpoint:
                     offset, phi, grad = self.row_node(w, dw, r, row, a)
                     force = phi * fp
                     if ti.static(self.mls_mpm):
-                        force -= phi * (self.values.h() * self.times_offset(A, r, a) - A @ d)
+                        force -= phi * (values.h() * self.times_offset(A, r, a) - A @ d)
                     else:
                         force -= stress_volume @ grad
-                    self.node_force[base + offset] += force
+                    grid.node_force[base + offset] += force
         return change, size
 
     @ti.func
-    def _affine_midpoint_finish(self, p):
-        base, w, dw, xi, inside = self.stencil(self.x[p])
+    def _affine_midpoint_finish(self, particles: ti.template(), grid: ti.template(),
+                                values: ti.template(), p):
+        base, w, dw, xi, inside = self.stencil(particles.x[p])
         if inside:
-            v_new, B, _ = self.scheme.affine_gather(self, self.grid, self.values, base, w, dw, xi,
-                                                     False)
-            self.C[p] = self.scheme.affine_of(self, self.values, B, base, w, xi)
+            v_new, B, _ = self.scheme.affine_gather(self, grid, values, base, w, dw, xi, False)
+            particles.C[p] = self.scheme.affine_of(self, values, B, base, w, xi)
             dx = ti.Vector.zero(float, self.dim)
             for r in range(self.stencil_rows):
                 row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.row_node(w, dw, r, row, a)
-                    dx += phi * self.node_velocity[base + offset]  # vbar_i
-            self._midpoint_end_state(p, self.x[p] + self.values.dt() * dx, v_new)
+                    dx += phi * grid.node_velocity[base + offset]  # vbar_i
+            self._midpoint_end_state(particles, p, particles.x[p] + values.dt() * dx, v_new)

@@ -231,9 +231,11 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
             stages = rk4_fields(d, real, self.body_force)
             fb.dense(ti.i, n).place(*stages.values())
             scratch.update(stages)
+            self.rk4_stages = FieldView("Runge-Kutta stage", stages)  # what rk4.py reads
         if self.midpoint:  # the midpoint iteration's scratch
             iterate = midpoint_fields(d, real, self.affine)
             fb.dense(ti.i, n).place(*iterate.values())
+            self.midpoint_iterate = FieldView("midpoint iterate", iterate)  # midpoint.py's
             scratch.update(iterate)
         # run state and the first error
         run = {"step_count": ti.field(ti.i64), "time": ti.field(ti.f64),
@@ -314,11 +316,11 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
             # (its passes top-level loops; the stage compiled once, not unrolled four times)
             @ti.kernel
             def rk4_begin():
-                self._rk4_begin()
+                self.rk4_begin(self.particles, self.rk4_stages, self.values)
 
             @ti.kernel
             def rk4_stage(s: ti.i32):
-                self._rk4_stage(s)
+                self.rk4_stage(self.particles, self.grid, self.rk4_stages, self.values, s)
                 if s == 3:
                     self.count_step()
 

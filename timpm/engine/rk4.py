@@ -40,43 +40,50 @@ def rk4_fields(d, real, body_force):
 
 
 class RungeKutta:
-    """See the module."""
+    """See the module.  The step's functions receive the state they read: the particle
+    fields (``particles``), the grid fields (``grid``), the stages' scratch (``stages``:
+    the state at the step's start, the weighted rates, the body force at the stage
+    times) and the run-time values (``values``); through ``self`` they reach the
+    program's operations (the stencil, the grid solve, the law, the checks)."""
 
     @ti.func
-    def rk4_step(self):
+    def rk4_step(self, particles: ti.template(), grid: ti.template(), stages: ti.template(),
+                 values: ti.template()):
         # the fused serial step: y_n kept, then the four stages in a run-time loop (one
         # serial task: the stage compiled once).  The parallel mode launches the same
-        # phases as kernels, a stage a launch (Program._bind_kernels): its passes must be
-        # top-level loops, and four unrolled stages compiled for 20 s
-        self._rk4_begin()
+        # functions as kernels, a stage a launch (Program._bind_kernels): its passes must
+        # be top-level loops, and four unrolled stages compiled for 20 s
+        self.rk4_begin(particles, stages, values)
         for s in range(4):
-            self._rk4_stage(s)
+            self.rk4_stage(particles, grid, stages, values, s)
 
     @ti.func
-    def _rk4_begin(self):
+    def rk4_begin(self, particles: ti.template(), stages: ti.template(), values: ti.template()):
         # y_n kept for the stages
-        for p in range(self.values.n_particles()):
-            self.x_start[p] = self.x[p]
-            self.v_start[p] = self.v[p]
-            self.F_start[p] = self.F[p]
+        for p in range(values.n_particles()):
+            stages.x_start[p] = particles.x[p]
+            stages.v_start[p] = particles.v[p]
+            stages.F_start[p] = particles.F[p]
 
     @ti.func
-    def _rk4_stage(self, s):
+    def rk4_stage(self, particles: ti.template(), grid: ti.template(), stages: ti.template(),
+                  values: ti.template(), s):
         if ti.static(self.body_force):
             slot = (s + 1) // 2  # b_p at t_n, t_n + dt/2, t_n + dt/2, t_n + dt
-            for p in range(self.values.n_particles()):
+            for p in range(values.n_particles()):
                 for k in ti.static(range(self.dim)):
-                    self.b[p][k] = self.b_stages[p][slot, k]
+                    particles.b[p][k] = stages.b_stages[p][slot, k]
         self.grid_rates()  # the stage's a_i and v_i (transfer.py)
-        for p in range(self.values.n_particles()):
-            self._rk4_particle(p, s)
+        for p in range(values.n_particles()):
+            self._rk4_particle(particles, grid, stages, values, p, s)
 
     @ti.func
-    def _rk4_particle(self, p, s):
+    def _rk4_particle(self, particles: ti.template(), grid: ti.template(),
+                      stages: ti.template(), values: ti.template(), p, s):
         # G2P of the stage's rates: x' = sum phi_i v_i, v' = sum phi_i a_i, F' = (sum v_i
         # grad phi_i^T) F; their sums weighted by B; the next stage's state (the step's end
         # after the fourth) with sigma(F) and V = det F V0
-        base, w, dw, xi, inside = self.stencil(self.x[p])
+        base, w, dw, xi, inside = self.stencil(particles.x[p])
         if inside and not self.halted(p):
             x_rate = ti.Vector.zero(float, self.dim)
             v_rate = ti.Vector.zero(float, self.dim)
@@ -85,41 +92,41 @@ class RungeKutta:
                 row = self.stencil_row(w, dw, r)
                 for a in ti.static(range(self.basis.support)):
                     offset, phi, grad = self.row_node(w, dw, r, row, a)
-                    vi = self.node_velocity[base + offset]
+                    vi = grid.node_velocity[base + offset]
                     x_rate += phi * vi
-                    v_rate += phi * self.node_acceleration[base + offset]
+                    v_rate += phi * grid.node_acceleration[base + offset]
                     grad_v += vi.outer_product(grad)
-            F_rate = grad_v @ self.F[p]
+            F_rate = grad_v @ particles.F[p]
             weight = 1.0 / 6.0 if s == 0 or s == 3 else 1.0 / 3.0  # B_s
             if s == 0:
-                self.x_rate[p] = weight * x_rate
-                self.v_rate[p] = weight * v_rate
-                self.F_rate[p] = weight * F_rate
+                stages.x_rate[p] = weight * x_rate
+                stages.v_rate[p] = weight * v_rate
+                stages.F_rate[p] = weight * F_rate
             else:
-                self.x_rate[p] += weight * x_rate
-                self.v_rate[p] += weight * v_rate
-                self.F_rate[p] += weight * F_rate
+                stages.x_rate[p] += weight * x_rate
+                stages.v_rate[p] += weight * v_rate
+                stages.F_rate[p] += weight * F_rate
             if ti.static(self.record_energies and self.body_force):
                 # the body force's work: its power m_p b_p . x' by the same quadrature
-                self.accumulate(self.ext_work[None],
-                                self.values.dt() * weight * self.m[p] * self.b[p].dot(x_rate))
-            x_new = self.x_start[p]
-            v_new = self.v_start[p]
-            F_new = self.F_start[p]
+                self.add_external_work(values.dt() * weight * particles.m[p]
+                                       * particles.b[p].dot(x_rate))
+            x_new = stages.x_start[p]
+            v_new = stages.v_start[p]
+            F_new = stages.F_start[p]
             if s < 3:  # the next stage's state, at A_(s+1) dt
-                c = (0.5 if s < 2 else 1.0) * self.values.dt()
+                c = (0.5 if s < 2 else 1.0) * values.dt()
                 x_new += c * x_rate
                 v_new += c * v_rate
                 F_new += c * F_rate
             else:  # the step's end
-                x_new += self.values.dt() * self.x_rate[p]
-                v_new += self.values.dt() * self.v_rate[p]
-                F_new += self.values.dt() * self.F_rate[p]
-            self.x[p] = x_new
-            self.v[p] = v_new
-            self.F[p] = F_new
+                x_new += values.dt() * stages.x_rate[p]
+                v_new += values.dt() * stages.v_rate[p]
+                F_new += values.dt() * stages.F_rate[p]
+            particles.x[p] = x_new
+            particles.v[p] = v_new
+            particles.F[p] = F_new
             sig, vol, jac = self.set_state_of_F(p, F_new)
             if s == 3:
                 if ti.static(self.has_u):
-                    self.accumulate(self.u[p], x_new - self.x_start[p])
+                    self.accumulate(particles.u[p], x_new - stages.x_start[p])
                 self.check_particle(p, x_new, v_new, sig, vol, jac)

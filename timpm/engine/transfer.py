@@ -102,14 +102,15 @@ class Transfer:
             if ti.static(self.record_energies):
                 if ti.static(self.has_traction):
                     if p == values.traction_particle():
-                        self.accumulate(self.ext_work[None], values.traction_amplitude()
-                                        * self.traction_fn.at(self.time[None],
-                                                              values.traction_param()) * du[0])
+                        self.add_external_work(values.traction_amplitude()
+                                               * self.traction_fn.at(self.time[None],
+                                                                     values.traction_param())
+                                               * du[0])
                 if ti.static(self.body_force):
-                    self.accumulate(self.ext_work[None], particles.m[p] * particles.b[p].dot(du))
+                    self.add_external_work(particles.m[p] * particles.b[p].dot(du))
                 if ti.static(self.surface_force):
                     f_t = self.surface_fn.at(self.time[None], values.surface_param())
-                    self.accumulate(self.ext_work[None], f_t * particles.f_ext[p].dot(du))
+                    self.add_external_work(f_t * particles.f_ext[p].dot(du))
             if ti.static(self.has_u):
                 self.accumulate(particles.u[p], du)
             x_new = particles.x[p] + du
@@ -142,6 +143,11 @@ class Transfer:
             if (e != self.elem[p]).any():
                 self.accumulate(self.crossings[None], 1)
                 self.elem[p] = e
+
+    @ti.func
+    def add_external_work(self, work):
+        """The run's record of the external forces' work += work (energies recorded)."""
+        self.accumulate(self.ext_work[None], work)
 
     @ti.func
     def grid_rates(self):
