@@ -317,6 +317,30 @@ def test_the_fast_line_wrapper_wraps_as_textwrap_does():
         assert _MemoizedTextwrap.dedent(text) == textwrap.dedent(text), repr(text)
 
 
+def test_taichi_imported_by_timpm_has_the_fast_class_body_check_from_its_start(tmp_path):
+    # installed while `import taichi` runs: Taichi's own modules decorate their functions
+    # at import without inspect.getframeinfo (93 calls in taichi 1.7.4 otherwise); the
+    # import hook gone after it, and the string runs
+    path = tmp_path / "fresh.py"
+    path.write_text(textwrap.dedent("""
+        import inspect, sys
+        calls = []
+        frameinfo = inspect.getframeinfo
+        inspect.getframeinfo = lambda *a, **k: calls.append(1) or frameinfo(*a, **k)
+        import timpm
+        from taichi.lang import kernel_impl
+        from timpm.problems import get_problem
+        assert kernel_impl._timpm_fast
+        assert not any(type(f).__name__ == "_FastDecoratorsOnLoad" for f in sys.meta_path)
+        solver = timpm.Solver(get_problem("vibrating-string").scene(elements=4))
+        solver.run(n_steps=10)
+        print("getframeinfo calls", len(calls), "x", solver.positions().ravel()[:2])
+        """))
+    rc, out, err = run_script(path, {**os.environ, "TIMPM_THREADS": "1"}, TIMEOUT)
+    assert rc == 0, err
+    assert "getframeinfo calls 0 x [" in out
+
+
 def test_the_class_body_check_reads_the_line_inspect_reads():
     # timpm answers Taichi's "is this decorator in a class body?" from linecache; it must
     # read the very line inspect.getframeinfo reads, in a class body, a function and a

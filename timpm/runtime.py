@@ -4,12 +4,63 @@ owned by the thread that started it and unusable in a child forked after it star
 import atexit
 import ctypes
 import functools
+import importlib.abc
+import importlib.machinery
+import inspect
+import linecache
 import numbers
 import os
 import sys
 import textwrap
 import threading
 import time
+
+from . import taichi_backend
+
+
+def _read_decorator_line_once(kernel_impl) -> None:
+    """Taichi asks, at every ``@ti.func`` and ``@ti.kernel``, whether the decorator stands
+    in a class body: it reads the decorating frame's source line with
+    ``inspect.getframeinfo``, which looks the module up among all loaded modules each
+    time (15 ms of each start over timpm's imports, more for each program built).  The
+    same line, read through ``linecache`` at the same position: the same answer."""
+    patterns = getattr(kernel_impl, "_KERNEL_CLASS_STACKFRAME_STMT_RES", None)
+    position = getattr(inspect, "_get_code_position", None)
+    if patterns is None or position is None or getattr(kernel_impl, "_timpm_fast", False):
+        return  # another Taichi or Python: its own check
+
+    def _inside_class(level_of_class_stackframe):
+        try:
+            frame = sys._getframe(level_of_class_stackframe)
+        except ValueError:
+            return False
+        lineno = position(frame.f_code, frame.f_lasti)[0] or frame.f_lineno
+        line = linecache.getline(frame.f_code.co_filename, lineno, frame.f_globals).strip()
+        return any(pattern.match(line) for pattern in patterns)
+
+    kernel_impl._inside_class = _inside_class
+    kernel_impl._timpm_fast = True
+
+
+class _FastDecoratorsOnLoad(importlib.abc.MetaPathFinder):
+    """``taichi.lang.kernel_impl`` with :func:`_read_decorator_line_once` applied as soon
+    as it is loaded: Taichi's own modules define functions at their import too (30-60 ms
+    of every start; taichi 1.7 only, and a taichi imported before timpm gets it after)."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name != "taichi.lang.kernel_impl":
+            return None
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        if spec is None or not hasattr(spec.loader, "exec_module"):
+            return spec
+        load = spec.loader.exec_module
+
+        def exec_module(module):
+            load(module)
+            _read_decorator_line_once(module)
+        spec.loader.exec_module = exec_module
+        return spec
+
 
 # Taichi prints its banner when imported: timpm imports it quietly and prints the banner
 # when it starts Taichi (timpm --help, timpm list and refused arguments print none), unless
@@ -18,15 +69,21 @@ _BANNER_VAR = "ENABLE_TAICHI_HEADER_PRINT"
 _banner_deferred = "taichi" not in sys.modules and _BANNER_VAR not in os.environ
 if _banner_deferred:
     os.environ[_BANNER_VAR] = "False"
+_fast_decorators = None
+if "taichi" not in sys.modules and not taichi_backend.FORGE:
+    _fast_decorators = _FastDecoratorsOnLoad()
+    sys.meta_path.insert(0, _fast_decorators)
 try:
     import taichi as ti
 finally:
     if _banner_deferred:
         del os.environ[_BANNER_VAR]
-from taichi.lang import impl
+    if _fast_decorators in sys.meta_path:
+        sys.meta_path.remove(_fast_decorators)
+from taichi.lang import impl, kernel_impl
 from taichi.lang.misc import is_arch_supported
 
-from . import taichi_backend
+_read_decorator_line_once(kernel_impl)  # where Taichi was imported before timpm
 
 __all__ = ["ARCHS", "BackendUnavailable", "ForkedProcess", "WrongThread", "arch",
            "check_caller", "compile_clock", "cpu_threads", "ensure_init", "generation",
@@ -274,37 +331,6 @@ def _memoize_source_positions() -> None:
     if getattr(kernel_impl, "textwrap", None) is textwrap:
         kernel_impl.textwrap = _MemoizedTextwrap()
 
-
-def _read_decorator_line_once() -> None:
-    """Taichi asks, at every ``@ti.func`` and ``@ti.kernel``, whether the decorator stands
-    in a class body: it reads the decorating frame's source line with
-    ``inspect.getframeinfo``, which looks the module up among all loaded modules each
-    time (15 ms of each start over timpm's imports, more for each program built).  The
-    same line, read through ``linecache`` at the same position: the same answer."""
-    import inspect
-    import linecache
-
-    from taichi.lang import kernel_impl
-
-    patterns = getattr(kernel_impl, "_KERNEL_CLASS_STACKFRAME_STMT_RES", None)
-    position = getattr(inspect, "_get_code_position", None)
-    if patterns is None or position is None or getattr(kernel_impl, "_timpm_fast", False):
-        return  # another Taichi or Python: its own check
-
-    def _inside_class(level_of_class_stackframe):
-        try:
-            frame = sys._getframe(level_of_class_stackframe)
-        except ValueError:
-            return False
-        lineno = position(frame.f_code, frame.f_lasti)[0] or frame.f_lineno
-        line = linecache.getline(frame.f_code.co_filename, lineno, frame.f_globals).strip()
-        return any(pattern.match(line) for pattern in patterns)
-
-    kernel_impl._inside_class = _inside_class
-    kernel_impl._timpm_fast = True
-
-
-_read_decorator_line_once()
 
 _compile_clock = [0.0]  # seconds in kernel calls that built a new kernel instance
 
