@@ -391,12 +391,14 @@ def test_a_scheme_reads_its_state_from_its_arguments():
     assert {name: reads for name, reads in found.items() if reads} == {}
 
 
-@pytest.mark.parametrize("unit", ["rk4.py", "midpoint.py"])
-def test_an_integrator_reads_its_state_from_its_arguments(unit):
-    """The integrators' functions receive the particle and grid fields, their own scratch
-    (``stages.x_start[p]``, ``iterate.v_end[p]``) and the run-time values; through
-    ``self`` they reach the program's operations and compile-time choices only."""
-    assert {"x_start", "F_rate", "b_stages", "F_start", "v_end", "x_end"} <= state_names()
+@pytest.mark.parametrize("unit", ["rk4.py", "midpoint.py", "mls_projection.py"])
+def test_an_integrator_or_projection_reads_its_state_from_its_arguments(unit):
+    """The integrators' and the 1D MLS projection's functions receive the particle and
+    grid fields (the MLS sums with the grid: ``grid.g_mom[e, g]``), the integrators'
+    scratch (``stages.x_start[p]``, ``iterate.v_end[p]``) and the run-time values;
+    through ``self`` they reach the program's operations and compile-time choices only."""
+    assert {"x_start", "F_rate", "b_stages", "F_start", "v_end", "x_end", "g_mom", "n_vel",
+            "body"} <= state_names()
     source = (PACKAGE / "engine" / unit).read_text()
     assert state_reads_through_the_program(source, program="self") == []
 

@@ -69,100 +69,105 @@ def _mls_value_quadratic(mom, b):
 
 
 class MLSProjection:
-    """See the module."""
+    """See the module.  Its functions receive the particle fields, the grid fields (with
+    the Gauss points' and the nodes' MLS sums: ``grid.g_mom``, ``grid.g_sig``,
+    ``grid.g_rho``, ``grid.n_mom``, ``grid.n_vel``, and the body's extent ``grid.body``)
+    and the run-time values."""
 
     @ti.func
-    def scatter_gauss_moments(self, p):
+    def scatter_gauss_moments(self, particles: ti.template(), grid: ti.template(),
+                              values: ti.template(), p):
         # MLS moments at the Gauss points within 1.5 h of the particle, quadratic-spline
         # weight, basis [1, d] with d = (x_p - y) / h
-        xi = (self.x[p][0] - self.values.origin()[0]) * self.values.inv_h()
+        xi = (particles.x[p][0] - values.origin()[0]) * values.inv_h()
         e0 = ti.floor(xi, ti.i32)
-        rho = self.m[p] / self.vol[p]
-        sig = self.sigma[p][0, 0]
+        rho = particles.m[p] / particles.vol[p]
+        sig = particles.sigma[p][0, 0]
         for k in ti.static(range(-2, 3)):
             e = e0 + k
-            if 0 <= e < self.values.elements()[0]:
+            if 0 <= e < values.elements()[0]:
                 for g in ti.static(range(len(GAUSS_POINTS))):
-                    y, jw = self._gauss_point(e, g)
+                    y, jw = self._gauss_point(grid, values, e, g)
                     d = xi - y
                     w = quadratic_spline_weight(ti.abs(d)) if jw > 0.0 else 0.0
                     if w > 0.0:
                         if ti.static(self.mls_order == 1):
-                            self.accumulate(self.g_mom[e, g], w * ti.Vector([1.0, d, d * d]))
-                            self.accumulate(self.g_sig[e, g], w * sig * ti.Vector([1.0, d]))
+                            self.accumulate(grid.g_mom[e, g], w * ti.Vector([1.0, d, d * d]))
+                            self.accumulate(grid.g_sig[e, g], w * sig * ti.Vector([1.0, d]))
                         else:
                             d2 = d * d
-                            self.accumulate(self.g_mom[e, g],
+                            self.accumulate(grid.g_mom[e, g],
                                             w * ti.Vector([1.0, d, d2, d2 * d, d2 * d2]))
-                            self.accumulate(self.g_sig[e, g], w * sig * ti.Vector([1.0, d, d2]))
+                            self.accumulate(grid.g_sig[e, g], w * sig * ti.Vector([1.0, d, d2]))
                         if ti.static(self.mls_study):
-                            self.accumulate(self.g_rho[e, g], w * rho * ti.Vector([1.0, d]))
+                            self.accumulate(grid.g_rho[e, g], w * rho * ti.Vector([1.0, d]))
 
     @ti.func
-    def body_extent(self):
+    def body_extent(self, particles: ti.template(), grid: ti.template(), values: ti.template()):
         # the body is the union of the particle domains x_p -+ V_p / 2 (element units)
-        for p in range(self.values.n_particles()):
-            xi = (self.x[p][0] - self.values.origin()[0]) * self.values.inv_h()
-            half = 0.5 * self.vol[p] * self.values.inv_h()
+        for p in range(values.n_particles()):
+            xi = (particles.x[p][0] - values.origin()[0]) * values.inv_h()
+            half = 0.5 * particles.vol[p] * values.inv_h()
             if ti.static(self.mode == "serial"):  # one thread: no atomics (see _sum_into)
-                self.body[None][0] = ti.min(self.body[None][0], xi - half)
-                self.body[None][1] = ti.max(self.body[None][1], xi + half)
+                grid.body[None][0] = ti.min(grid.body[None][0], xi - half)
+                grid.body[None][1] = ti.max(grid.body[None][1], xi + half)
             else:
-                ti.atomic_min(self.body[None][0], xi - half)
-                ti.atomic_max(self.body[None][1], xi + half)
+                ti.atomic_min(grid.body[None][0], xi - half)
+                ti.atomic_max(grid.body[None][1], xi + half)
 
     @ti.func
-    def _gauss_point(self, e, g: ti.template()):
+    def _gauss_point(self, grid: ti.template(), values: ti.template(), e, g: ti.template()):
         """Gauss point g of element e's part of the body, and its weight times length."""
-        a = ti.max(ti.cast(e, float), self.body[None][0])
-        b = ti.min(ti.cast(e + 1, float), self.body[None][1])
-        return a + (b - a) * GAUSS_POINTS[g], GAUSS_WEIGHTS[g] * ti.max(b - a, 0.0) * self.values.h()
+        a = ti.max(ti.cast(e, float), grid.body[None][0])
+        b = ti.min(ti.cast(e + 1, float), grid.body[None][1])
+        return a + (b - a) * GAUSS_POINTS[g], GAUSS_WEIGHTS[g] * ti.max(b - a, 0.0) * values.h()
 
     @ti.func
-    def integrate_gauss(self):
+    def integrate_gauss(self, grid: ti.template(), values: ti.template()):
         # M_ii = int rho phi_i, F_i = int (rho g phi_i - sigma dphi_i) by Gauss quadrature
         # over each element's part of the body, rho and sigma reconstructed by MLS (4.4);
         # beyond the study's case only F_i = -int sigma dphi_i (mass from the particles)
-        for e in range(self.values.elements()[0]):
+        for e in range(values.elements()[0]):
             for g in ti.static(range(len(GAUSS_POINTS))):
-                y, jw = self._gauss_point(e, g)
+                y, jw = self._gauss_point(grid, values, e, g)
                 if jw > 0.0:
-                    base, w, dw = self.basis.stencil(y, self.values.elements()[0])
+                    base, w, dw = self.basis.stencil(y, values.elements()[0])
                     sig = 0.0
                     if ti.static(self.mls_order == 2):
-                        sig = _mls_value_quadratic(self.g_mom[e, g], self.g_sig[e, g])
+                        sig = _mls_value_quadratic(grid.g_mom[e, g], grid.g_sig[e, g])
                     else:
-                        sig = _mls_value(self.g_mom[e, g], self.g_sig[e, g])
+                        sig = _mls_value(grid.g_mom[e, g], grid.g_sig[e, g])
                     if ti.static(self.mls_study):
-                        rho = _mls_value(self.g_mom[e, g], self.g_rho[e, g])
+                        rho = _mls_value(grid.g_mom[e, g], grid.g_rho[e, g])
                         for a in ti.static(range(self.basis.support)):
-                            self.accumulate(self.node_mass[base + a], jw * rho * w[a])
-                            self.accumulate(self.node_force[base + a][0], jw * (
-                                rho * self.values.gravity()[0] * w[a] - sig * dw[a] * self.values.inv_h()))
+                            self.accumulate(grid.node_mass[base + a], jw * rho * w[a])
+                            self.accumulate(grid.node_force[base + a][0], jw * (
+                                rho * values.gravity()[0] * w[a] - sig * dw[a] * values.inv_h()))
                     else:
                         for a in ti.static(range(self.basis.support)):
-                            self.accumulate(self.node_force[base + a][0],
-                                            -jw * sig * dw[a] * self.values.inv_h())
+                            self.accumulate(grid.node_force[base + a][0],
+                                            -jw * sig * dw[a] * values.inv_h())
 
     @ti.func
-    def scatter_node_moments(self, p, vp):
+    def scatter_node_moments(self, particles: ti.template(), grid: ti.template(),
+                             values: ti.template(), p, vp):
         # MLS moments at the nodes within 2 h, cubic-spline weight (r = |d| / 2)
-        xi = (self.x[p][0] - self.values.origin()[0]) * self.values.inv_h()
+        xi = (particles.x[p][0] - values.origin()[0]) * values.inv_h()
         i0 = ti.floor(xi, ti.i32)
         for k in ti.static(range(-1, 3)):
             i = i0 + k
-            if 0 <= i < self.values.nodes()[0]:
+            if 0 <= i < values.nodes()[0]:
                 d = xi - i
                 w = _cubic_spline(0.5 * ti.abs(d))
                 if w > 0.0:
-                    self.accumulate(self.n_mom[i], w * ti.Vector([1.0, d, d * d]))
-                    self.accumulate(self.n_vel[i], w * vp * ti.Vector([1.0, d]))
+                    self.accumulate(grid.n_mom[i], w * ti.Vector([1.0, d, d * d]))
+                    self.accumulate(grid.n_vel[i], w * vp * ti.Vector([1.0, d]))
 
     @ti.func
-    def mls_nodal_velocity(self):
+    def mls_nodal_velocity(self, grid: ti.template(), values: ti.template()):
         # v_i = sum_p Phi_p(x_i) v_p: the MLS reconstruction of the velocity field (4.4)
-        for i in range(self.values.nodes()[0]):
+        for i in range(values.nodes()[0]):
             v = 0.0
             if not self.is_fixed(i):
-                v = _mls_value(self.n_mom[i], self.n_vel[i])
-            self.node_velocity[i][0] = v
+                v = _mls_value(grid.n_mom[i], grid.n_vel[i])
+            grid.node_velocity[i][0] = v

@@ -73,6 +73,11 @@ def _param_spec(features, scheme):
     return groups
 
 
+#: the scratch the grid view carries beside the nodes: the 1D consistent mass's band, the 1D
+#: MLS projection's sums at the Gauss points and the nodes and the body's extent
+GRID_SCRATCH = ("band", "g_mom", "g_sig", "g_rho", "n_mom", "n_vel", "body")
+
+
 @ti.data_oriented
 class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, ConsistentMass,
               ConsistentMassCG, MLSProjection, MLSStressND, GridSolve, Transfer, RungeKutta,
@@ -286,9 +291,9 @@ class Program(Failures, StencilOps, ScatterOps, PhaseRunner, GridNodes, Consiste
         self.particles = FieldView("particle", particle)
         self.material_state = MaterialState(particle, self.dim, self.update_volume,
                                             self.accumulate)
-        self.grid = FieldView("grid", {
+        self.grid = FieldView("grid", {  # with the 1D consistent mass and MLS sums
             **{name: grid[key] for name, key in NODE_NAMES.items() if key in grid},
-            **({"band": scratch["band"]} if "band" in scratch else {})})
+            **{name: scratch[name] for name in GRID_SCRATCH if name in scratch}})
         if history:
             self.h_t, self.h_step = history["t"], history["step"]
             for key, attr in (("energy", "h_energy"), ("x", "h_x"), ("v", "h_v"),

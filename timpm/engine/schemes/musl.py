@@ -80,7 +80,7 @@ class MUSL:
         # the grid cleared; with the MLS projection in 1D the body's extent
         prog.clear_grid()
         if ti.static(prog.mls and prog.dim == 1):
-            prog.body_extent()
+            prog.body_extent(particles, grid, values)
 
     @ti.func
     def p2g_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
@@ -99,7 +99,7 @@ class MUSL:
                 if ti.static(prog.mls_study):
                     fp[0] -= mp * values.gravity()[0]  # gravity and mass: from the Gauss points
                 if ti.static(prog.dim == 1):
-                    prog.scatter_gauss_moments(p)
+                    prog.scatter_gauss_moments(particles, grid, values, p)
                 else:
                     prog.scatter_gauss_moments_nd(p)
             for r in range(prog.stencil_rows):
@@ -131,7 +131,7 @@ class MUSL:
         # MLS: the stress integrated at the Gauss points; the consistent mass factorised
         # (1D banded LU) or its weights kept for the conjugate gradients
         if ti.static(prog.mls and prog.dim == 1):
-            prog.integrate_gauss()
+            prog.integrate_gauss(grid, values)
         elif ti.static(prog.mls):
             prog.integrate_gauss_nd()
         if ti.static(prog.consistent and prog.dim == 1):
@@ -195,7 +195,7 @@ class MUSL:
                                    particles.v[p] + values.dt() * acc)
             particles.v[p] = vp
             if ti.static(prog.mls_study):
-                prog.scatter_node_moments(p, vp[0])
+                prog.scatter_node_moments(particles, grid, values, p, vp[0])
             else:
                 for r in range(prog.stencil_rows):
                     row = prog.stencil_row(w, dw, r)
@@ -224,7 +224,7 @@ class MUSL:
     def velocity_solve(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
                        values: ti.template()):
         if ti.static(prog.mls_study):
-            prog.mls_nodal_velocity()
+            prog.mls_nodal_velocity(grid, values)
         else:
             prog.solve_mass(grid.node_momentum, True)  # P_i into v_i in place
 
