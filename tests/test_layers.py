@@ -361,7 +361,7 @@ def state_names():
     run fields (``"x": ti.Vector.field``, ``particle["C"] = ti.Matrix.field``, ...), the
     grid's kernel names (grid.NODE_NAMES) and ``values``."""
     source = "".join((PACKAGE / "engine" / name).read_text()  # the integrators' scratch
-                     for name in ("program.py", "rk4.py", "midpoint.py"))
+                     for name in ("program.py", "rk4.py", "midpoint.py", "mls_stress_nd.py"))
     names = set(re.findall(r'"(\w+)": ti\.(?:Vector\.|Matrix\.)?field', source))
     names |= set(re.findall(r'(\w+)=ti\.(?:Vector\.|Matrix\.)?field', source))
     names |= set(re.findall(r'\w+\["(\w+)"\] = ti\.(?:Vector\.|Matrix\.)?field', source))
@@ -391,14 +391,16 @@ def test_a_scheme_reads_its_state_from_its_arguments():
     assert {name: reads for name, reads in found.items() if reads} == {}
 
 
-@pytest.mark.parametrize("unit", ["rk4.py", "midpoint.py", "mls_projection.py"])
+@pytest.mark.parametrize("unit", ["rk4.py", "midpoint.py", "mls_projection.py",
+                                  "mls_stress_nd.py"])
 def test_an_integrator_or_projection_reads_its_state_from_its_arguments(unit):
-    """The integrators' and the 1D MLS projection's functions receive the particle and
-    grid fields (the MLS sums with the grid: ``grid.g_mom[e, g]``), the integrators'
-    scratch (``stages.x_start[p]``, ``iterate.v_end[p]``) and the run-time values;
-    through ``self`` they reach the program's operations and compile-time choices only."""
+    """The integrators' and the MLS projections' functions receive the particle and grid
+    fields (the MLS sums with the grid: ``grid.g_mom[e, g]``, ``grid.q_mom[I, g]``), the
+    integrators' scratch (``stages.x_start[p]``, ``iterate.v_end[p]``) and the run-time
+    values; through ``self`` they reach the program's operations and compile-time choices
+    only."""
     assert {"x_start", "F_rate", "b_stages", "F_start", "v_end", "x_end", "g_mom", "n_vel",
-            "body"} <= state_names()
+            "body", "q_mom", "q_sig"} <= state_names()
     source = (PACKAGE / "engine" / unit).read_text()
     assert state_reads_through_the_program(source, program="self") == []
 

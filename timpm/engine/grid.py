@@ -105,7 +105,7 @@ class GridSolve:
             for i, k in ti.ndrange(self.values.nodes()[0], 2 * self.bandwidth + 1):
                 self.band[i, k] = 0.0
         if ti.static(self.mls and self.dim > 1):
-            self.clear_gauss_nd()
+            self.clear_gauss_nd(self.grid, self.values)
         elif ti.static(self.mls):
             for e, g in ti.ndrange(self.values.elements()[0], ti.static(len(GAUSS_POINTS))):
                 self.g_mom[e, g] = ti.Vector.zero(float, 2 * self.mls_order + 1)

@@ -31,7 +31,8 @@ def mls_nd_fields(dim, order, real):
 
 
 class MLSStressND:
-    """See the module."""
+    """See the module.  Its functions receive the particle fields, the grid fields (with
+    the Gauss points' sums ``grid.q_mom``, ``grid.q_sig``) and the run-time values."""
 
     @ti.func
     def _monomials(self, d):
@@ -50,17 +51,18 @@ class MLSStressND:
         return P
 
     @ti.func
-    def scatter_gauss_moments_nd(self, p):
+    def scatter_gauss_moments_nd(self, particles: ti.template(), grid: ti.template(),
+                                 values: ti.template(), p):
         # MLS moments at the Gauss points within 1.5 h along each axis: the Gauss points of
         # the cells e0 - 2 .. e0 + 2 per axis (global index 2 e + g), weight prod w(|d_k|)
         xi = ti.Vector.zero(float, self.dim)
         lo = ti.Vector.zero(ti.i32, self.dim)
         for k in ti.static(range(self.dim)):
-            xi[k] = (self.x[p][k] - self.values.origin()[k]) * self.values.inv_h()
+            xi[k] = (particles.x[p][k] - values.origin()[k]) * values.inv_h()
             lo[k] = 2 * (ti.floor(xi[k], ti.i32) - 2)
         sig = ti.Vector.zero(float, self.dim * self.dim)
         for j, k in ti.static(ti.ndrange(self.dim, self.dim)):
-            sig[j * self.dim + k] = self.sigma[p][j, k]
+            sig[j * self.dim + k] = particles.sigma[p][j, k]
         for J in ti.grouped(ti.ndrange(*((10,) * self.dim))):
             d = ti.Vector.zero(float, self.dim)
             w = 1.0
@@ -73,14 +75,14 @@ class MLSStressND:
                 g += gk << k
                 y = cell[k] + GAUSS_POINTS[0] + gk * (GAUSS_POINTS[1] - GAUSS_POINTS[0])
                 d[k] = xi[k] - y
-                if not (0 <= cell[k] < self.values.elements()[k]):
+                if not (0 <= cell[k] < values.elements()[k]):
                     w = 0.0
                 else:
                     w *= quadratic_spline_weight(ti.abs(d[k]))
             if w > 0.0:
                 P = self._monomials(d)
-                self.accumulate(self.q_mom[cell, g], w * P.outer_product(P))
-                self.accumulate(self.q_sig[cell, g], w * P.outer_product(sig))
+                self.accumulate(grid.q_mom[cell, g], w * P.outer_product(P))
+                self.accumulate(grid.q_sig[cell, g], w * P.outer_product(sig))
 
     @ti.func
     def _mls_fit_nd(self, A, B):
@@ -129,15 +131,15 @@ class MLSStressND:
         return z @ B
 
     @ti.func
-    def integrate_gauss_nd(self):
+    def integrate_gauss_nd(self, grid: ti.template(), values: ti.template()):
         # F_i = -sum_cells sum_g w_g h^dim sigma_h(y_g) grad phi_i(y_g), sigma_h the MLS fit
         # of the particles' stress at the Gauss point y_g (each cell full: the body fills
         # the grid)
         jw = ti.static(GAUSS_WEIGHTS[0] ** self.dim)
-        for I in ti.grouped(ti.ndrange(*[self.values.elements()[k] for k in range(self.dim)])):
+        for I in ti.grouped(ti.ndrange(*[values.elements()[k] for k in range(self.dim)])):
             for g in range(2 ** self.dim):  # a run-time loop: one copy of the fit to compile
-                if self.q_mom[I, g][0, 0] > 0.0:
-                    s = self._mls_fit_nd(self.q_mom[I, g], self.q_sig[I, g])
+                if grid.q_mom[I, g][0, 0] > 0.0:
+                    s = self._mls_fit_nd(grid.q_mom[I, g], grid.q_sig[I, g])
                     sig = ti.Matrix.zero(float, self.dim, self.dim)
                     for j, k in ti.static(ti.ndrange(self.dim, self.dim)):
                         sig[j, k] = s[j * self.dim + k]
@@ -146,17 +148,17 @@ class MLSStressND:
                         y[k] = I[k] + GAUSS_POINTS[0] + ((g >> k) & 1) * (GAUSS_POINTS[1]
                                                                          - GAUSS_POINTS[0])
                     base, w, dw, _ = self.stencil_at(y)
-                    scale = jw * self.values.h() ** self.dim
+                    scale = jw * values.h() ** self.dim
                     for r in range(self.stencil_rows):
                         row = self.stencil_row(w, dw, r)
                         for a in ti.static(range(self.basis.support)):
                             offset, phi, grad = self.row_node(w, dw, r, row, a)
-                            self.accumulate(self.node_force[base + offset], -scale * (sig @ grad))
+                            self.accumulate(grid.node_force[base + offset], -scale * (sig @ grad))
 
     @ti.func
-    def clear_gauss_nd(self):
+    def clear_gauss_nd(self, grid: ti.template(), values: ti.template()):
         n = ti.static(monomial_count(self.dim, self.mls_order))
-        for I in ti.grouped(ti.ndrange(*[self.values.elements()[k] for k in range(self.dim)])):
+        for I in ti.grouped(ti.ndrange(*[values.elements()[k] for k in range(self.dim)])):
             for g in ti.static(range(2 ** self.dim)):
-                self.q_mom[I, g] = ti.Matrix.zero(float, n, n)
-                self.q_sig[I, g] = ti.Matrix.zero(float, n, self.dim * self.dim)
+                grid.q_mom[I, g] = ti.Matrix.zero(float, n, n)
+                grid.q_sig[I, g] = ti.Matrix.zero(float, n, self.dim * self.dim)

@@ -101,7 +101,7 @@ class MUSL:
                 if ti.static(prog.dim == 1):
                     prog.scatter_gauss_moments(particles, grid, values, p)
                 else:
-                    prog.scatter_gauss_moments_nd(p)
+                    prog.scatter_gauss_moments_nd(particles, grid, values, p)
             for r in range(prog.stencil_rows):
                 row = prog.stencil_row(w, dw, r)
                 for a in ti.static(range(prog.basis.support)):
@@ -133,7 +133,7 @@ class MUSL:
         if ti.static(prog.mls and prog.dim == 1):
             prog.integrate_gauss(grid, values)
         elif ti.static(prog.mls):
-            prog.integrate_gauss_nd()
+            prog.integrate_gauss_nd(grid, values)
         if ti.static(prog.consistent and prog.dim == 1):
             prog.banded_factorise()
         elif ti.static(prog.consistent):
