@@ -79,14 +79,14 @@ class HostState:
         def host_value(fld, arr, row, col, shape):
             # a state field's entry from its host columns arr[row, col + component], in the
             # field's type
-            def at(c):
+            def column(c):
                 return ti.cast(impl.subscript(None, arr, row, col + c), fld.dtype)
             if shape[1] > 0:
-                return ti.Matrix([[at(i * shape[1] + j) for j in range(shape[1])]
+                return ti.Matrix([[column(i * shape[1] + j) for j in range(shape[1])]
                                   for i in range(shape[0])])
             if shape[1] == 0:
-                return ti.Vector([at(i) for i in range(shape[0])])
-            return at(0)
+                return ti.Vector([column(i) for i in range(shape[0])])
+            return column(0)
 
         @ti.func
         def get(fld: ti.template(), I, arr: ti.template(), row, col: ti.template(),

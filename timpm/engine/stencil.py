@@ -93,7 +93,7 @@ class StencilOps:
 
     @expression
     def _offset_of(self, r, a):
-        """The stencil offset of node a of row r (a a Python integer)."""
+        """The stencil offset of node a (a Python integer) of row r."""
         o0, o1 = self._row_offsets(r)
         return ti.Vector([o0, o1, a][3 - self.dim:])
 
