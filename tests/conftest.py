@@ -118,6 +118,31 @@ def pytest_configure(config):
         timpm.init(threads=int(os.environ.get("TIMPM_THREADS", "2")))
 
 
+def pytest_sessionfinish(session):
+    """Each test process writes its new kernels to the offline cache in turn: Taichi writes
+    them when it stops, and the two workers, stopping together at the end of the suite,
+    met on Taichi's cache lock ("Lock .../ticache.lock failed", printed after the summary,
+    and one worker's kernels not kept for the next run)."""
+    from taichi.lang import impl
+
+    if impl.get_runtime().prog is None:
+        return
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: Taichi's own lock alone
+        return
+    import hashlib
+    import tempfile
+
+    import taichi as ti
+
+    cache = os.path.abspath(os.environ.get("TI_OFFLINE_CACHE_FILE_PATH", "default"))
+    key = hashlib.sha1(cache.encode()).hexdigest()[:12]
+    with open(os.path.join(tempfile.gettempdir(), f"timpm-ticache-{key}.lock"), "w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        ti.reset()  # Taichi stops here, writing its cache, while this process holds the lock
+
+
 @pytest.fixture
 def exact_rounding():
     """Taichi restarted without fast math (threads kept) for one test, then back to the
