@@ -392,15 +392,15 @@ def test_a_scheme_reads_its_state_from_its_arguments():
 
 
 @pytest.mark.parametrize("unit", ["rk4.py", "midpoint.py", "mls_projection.py",
-                                  "mls_stress_nd.py"])
-def test_an_integrator_or_projection_reads_its_state_from_its_arguments(unit):
-    """The integrators' and the MLS projections' functions receive the particle and grid
-    fields (the MLS sums with the grid: ``grid.g_mom[e, g]``, ``grid.q_mom[I, g]``), the
-    integrators' scratch (``stages.x_start[p]``, ``iterate.v_end[p]``) and the run-time
-    values; through ``self`` they reach the program's operations and compile-time choices
-    only."""
+                                  "mls_stress_nd.py", "consistent_mass.py"])
+def test_an_integrator_projection_or_solve_reads_its_state_from_its_arguments(unit):
+    """The integrators', the MLS projections' and the 1D consistent mass's functions
+    receive the particle and grid fields (the MLS sums and the band with the grid:
+    ``grid.g_mom[e, g]``, ``grid.q_mom[I, g]``, ``grid.band[i, k]``), the integrators'
+    scratch (``stages.x_start[p]``, ``iterate.v_end[p]``) and the run-time values; through
+    ``self`` they reach the program's operations and compile-time choices only."""
     assert {"x_start", "F_rate", "b_stages", "F_start", "v_end", "x_end", "g_mom", "n_vel",
-            "body", "q_mom", "q_sig"} <= state_names()
+            "body", "q_mom", "q_sig", "band", "inactive", "neg_pivots"} <= state_names()
     source = (PACKAGE / "engine" / unit).read_text()
     assert state_reads_through_the_program(source, program="self") == []
 

@@ -12,57 +12,58 @@ __all__ = ["ConsistentMass"]
 
 
 class ConsistentMass:
-    """See the module."""
+    """See the module.  Its functions receive the grid fields (the band ``grid.band`` and
+    its rows' flags ``grid.inactive`` with them) and the run-time values."""
 
     @ti.func
-    def banded_factorise(self):
+    def banded_factorise(self, grid: ti.template(), values: ti.template()):
         # consistent mass (A.1): banded LU without pivoting, in place, on one thread; fixed
         # and empty rows become identity rows (their right-hand sides are zeroed)
         b = ti.static(self.bandwidth)
-        nn = self.values.nodes()[0]
+        nn = values.nodes()[0]
         for _ in range(1):
             for i in range(nn):
-                self.inactive[i] = 0
-                if self.is_fixed(i) or self.band[i, b] <= self.values.mass_tol():
-                    self.inactive[i] = 1
+                grid.inactive[i] = 0
+                if self.is_fixed(i) or grid.band[i, b] <= values.mass_tol():
+                    grid.inactive[i] = 1
                     for k in ti.static(range(2 * b + 1)):
-                        self.band[i, k] = 0.0
+                        grid.band[i, k] = 0.0
                     for r in ti.static(range(1, b + 1)):
                         if i - r >= 0:
-                            self.band[i - r, b + r] = 0.0
+                            grid.band[i - r, b + r] = 0.0
                         if i + r < nn:
-                            self.band[i + r, b - r] = 0.0
-                    self.band[i, b] = 1.0
+                            grid.band[i + r, b - r] = 0.0
+                    grid.band[i, b] = 1.0
             for k in range(nn):
-                pivot = self.band[k, b]
-                if ti.abs(pivot) <= self.values.pivot_tol():
+                pivot = grid.band[k, b]
+                if ti.abs(pivot) <= values.pivot_tol():
                     self.fail(ErrorCode.SINGULAR_MASS, k)
                     pivot = 1.0
-                    self.band[k, b] = 1.0
+                    grid.band[k, b] = 1.0
                 if pivot < 0.0:
-                    self.accumulate(self.neg_pivots[None], 1)
+                    self.count_negative_pivot()
                 for r in ti.static(range(1, b + 1)):
                     i = k + r
                     if i < nn:
-                        lik = self.band[i, b - r] / pivot
-                        self.band[i, b - r] = lik  # the multiplier, kept for substitution
+                        lik = grid.band[i, b - r] / pivot
+                        grid.band[i, b - r] = lik  # the multiplier, kept for substitution
                         for c in ti.static(range(1, b + 1)):
                             if c - r <= b:
-                                self.band[i, b - r + c] -= lik * self.band[k, b + c]
+                                grid.band[i, b - r + c] -= lik * grid.band[k, b + c]
 
     @ti.func
-    def banded_substitute(self, rhs: ti.template()):
+    def banded_substitute(self, grid: ti.template(), values: ti.template(), rhs: ti.template()):
         b = ti.static(self.bandwidth)
-        nn = self.values.nodes()[0]
+        nn = values.nodes()[0]
         for _ in range(1):
             for i in range(nn):
-                if self.inactive[i]:
+                if grid.inactive[i]:
                     rhs[i] = ti.Vector.zero(float, self.dim)
             for i in range(nn):  # forward: L y = rhs
                 acc = rhs[i]
                 for r in ti.static(range(1, b + 1)):
                     if i - r >= 0:
-                        acc -= self.band[i, b - r] * rhs[i - r]
+                        acc -= grid.band[i, b - r] * rhs[i - r]
                 rhs[i] = acc
             for j in range(nn):  # backward: U x = y
                 i = nn - 1 - j
@@ -71,5 +72,5 @@ class ConsistentMass:
                 # room for b nodes beyond the last), and a branch-free row is what the
                 # compiler contracts into fused multiply-adds
                 for c in ti.static(range(1, b + 1)):
-                    acc -= self.band[i, b + c] * rhs[i + c]
-                rhs[i] = acc / self.band[i, b]
+                    acc -= grid.band[i, b + c] * rhs[i + c]
+                rhs[i] = acc / grid.band[i, b]

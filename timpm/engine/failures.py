@@ -35,6 +35,15 @@ class Failures:
             self.err_where[None] = where
 
     @ti.func
+    def count_negative_pivot(self):
+        """One more negative pivot of the consistent mass (an indefinite matrix: quadratic
+        Lagrange elements), reported with the run."""
+        if ti.static(self.mode == "serial"):
+            self.neg_pivots[None] = self.neg_pivots[None] + 1
+        else:
+            self.neg_pivots[None] += 1
+
+    @ti.func
     def failed(self):
         """Whether the run has recorded an error (in this step or before)."""
         return self.err_count[None] != 0

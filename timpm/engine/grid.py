@@ -127,7 +127,7 @@ class GridSolve:
         elif ti.static(self.dim > 1):
             self.cg_solve(rhs)  # the walls' held components are constraints of the solve
         else:
-            self.banded_substitute(rhs)
+            self.banded_substitute(self.grid, self.values, rhs)
 
     @ti.func
     def solve_mass_node(self, rhs: ti.template(), walls: ti.template(), I):

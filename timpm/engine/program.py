@@ -73,9 +73,11 @@ def _param_spec(features, scheme):
     return groups
 
 
-#: the scratch the grid view carries beside the nodes: the 1D consistent mass's band, the
-#: MLS projections' sums at the Gauss points (1D and 2D) and the nodes, the 1D body's extent
-GRID_SCRATCH = ("band", "g_mom", "g_sig", "g_rho", "n_mom", "n_vel", "body", "q_mom", "q_sig")
+#: the scratch the grid view carries beside the nodes: the 1D consistent mass's band and
+#: its rows' flags, the MLS projections' sums at the Gauss points (1D and 2D) and the nodes,
+#: the 1D body's extent
+GRID_SCRATCH = ("band", "inactive", "g_mom", "g_sig", "g_rho", "n_mom", "n_vel", "body",
+                "q_mom", "q_sig")
 
 
 @ti.data_oriented

@@ -135,7 +135,7 @@ class MUSL:
         elif ti.static(prog.mls):
             prog.integrate_gauss_nd(grid, values)
         if ti.static(prog.consistent and prog.dim == 1):
-            prog.banded_factorise()
+            prog.banded_factorise(grid, values)
         elif ti.static(prog.consistent):
             prog.cg_keep_weights()
 
