@@ -40,10 +40,10 @@ class ConsistentMassCG:
     """See the module."""
 
     @ti.func
-    def cg_keep_weights(self):
+    def cg_keep_weights(self, particles: ti.template(), values: ti.template()):
         # the particles' node bases and weights phi_i(x_p) for the mass products of the step
-        for p in range(self.values.n_particles()):
-            base, w, dw, xi, inside = self.stencil(self.x[p])
+        for p in range(values.n_particles()):
+            base, w, dw, xi, inside = self.stencil(particles.x[p])
             offsets = ti.static(self._cg_offsets())
             phi = ti.Vector.zero(float, ti.static(len(offsets)))
             if inside:

@@ -137,7 +137,7 @@ class MUSL:
         if ti.static(prog.consistent and prog.dim == 1):
             prog.banded_factorise(grid, values)
         elif ti.static(prog.consistent):
-            prog.cg_keep_weights()
+            prog.cg_keep_weights(particles, values)
 
     # ---- the grid: accelerations -----------------------------------------------------------
     @ti.func
