@@ -119,28 +119,11 @@ def pytest_configure(config):
 
 
 def pytest_sessionfinish(session):
-    """Each test process writes its new kernels to the offline cache in turn: Taichi writes
-    them when it stops, and the two workers, stopping together at the end of the suite,
-    met on Taichi's cache lock ("Lock .../ticache.lock failed", printed after the summary,
-    and one worker's kernels not kept for the next run)."""
-    from taichi.lang import impl
+    # each test process writes its kernels to the offline cache here, in turn with the
+    # other worker (timpm.runtime.stop; also run at exit)
+    from timpm import runtime
 
-    if impl.get_runtime().prog is None:
-        return
-    try:
-        import fcntl
-    except ImportError:  # not POSIX: Taichi's own lock alone
-        return
-    import hashlib
-    import tempfile
-
-    import taichi as ti
-
-    cache = os.path.abspath(os.environ.get("TI_OFFLINE_CACHE_FILE_PATH", "default"))
-    key = hashlib.sha1(cache.encode()).hexdigest()[:12]
-    with open(os.path.join(tempfile.gettempdir(), f"timpm-ticache-{key}.lock"), "w") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
-        ti.reset()  # Taichi stops here, writing its cache, while this process holds the lock
+    runtime.stop()
 
 
 @pytest.fixture

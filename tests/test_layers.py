@@ -23,8 +23,8 @@ PACKAGE = Path(__file__).resolve().parent.parent / "timpm"
 #: below it.  A name covers the module and its submodules; a trailing ``*`` covers every
 #: module whose name starts so (``timpm.model*``: timpm.model, timpm.models.x, ...)
 LAYERS = (
-    ("timpm.taichi_backend", "timpm.runtime", "timpm.argtypes", "timpm.progress",
-     "timpm.interrupt", "timpm.files"),
+    ("timpm.taichi_backend", "timpm.taichi_frontend", "timpm.runtime", "timpm.argtypes",
+     "timpm.progress", "timpm.interrupt", "timpm.files"),
     ("timpm.scene", "timpm.world", "timpm.basis", "timpm.materials*", "timpm.model*",
      "timpm.walls", "timpm.engine*", "timpm.errors", "timpm.checks", "timpm.loads",
      "timpm.geometry", "timpm.geostatic"),

@@ -294,7 +294,7 @@ def test_the_fast_line_wrapper_wraps_as_textwrap_does():
     import random
     import textwrap
 
-    from timpm.runtime import _FittingLineWrapper
+    from timpm.taichi_frontend import _FittingLineWrapper
 
     fast, reference = _FittingLineWrapper(width=80), textwrap.TextWrapper(width=80)
     rng = random.Random(1)
@@ -309,7 +309,7 @@ def test_the_fast_line_wrapper_wraps_as_textwrap_does():
     narrow = _FittingLineWrapper(width=30)
     assert narrow.wrap(texts[-1]) == textwrap.TextWrapper(width=30).wrap(texts[-1])
     # and the memoized fill and dedent of each source line Taichi reads
-    from timpm.runtime import _MemoizedTextwrap
+    from timpm.taichi_frontend import _MemoizedTextwrap
 
     for text in texts[:2000]:
         assert _MemoizedTextwrap.fill(text, tabsize=4, width=9999) == textwrap.fill(
@@ -331,7 +331,7 @@ def test_taichi_imported_by_timpm_has_the_fast_class_body_check_from_its_start(t
         from taichi.lang import kernel_impl
         from timpm.problems import get_problem
         assert kernel_impl._timpm_fast
-        assert not any(type(f).__name__ == "_FastDecoratorsOnLoad" for f in sys.meta_path)
+        assert not any(type(f).__name__ == "FastDecoratorsOnLoad" for f in sys.meta_path)
         solver = timpm.Solver(get_problem("vibrating-string").scene(elements=4))
         solver.run(n_steps=10)
         print("getframeinfo calls", len(calls), "x", solver.positions().ravel()[:2])

@@ -4,62 +4,15 @@ owned by the thread that started it and unusable in a child forked after it star
 import atexit
 import ctypes
 import functools
-import importlib.abc
-import importlib.machinery
-import inspect
-import linecache
+import hashlib
 import numbers
 import os
 import sys
-import textwrap
+import tempfile
 import threading
 import time
 
-from . import taichi_backend
-
-
-def _read_decorator_line_once(kernel_impl) -> None:
-    """Taichi asks, at every ``@ti.func`` and ``@ti.kernel``, whether the decorator stands
-    in a class body: it reads the decorating frame's source line with
-    ``inspect.getframeinfo``, which looks the module up among all loaded modules each
-    time (15 ms of each start over timpm's imports, more for each program built).  The
-    same line, read through ``linecache`` at the same position: the same answer."""
-    patterns = getattr(kernel_impl, "_KERNEL_CLASS_STACKFRAME_STMT_RES", None)
-    position = getattr(inspect, "_get_code_position", None)
-    if patterns is None or position is None or getattr(kernel_impl, "_timpm_fast", False):
-        return  # another Taichi or Python: its own check
-
-    def _inside_class(level_of_class_stackframe):
-        try:
-            frame = sys._getframe(level_of_class_stackframe)
-        except ValueError:
-            return False
-        lineno = position(frame.f_code, frame.f_lasti)[0] or frame.f_lineno
-        line = linecache.getline(frame.f_code.co_filename, lineno, frame.f_globals).strip()
-        return any(pattern.match(line) for pattern in patterns)
-
-    kernel_impl._inside_class = _inside_class
-    kernel_impl._timpm_fast = True
-
-
-class _FastDecoratorsOnLoad(importlib.abc.MetaPathFinder):
-    """``taichi.lang.kernel_impl`` with :func:`_read_decorator_line_once` applied as soon
-    as it is loaded: Taichi's own modules define functions at their import too (30-60 ms
-    of every start; taichi 1.7 only, and a taichi imported before timpm gets it after)."""
-
-    def find_spec(self, name, path=None, target=None):
-        if name != "taichi.lang.kernel_impl":
-            return None
-        spec = importlib.machinery.PathFinder.find_spec(name, path)
-        if spec is None or not hasattr(spec.loader, "exec_module"):
-            return spec
-        load = spec.loader.exec_module
-
-        def exec_module(module):
-            load(module)
-            _read_decorator_line_once(module)
-        spec.loader.exec_module = exec_module
-        return spec
+from . import taichi_backend, taichi_frontend
 
 
 # Taichi prints its banner when imported: timpm imports it quietly and prints the banner
@@ -71,7 +24,7 @@ if _banner_deferred:
     os.environ[_BANNER_VAR] = "False"
 _fast_decorators = None
 if "taichi" not in sys.modules and not taichi_backend.FORGE:
-    _fast_decorators = _FastDecoratorsOnLoad()
+    _fast_decorators = taichi_frontend.FastDecoratorsOnLoad()
     sys.meta_path.insert(0, _fast_decorators)
 try:
     import taichi as ti
@@ -83,12 +36,12 @@ finally:
 from taichi.lang import impl, kernel_impl
 from taichi.lang.misc import is_arch_supported
 
-_read_decorator_line_once(kernel_impl)  # where Taichi was imported before timpm
+taichi_frontend.read_decorator_line_once(kernel_impl)  # Taichi imported before timpm
 
 __all__ = ["ARCHS", "BackendUnavailable", "ForkedProcess", "WrongThread", "arch",
            "check_caller", "compile_clock", "cpu_threads", "ensure_init", "generation",
            "init", "on_cpu", "exit_process", "pin_workers", "precision", "settings",
-           "static_cpu_blocks"]
+           "static_cpu_blocks", "stop"]
 
 #: the backends ``init(arch=...)`` takes
 ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda, "vulkan": ti.vulkan, "metal": ti.metal}
@@ -257,81 +210,6 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     raise _unavailable(arch, why) from failure
 
 
-class _FittingLineWrapper(textwrap.TextWrapper):
-    """TextWrapper with a fast path for a line that fits (see _memoize_source_positions)."""
-
-    _SETTINGS = ("width", "initial_indent", "subsequent_indent", "expand_tabs",
-                 "replace_whitespace", "fix_sentence_endings", "break_long_words",
-                 "drop_whitespace", "break_on_hyphens", "tabsize", "max_lines", "placeholder")
-    _wrapped: dict = {}
-
-    def wrap(self, text):
-        line = text.expandtabs(self.tabsize) if self.expand_tabs else text
-        if self.replace_whitespace:
-            line = line.translate(self.unicode_whitespace_trans)
-        if (len(line) <= self.width and line.isascii() and line.isprintable()
-                and self.drop_whitespace and not self.initial_indent
-                and not self.subsequent_indent and self.max_lines is None):
-            line = line.rstrip(" ")
-            return [line] if line else []
-        # a longer line: wrapped once per text and settings (a line holds many nodes)
-        key = (text, *(getattr(self, name) for name in self._SETTINGS))
-        lines = self._wrapped.get(key)
-        if lines is None:
-            lines = self._wrapped[key] = tuple(super().wrap(text))
-        return list(lines)
-
-
-class _MemoizedTextwrap:
-    """``textwrap.fill`` and ``textwrap.dedent``, cached by their arguments."""
-    fill = staticmethod(functools.lru_cache(maxsize=None)(textwrap.fill))
-    dedent = staticmethod(functools.lru_cache(maxsize=None)(textwrap.dedent))
-
-
-def _memoize_source_positions() -> None:
-    """Taichi's frontend formats the source position of every AST node it builds (file,
-    line and the code with a ^^^ marker, wrapped by ``textwrap``): half of a kernel's
-    Python-side compile time, paid again for every call site of an inlined ``ti.func``.
-    The text depends only on the node's place in its source, so it is cached by that
-    place: the same strings, the same IR, the same offline-cache keys."""
-    from taichi.lang.ast import ast_transformer_utils as utils
-
-    ctx_cls = utils.ASTTransformerContext
-    if getattr(ctx_cls, "_timpm_memoized", False):
-        return
-    original = ctx_cls.get_pos_info
-    cache = {}
-
-    def get_pos_info(self, node):
-        key = (self.file, self.lineno_offset, self.indent, self.func.func.__name__,
-               node.lineno, node.end_lineno, node.col_offset, node.end_col_offset,
-               type(node).__name__)
-        text = cache.get(key)
-        if text is None:
-            text = cache[key] = original(self, node)
-        return text
-
-    ctx_cls.get_pos_info = get_pos_info
-    ctx_cls._timpm_memoized = True
-    # the wrapping of each source line and its ^^^ marker at 80 columns: a line that fits
-    # (printable ASCII after TextWrapper's tab expansion and whitespace replacement) is one
-    # line with its trailing blanks dropped, or none when blank: what TextWrapper gives
-    if getattr(utils, "TextWrapper", None) is textwrap.TextWrapper:
-        utils.TextWrapper = _FittingLineWrapper
-    # and the source of each function, which Taichi reads (tokenizing its file) again for
-    # every call site of an inlined ti.func
-    from taichi.lang import kernel_impl
-
-    for name in ("getsourcelines", "getsourcefile"):
-        original_lookup = getattr(kernel_impl, name, None)
-        if original_lookup is not None:
-            setattr(kernel_impl, name, functools.lru_cache(maxsize=None)(original_lookup))
-    # and each source line's tab expansion (``textwrap.fill`` at width 9999) and the
-    # function's dedent, done again at every call site too: pure functions of the text
-    if getattr(kernel_impl, "textwrap", None) is textwrap:
-        kernel_impl.textwrap = _MemoizedTextwrap()
-
-
 _compile_clock = [0.0]  # seconds in kernel calls that built a new kernel instance
 
 
@@ -411,6 +289,30 @@ def _print_banner() -> None:
         _print_taichi_header()
 
 
+def stop() -> None:
+    """Stop Taichi, which writes the kernels it compiled to its offline cache: one process
+    at a time per cache (a file lock beside Taichi's own).  Processes stopping together,
+    as test and sweep workers do, met on Taichi's lock, which then leaves one's kernels
+    out of the cache ("Lock .../ticache.lock failed").  Run at exit and before a restart."""
+    if impl.get_runtime().prog is None or "forked" in _state:
+        return
+    cache = os.path.abspath(os.environ.get("TI_OFFLINE_CACHE_FILE_PATH", "default"))
+    key = hashlib.sha1(cache.encode()).hexdigest()[:12]
+    try:
+        import fcntl
+
+        lock = open(os.path.join(tempfile.gettempdir(), f"timpm-ticache-{key}.lock"), "w")
+    except (ImportError, OSError):  # not POSIX, or no temporary folder: Taichi's lock alone
+        ti.reset()
+        return
+    with lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        ti.reset()
+
+
+atexit.register(stop)
+
+
 def _start(settings: dict) -> None:
     """``ti.init`` with ``settings``; the calling thread becomes the owner."""
     _state.pop("settings", None)
@@ -427,8 +329,9 @@ def _start(settings: dict) -> None:
         # ran 4-6x slower; "full" is taichi 1.7's pipeline (docs/performance.md)
         kwargs["compile_tier"] = "full"
     _print_banner()
+    stop()  # a restart: the last start's kernels written in turn
     ti.init(**kwargs)
-    _memoize_source_positions()
+    taichi_frontend.memoize_source_positions()
     _state.update(settings=settings, owner=threading.get_ident(),
                   owner_name=threading.current_thread().name)
     _state.pop("pinned", None)  # pinned at the first parallel launch (ensure_pinned)
@@ -480,14 +383,12 @@ if hasattr(os, "register_at_fork"):
 
 
 def exit_process(code: int):
-    """End the process with exit status ``code`` and no interpreter teardown: Taichi's
-    runtime finalised first (which writes newly compiled kernels to the offline cache),
-    the standard streams flushed, the ``atexit`` handlers run, then ``os._exit``.  The
+    """End the process with exit status ``code`` and no interpreter teardown: the standard
+    streams flushed, the ``atexit`` handlers run (:func:`stop` among them: Taichi writes
+    newly compiled kernels to the offline cache), then ``os._exit``.  The
     teardown it skips (freeing every module and Taichi's LLVM state) took 0.06-0.08 s of
     every command (docs/performance.md).  For the ``timpm`` command only: a caller in
     Python keeps its interpreter."""
-    if "settings" in _state and "forked" not in _state and impl.get_runtime().prog is not None:
-        ti.reset()
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
