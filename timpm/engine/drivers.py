@@ -19,7 +19,7 @@ import taichi as ti
 
 from ..errors import TEAM_SPIN_LIMIT, ErrorCode
 
-__all__ = ["Drivers"]
+__all__ = ["Drivers", "c_order_index"]
 
 
 class Drivers:
@@ -134,9 +134,16 @@ class Drivers:
     @ti.func
     def node_of(self, f):
         """Grid index of the node at flat index f (the order of ti.ndrange)."""
-        I = ti.Vector.zero(ti.i32, self.dim)
-        rest = f
-        for k in ti.static(range(self.dim - 1, -1, -1)):
-            I[k] = rest % self.values.nodes()[k]
-            rest = rest // self.values.nodes()[k]
-        return I
+        return c_order_index(f, self.values.nodes(), self.dim)
+
+
+@ti.func
+def c_order_index(f, sizes, dim: ti.template()):
+    """The index of flat entry f (C order) of an array of ``sizes`` along its ``dim`` axes
+    (run-time sizes, or constants: the divisions then by constants)."""
+    I = ti.Vector.zero(ti.i32, dim)
+    rest = f
+    for k in ti.static(range(dim - 1, -1, -1)):
+        I[k] = rest % sizes[k]
+        rest = rest // sizes[k]
+    return I

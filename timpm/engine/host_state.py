@@ -13,6 +13,7 @@ import numpy as np
 import taichi as ti
 from taichi.lang import impl
 
+from .drivers import c_order_index
 from .expressions import expression
 from .recorder import NUMPY_DTYPES, components, entry_size
 
@@ -29,11 +30,7 @@ class HostState:
         for g in ti.static(range(len(groups))):
             shape = ti.static(groups[g][0].shape)
             if i < ti.static(math.prod(shape)):
-                I = ti.Vector.zero(ti.i32, ti.static(len(shape)))
-                rest = i
-                for k in ti.static(range(len(shape) - 1, -1, -1)):
-                    I[k] = rest % shape[k]
-                    rest = rest // shape[k]
+                I = c_order_index(i, ti.static(shape), ti.static(len(shape)))
                 for fld in ti.static(groups[g]):
                     fld[I] = ti.zero(fld[I])
 
