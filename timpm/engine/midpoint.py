@@ -141,17 +141,7 @@ class Midpoint:
         change = ti.Vector.zero(float, 2)
         size = ti.Vector.zero(float, 2)
         if inside:
-            v_mid = ti.Vector.zero(float, self.dim)
-            accel = ti.Vector.zero(float, self.dim)
-            grad_v = ti.Matrix.zero(float, self.dim, self.dim)
-            for r in range(self.stencil_rows):
-                row = self.stencil_row(w, dw, r)
-                for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self.row_node(w, dw, r, row, a)
-                    vi = grid.node_velocity[base + offset]
-                    v_mid += phi * vi
-                    accel += phi * grid.node_acceleration[base + offset]
-                    grad_v += vi.outer_product(grad)
+            v_mid, accel, grad_v = self.particle_rates(grid, base, w, dw)
             v_end = iterate.v_start[p] + values.dt() * accel
             F0 = iterate.F_start[p]
             F1 = (ti.Matrix.identity(float, self.dim) + values.dt() * grad_v) @ F0

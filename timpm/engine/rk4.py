@@ -85,17 +85,7 @@ class RungeKutta:
         # after the fourth) with sigma(F) and V = det F V0
         base, w, dw, xi, inside = self.stencil(particles.x[p])
         if inside and not self.halted(p):
-            x_rate = ti.Vector.zero(float, self.dim)
-            v_rate = ti.Vector.zero(float, self.dim)
-            grad_v = ti.Matrix.zero(float, self.dim, self.dim)
-            for r in range(self.stencil_rows):
-                row = self.stencil_row(w, dw, r)
-                for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self.row_node(w, dw, r, row, a)
-                    vi = grid.node_velocity[base + offset]
-                    x_rate += phi * vi
-                    v_rate += phi * grid.node_acceleration[base + offset]
-                    grad_v += vi.outer_product(grad)
+            x_rate, v_rate, grad_v = self.particle_rates(grid, base, w, dw)
             F_rate = grad_v @ particles.F[p]
             weight = 1.0 / 6.0 if s == 0 or s == 3 else 1.0 / 3.0  # B_s
             if s == 0:

@@ -133,6 +133,17 @@ class StencilOps:
         return self._offset_of(r, a), phi, grad
 
     @ti.func
+    def interpolate(self, node_field: ti.template(), base, w, dw):
+        """A vector grid field at a particle: sum_i phi_i f_i over its stencil."""
+        value = ti.Vector.zero(float, self.dim)
+        for r in range(self.stencil_rows):
+            row = self.stencil_row(w, dw, r)
+            for a in ti.static(range(self.basis.support)):
+                offset, phi, grad = self.row_node(w, dw, r, row, a)
+                value += phi * node_field[base + offset]
+        return value
+
+    @ti.func
     def times_offset(self, A, r, a: ti.template()):
         """A o for the offset o of node a of stencil row r: the row's axes as products,
         the last axis (unrolled) as column adds."""

@@ -165,6 +165,24 @@ class Transfer:
         self.solve_mass(self.node_momentum, True)  # P_i into v_i in place
 
     @ti.func
+    def particle_rates(self, grid: ti.template(), base, w, dw):
+        """G2P of the rates that grid_rates left on the grid (a Runge-Kutta stage, a
+        midpoint iterate): sum_i phi_i v_i, sum_i phi_i a_i and grad v = sum_i v_i grad
+        phi_i^T at a particle."""
+        v = ti.Vector.zero(float, self.dim)
+        acc = ti.Vector.zero(float, self.dim)
+        grad_v = ti.Matrix.zero(float, self.dim, self.dim)
+        for r in range(self.stencil_rows):
+            row = self.stencil_row(w, dw, r)
+            for a in ti.static(range(self.basis.support)):
+                offset, phi, grad = self.row_node(w, dw, r, row, a)
+                vi = grid.node_velocity[base + offset]
+                v += phi * vi
+                acc += phi * grid.node_acceleration[base + offset]
+                grad_v += vi.outer_product(grad)
+        return v, acc, grad_v
+
+    @ti.func
     def stress_of_F(self, p, F):
         """sigma(F) of the particle's law."""
         sig = ti.Matrix.zero(float, self.dim, self.dim)

@@ -185,12 +185,7 @@ class MUSL:
         base, w, dw, xi, inside = prog.stencil(particles.x[p])
         node_values = ti.Matrix.zero(float, 3, prog.basis.support)
         if inside:
-            acc = ti.Vector.zero(float, prog.dim)
-            for r in range(prog.stencil_rows):
-                row = prog.stencil_row(w, dw, r)
-                for a in ti.static(range(prog.basis.support)):
-                    offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                    acc += phi * grid.node_acceleration[base + offset]
+            acc = prog.interpolate(grid.node_acceleration, base, w, dw)
             vp = self.new_velocity(prog, grid, values, base, w, dw,
                                    particles.v[p] + values.dt() * acc)
             particles.v[p] = vp

@@ -50,11 +50,6 @@ class PICBlend(MUSL):
     def new_velocity(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
                      base, w, dw, flip):
         # v_p = (1 - b) v_p^FLIP + b sum_i phi_i v_i^L
-        pic = ti.Vector.zero(float, prog.dim)
-        for r in range(prog.stencil_rows):
-            row = prog.stencil_row(w, dw, r)
-            for a in ti.static(range(prog.basis.support)):
-                offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                pic += phi * grid.node_new_velocity[base + offset]
+        pic = prog.interpolate(grid.node_new_velocity, base, w, dw)
         b = values.pic_fraction()
         return (1.0 - b) * flip + b * pic
