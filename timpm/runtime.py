@@ -319,9 +319,10 @@ def _start(settings: dict) -> None:
     _state["generation"] = generation() + 1  # the fields of the last start are gone
     fp = ti.f64 if settings["precision"] == "f64" else ti.f32
     kwargs = dict(arch=ARCHS[settings.get("arch", "cpu")], debug=settings["debug"],
-                  default_fp=fp, log_level=ti.WARN,
-                  cfg_optimization=settings.get("optimize", True),
+                  default_fp=fp, cfg_optimization=settings.get("optimize", True),
                   fast_math=settings.get("fast_math", True))
+    if "TI_LOG_LEVEL" not in os.environ:  # Taichi's notes off; a level the user set stays
+        kwargs["log_level"] = ti.WARN  # (given both, Taichi warns that it overrode it)
     if settings["threads"]:
         kwargs["cpu_max_num_threads"] = settings["threads"]
     if taichi_backend.FORGE and "TI_COMPILE_TIER" not in os.environ:
