@@ -23,8 +23,9 @@ _banner_deferred = "taichi" not in sys.modules and _BANNER_VAR not in os.environ
 if _banner_deferred:
     os.environ[_BANNER_VAR] = "False"
 _fast_decorators = None
-if "taichi" not in sys.modules and not taichi_backend.FORGE:
-    _fast_decorators = taichi_frontend.FastDecoratorsOnLoad()
+if "taichi" not in sys.modules:
+    _fast_decorators = taichi_frontend.FastDecoratorsOnLoad(
+        "taichi_forge" if taichi_backend.FORGE else "taichi")
     sys.meta_path.insert(0, _fast_decorators)
 try:
     import taichi as ti
@@ -329,6 +330,10 @@ def _start(settings: dict) -> None:
         # taichi-forge's default tier ("fast") skips Taichi's IR optimisations: the steps
         # ran 4-6x slower; "full" is taichi 1.7's pipeline (docs/performance.md)
         kwargs["compile_tier"] = "full"
+    if taichi_backend.FORGE and "TI_UNROLLING_KERNEL_WARNING_LIMIT" not in os.environ:
+        # taichi-forge warns (a SyntaxWarning at every compile of a step) when a kernel's
+        # static loops expand past 1024 statements: timpm's stencils are unrolled on purpose
+        kwargs["unrolling_kernel_warning_limit"] = 0
     _print_banner()
     stop()  # a restart: the last start's kernels written in turn
     ti.init(**kwargs)
