@@ -400,6 +400,21 @@ def test_help_is_not_preceded_by_the_taichi_banner():
     assert proc.returncode == 0 and proc.stdout.count("[Taichi] version") == 1
 
 
+def test_a_log_level_set_in_the_environment_is_taichis_without_a_warning():
+    # timpm quiets Taichi's notes unless TI_LOG_LEVEL says otherwise; given both, Taichi
+    # warned "Environment variable TI_LOG_LEVEL=... overridden by ti.init argument" at
+    # every start (the test workers' first lines, 2026-11-28)
+    script = "import timpm; timpm.init(); timpm.init(threads=1)"  # a start, a restart
+    for level, noted in (("warn", False), ("debug", True)):
+        env = dict(os.environ, TI_LOG_LEVEL=level)
+        proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                              timeout=120, env=env)
+        assert proc.returncode == 0, proc.stderr
+        assert "overridden" not in proc.stderr + proc.stdout
+        # Taichi's debug notes (its worker threads starting) where asked, and only there
+        assert ("[D " in proc.stderr + proc.stdout) == noted, proc.stderr
+
+
 @pytest.mark.parametrize("value", ["abc", "-2"])
 def test_a_bad_TIMPM_THREADS_exits_2_without_a_traceback(value):
     proc = _timpm(*VS, "--elements", "4", env={"TIMPM_THREADS": value})
