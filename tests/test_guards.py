@@ -41,3 +41,33 @@ def test_free_expansion_is_a_compile_time_choice_of_the_material():
         .free_expansion
     assert not LinearElastic(1e4, 0.3, 1e3).free_expansion
     assert timpm.DruckerPrager(3.5e5, 0.3, 1500.0, 30.0).free_expansion
+
+
+def test_a_body_force_run_checked_every_few_steps_reports_the_first_failure_as_before():
+    # with a body force the fused mode launches a step at a time (b(X, t) uploaded before
+    # each) and reads the failure back every check_every steps: a particle thrown off the
+    # grid mid-interval is named with the same step, and the run stops in the same state,
+    # as when every step is checked
+    import numpy as np
+
+    from timpm.problems import get_problem
+
+    scene = get_problem("mms-1d").scene(elements=16)
+    reports = []
+    for check_every in (1, 16):
+        s = Solver(scene, mode="serial", check_every=check_every)
+        assert s.features.body_force
+        s.run(n_steps=3)
+        v = s.read("v").copy()
+        v[5] = 40.0 * scene.model.h / scene.model.dt  # 40 cells a step: off the grid
+        s.write("v", v)
+        with pytest.raises(SimulationError) as err:
+            s.run(n_steps=30)
+        e = err.value
+        reports.append((e.code, e.step, e.particle, s.step, s.positions().copy()))
+        s.release()
+    (code, step, particle, at, x), (code16, step16, particle16, at16, x16) = reports
+    assert code == code16 == ErrorCode.OFF_GRID and particle == particle16 == 5
+    assert step == step16 and 3 < step < 3 + 16  # inside the first unchecked interval
+    assert at == at16
+    np.testing.assert_array_equal(x, x16)

@@ -58,7 +58,10 @@ class Solver:
     ratio V/V0 leaves it, naming step and particle (a crushed or torn body is no longer
     resolved); a material without tension (fluids, sand) is bounded only below; ``None``
     turns the check off.  The kernels hold up to ``history_chunk`` records between two reads from
-    Python (default: about 4 MiB of them, 512 to 16384).
+    Python (default: about 4 MiB of them, 512 to 16384).  A failure is read back every
+    ``check_every`` steps where steps are launched one or a few at a time (the parallel
+    mode, and the fused mode with a body force, evaluated in Python before each step):
+    the first failure is the one reported, and its particle stays as it was then.
     """
 
     def __init__(self, scene, track=(), record_every: int = 1, energies: bool = True,
@@ -326,14 +329,26 @@ class Solver:
         done = 0
         loads = self.features.body_force  # b(X, t) evaluated in Python before every step
         first_step = self.step if loads else 0
+        # fused steps with a body force: read back every check_every steps, sooner if the
+        # history buffer would fill
+        check_interval = self.fused_chunk(self.check_every)
+        unchecked = 0
         start = time.perf_counter()
         # Ctrl-C (deferred): stop at the next step boundary, the state whole
         while done < total and not interrupt.requested():
             if loads:
                 self.state.upload_body_force(prog, first_step + done)
-            if self.mode == "serial":
-                chunk = 1 if loads else self.fused_chunk(min(total - done,
-                                                             bar.suggested_chunk(done)))
+            if self.mode == "serial" and loads:
+                # a launch per step (b uploaded before each); the records read back and
+                # the failure checked every few steps, as the parallel mode does
+                done += int(prog.advance(1, self.record_every, 0))
+                unchecked += 1
+                if unchecked >= check_interval:
+                    self.drain()
+                    self.check()
+                    unchecked = 0
+            elif self.mode == "serial":
+                chunk = self.fused_chunk(min(total - done, bar.suggested_chunk(done)))
                 done += int(prog.advance(chunk, self.record_every, 0))
                 self.drain()
                 self.check()
@@ -368,6 +383,9 @@ class Solver:
                 self._record_step(prog)
             bar.update(done)
         bar.close()
+        if unchecked:
+            self.drain()
+            self.check()
         self.record_end()
         self.run_seconds += time.perf_counter() - start
         if interrupt.requested():
