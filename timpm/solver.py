@@ -61,7 +61,8 @@ class Solver:
     Python (default: about 4 MiB of them, 512 to 16384).  A failure is read back every
     ``check_every`` steps where steps are launched one or a few at a time (the parallel
     mode, and the fused mode with a body force, evaluated in Python before each step):
-    the first failure is the one reported, and its particle stays as it was then.
+    the first failure is the one reported (the fused mode stops at its step; the parallel
+    mode's later steps skip the failed particle).
     """
 
     def __init__(self, scene, track=(), record_every: int = 1, energies: bool = True,
