@@ -1,10 +1,12 @@
 """Large-deformation guards: a particle whose volume ratio V/V0 leaves the allowed range
 stops the run with its step and index named (issue 15)."""
+import numpy as np
 import pytest
 
 import timpm
 from timpm import Body, Box, LinearElastic, SimulationError, Solver, World
 from timpm.errors import ErrorCode
+from timpm.problems import get_problem
 
 
 def _crush(transfer="apic"):
@@ -48,10 +50,6 @@ def test_a_body_force_run_checked_every_few_steps_reports_the_first_failure_as_b
     # each) and reads the failure back every check_every steps: a particle thrown off the
     # grid mid-interval is named with the same step, and the run stops in the same state,
     # as when every step is checked
-    import numpy as np
-
-    from timpm.problems import get_problem
-
     scene = get_problem("mms-1d").scene(elements=16)
     reports = []
     for check_every in (1, 16):
