@@ -11,10 +11,9 @@ import math
 
 import numpy as np
 import taichi as ti
-from taichi.lang import impl
 
 from .drivers import c_order_index
-from .expressions import expression
+from .expressions import at, expression
 from .recorder import NUMPY_DTYPES, components, entry_size
 
 __all__ = ["HostState"]
@@ -70,14 +69,14 @@ class HostState:
         @expression
         def entry(fld, I):
             # fld[I], or fld[None] for a 0-D field (I unused)
-            return impl.subscript(None, fld, None if len(fld.shape) == 0 else I)
+            return at(fld, None if len(fld.shape) == 0 else I)
 
         @expression
         def host_value(fld, arr, row, col, shape):
             # a state field's entry from its host columns arr[row, col + component], in the
             # field's type
             def column(c):
-                return ti.cast(impl.subscript(None, arr, row, col + c), fld.dtype)
+                return ti.cast(at(arr, row, col + c), fld.dtype)
             if shape[1] > 0:
                 return ti.Matrix([[column(i * shape[1] + j) for j in range(shape[1])]
                                   for i in range(shape[0])])

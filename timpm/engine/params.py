@@ -10,20 +10,19 @@ constants) is computed once in Python and stored, so the kernels see the same nu
 """
 import numpy as np
 import taichi as ti
-from taichi.lang import impl
 
-from .expressions import expression
+from .expressions import at, expression
 
 __all__ = ["ParamBlock"]
 
 
 def _scalar(arr, i):
     # the load arr[i] where the getter is called (expressions.py)
-    return expression(lambda: impl.subscript(None, arr, i))
+    return expression(lambda: at(arr, i))
 
 
 def _vector(arr, i, n):
-    return expression(lambda: ti.Vector([impl.subscript(None, arr, i + k) for k in range(n)]))
+    return expression(lambda: ti.Vector([at(arr, i + k) for k in range(n)]))
 
 
 class Group:
