@@ -86,7 +86,7 @@ TIMPM_PROGRAMS = INSTRUMENT + r"""
 import json
 import timpm
 from timpm.problems import get_problem
-from timpm.solver import Solver
+from timpm.simulation.solver import Solver
 timpm.init(threads=1)
 problem = get_problem("vibrating-string")
 for basis in ("linear", "bspline2", "bspline3"):
@@ -97,7 +97,7 @@ for basis in ("linear", "bspline2", "bspline3"):
         solver.displacements()
         solver.release()
 print(json.dumps({"frontend": dict(FRONTEND), "first_launch": dict(LAUNCH)}))
-from timpm.runtime import exit_process
+from timpm.platform.runtime import exit_process
 exit_process(0)
 """
 

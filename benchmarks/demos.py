@@ -16,7 +16,7 @@ import time
 
 import timpm
 from timpm.scenarios import DEMOS, get_demo
-from timpm.solver import Solver
+from timpm.simulation.solver import Solver
 
 
 def measure(name, t_end, mode="auto", scatter="auto"):

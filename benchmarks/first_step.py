@@ -5,15 +5,15 @@ against another, side by side.
     python benchmarks/first_step.py [--old /tmp/timpm-old] [--forge VENV/bin/python]
         [--commands cube demo study table] [--repeats 2] [--json docs/first_step.json]
 
-Each run is a fresh process, ``python -m timpm.cli ...`` with ``PYTHONPATH`` choosing the
+Each run is a fresh process, ``python -m timpm ...`` with ``PYTHONPATH`` choosing the
 engine (this checkout, or ``--old``), in an empty working folder.  ``--forge`` adds this
 checkout run by another interpreter, one whose environment has taichi-forge and not
-taichi (timpm/taichi_backend.py).  *Cold*: an empty Taichi
+taichi (timpm/platform/taichi_backend.py).  *Cold*: an empty Taichi
 offline cache (``TI_OFFLINE_CACHE_FILE_PATH`` a new folder) for every run; *warm*: one
 cache per engine, filled by a first run that is not counted.  The engines alternate, each
 figure is the fastest of ``--repeats``.  Per command: the wall time end to end, the
 compilation the command reports (``compile_seconds``: every kernel build it caused and
-that build's first launch, ``timpm.runtime.compile_clock``) and its stepping.
+that build's first launch, ``timpm.platform.runtime.compile_clock``) and its stepping.
 
 The commands (``--commands``):
 

@@ -60,7 +60,7 @@ def _timpm_child(n, steps, out):
     import timpm
     from harness.numpy_mpm import mpm88_initial
     from timpm.scenarios.mpm88 import mpm88_world
-    from timpm.solver import Solver
+    from timpm.simulation.solver import Solver
 
     timpm.init(precision="f32")
     world, _ = mpm88_world(mpm88_initial(n)[0])

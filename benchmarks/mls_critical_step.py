@@ -16,7 +16,7 @@ part of the body, the same weights and fallbacks).
 """
 import numpy as np
 
-from timpm.basis import stencils
+from timpm.bases import stencils
 from timpm.engine.mls_projection import GAUSS_POINTS, GAUSS_WEIGHTS
 from timpm.problems import get_problem
 from timpm.studies.mls import quadratic_spline

@@ -54,7 +54,7 @@ def main(argv=None):
                   f"step {r['wall_seconds']:.2f} s, end to end {r['end_to_end_seconds']:.2f} s",
                   file=sys.stderr, flush=True)
     doc = {"problem": args.problem, "G": args.G, "elements": args.elements,
-           "date": time.strftime("%Y-%m-%d"), "threads": timpm.runtime.cpu_threads(),
+           "date": time.strftime("%Y-%m-%d"), "threads": timpm.platform.runtime.cpu_threads(),
            "command": "python benchmarks/mms_convergence.py " + " ".join(argv or sys.argv[1:]),
            "runs": rows}
     print(table(doc))

@@ -59,7 +59,7 @@ def main(argv=None):
     print("| basis | " + " | ".join(f"{s:g}" for s in strains) + " | slope |")
     print("|---|" + "---:|" * (len(strains) + 1))
     for basis in ("linear", "bspline2", "bspline3"):
-        row = [stretched_quadrature_error(basis, s) for s in strains]
+        row = [stretched_quadrature_error(timpm.get_basis(basis), s) for s in strains]
         slope = np.log(row[-1] / row[0]) / np.log(strains[-1] / strains[0])
         print(f"| {basis} | " + " | ".join(f"{e:.2e}" for e in row) + f" | {slope:.2f} |")
 

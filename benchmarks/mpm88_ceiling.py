@@ -35,7 +35,7 @@ def ceiling(n_particles, threads=1, seconds=1.0):
 
     ti.init(arch=ti.cpu, default_fp=ti.f32, cpu_max_num_threads=threads, log_level=ti.WARN)
     if threads > 1:
-        from timpm.runtime import pin_workers
+        from timpm.platform.runtime import pin_workers
 
         pin_workers()
     n_grid, dt, E, bound, gravity = 128, 2e-4, 400.0, 3, 9.8

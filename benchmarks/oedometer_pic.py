@@ -11,7 +11,7 @@ import numpy as np
 
 import timpm
 from timpm.problems import get_problem
-from timpm.solver import Solver
+from timpm.simulation.solver import Solver
 from timpm.studies.study import run_problem
 
 

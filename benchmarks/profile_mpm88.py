@@ -28,7 +28,7 @@ def main(argv=None):
 
     import taichi as ti
 
-    from timpm import runtime
+    from timpm.platform import runtime
 
     # the profiler must be on from the start: Taichi is initialised here, not by timpm
     ti.init(arch=ti.cpu, default_fp=ti.f32 if args.precision == "f32" else ti.f64,
@@ -38,7 +38,7 @@ def main(argv=None):
     pinned = [] if args.no_pin else runtime.pin_workers()
     from harness.numpy_mpm import mpm88_initial
     from timpm.scenarios.mpm88 import mpm88_world
-    from timpm.solver import Solver
+    from timpm.simulation.solver import Solver
 
     world, _ = mpm88_world(mpm88_initial(args.particles)[0])
     s = Solver(world, energies=False, mode="parallel", scatter=args.scatter)

@@ -7,7 +7,7 @@ see timpm/scenarios/demos.py for the scene, its parameters and the comparison it
 """
 import sys
 
-from timpm.cli import demo_script
+from timpm.cli.main import demo_script
 
 if __name__ == "__main__":
     sys.exit(demo_script("column-collapse"))

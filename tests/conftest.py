@@ -120,8 +120,8 @@ def pytest_configure(config):
 
 def pytest_sessionfinish(session):
     # each test process writes its kernels to the offline cache here, in turn with the
-    # other worker (timpm.runtime.stop; also run at exit)
-    from timpm import runtime
+    # other worker (timpm.platform.runtime.stop; also run at exit)
+    from timpm.platform import runtime
 
     runtime.stop()
 
@@ -133,7 +133,7 @@ def exact_rounding():
     parallel mode, a batch against its members alone, gravity against a body force) give
     the same bits only so: with fast math LLVM may reassociate and vectorise the stencil
     loops of each kernel its own way."""
-    from timpm import runtime
+    from timpm.platform import runtime
 
     before = runtime.settings()
     timpm.init(**dict(before, fast_math=False))
@@ -146,7 +146,7 @@ def strict_arithmetic():
     """Taichi restarted on one thread without fast math for one test (every operation
     rounds as written, whatever the CPU's vector width), then back to the session's
     settings: the fields of solvers built before are freed."""
-    from timpm import runtime
+    from timpm.platform import runtime
 
     before = runtime.settings()
     timpm.init(**dict(before, threads=1, fast_math=False))

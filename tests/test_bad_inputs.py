@@ -19,8 +19,8 @@ import taichi as ti
 from taichi.lang.misc import is_arch_supported
 
 import timpm
-from timpm import checks, runtime
-from timpm.cli import _parser, main
+from timpm.platform import checks, runtime
+from timpm.cli.main import _parser, main
 
 #: the memory the size checks see in these tests (the machine's varies)
 MEMORY = 8 << 30
@@ -265,7 +265,7 @@ CALLS = [
     # bases
     (lambda: timpm.get_basis("bspline1000"),
      "basis 'bspline1000': B-spline degree must be an integer from 1 to 8, got 1000"),
-    (lambda: timpm.basis.bspline(9, clamped=False),
+    (lambda: timpm.bases.bspline(9, clamped=False),
      "B-spline degree must be an integer from 1 to 8, got 9"),
     # studies
     (lambda: _convergence(elements=(8, 16, 8)),

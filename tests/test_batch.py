@@ -4,11 +4,12 @@ import os
 import numpy as np
 import pytest
 
-from timpm import Body, Box, World, runtime
-from timpm.batch import Batch
+from timpm import Body, Box, World
+from timpm.platform import runtime
+from timpm.simulation.batch import Batch
 from timpm.materials import NeoHookean
 from timpm.problems import get_problem
-from timpm.solver import SimulationError, Solver
+from timpm.simulation.solver import SimulationError, Solver
 from timpm.studies.study import clear_solvers, convergence, run_problem
 
 

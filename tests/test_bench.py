@@ -10,7 +10,7 @@ import pytest
 
 from timpm.problems import get_problem
 from timpm.scenarios.mpm88 import mpm88_world
-from timpm.solver import Solver
+from timpm.simulation.solver import Solver
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 from harness.mpm88 import run_mpm88  # noqa: E402

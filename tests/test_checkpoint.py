@@ -13,11 +13,11 @@ import pytest
 
 from conftest import CHILD_ENV, default_signals, killed_at_exit, wait_until
 from timpm import Body, Box, LinearElastic, Ramp, Sine, Solver, Wall, World
-from timpm.checkpoint import VERSION, load_checkpoint, save_checkpoint
-from timpm.cli import main
+from timpm.simulation.checkpoint import VERSION, load_checkpoint, save_checkpoint
+from timpm.cli.main import main
 from timpm.engine.features import plan
 from timpm.engine.state import State
-from timpm.loads import SurfaceTraction
+from timpm.model.loads import SurfaceTraction
 from timpm.model import SIDES
 from timpm.problems import get_problem
 from timpm.scenarios.demos import get_demo

@@ -3,7 +3,7 @@ import json
 
 import pytest
 
-from timpm.cli import main
+from timpm.cli.main import main
 
 REQUIRED = {"problem", "elements", "ppc", "basis", "mass", "dt", "t_end", "steps", "rms_error",
             "wall_seconds", "grid_crossings"}

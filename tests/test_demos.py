@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from timpm.cli import main
+from timpm.cli.main import main
 from timpm.output.render import Movie
 from timpm.scenarios import MARTIN_MOYCE_N2_2, Disks, get_demo, lube_runout, run_demo
 from timpm.scenarios.demos import G, color_range

@@ -154,9 +154,9 @@ def test_lagrange_like_basis_cannot_be_lumped():
 
 RESTART_SCRIPT = """
 import pytest, timpm
-from timpm.batch import Batch
+from timpm.simulation.batch import Batch
 from timpm.problems import get_problem
-from timpm.solver import Solver
+from timpm.simulation.solver import Solver
 from timpm.studies.study import convergence, run_problem
 timpm.init(threads=2)
 scene = get_problem("vibrating-string").scene(elements=4, ppc=4)
@@ -182,7 +182,7 @@ def test_every_accessor_of_a_released_solver_raises():
     """After release() every accessor raises the same clear error (they used to abort the
     process), for a 1D solver and an affine 2D one."""
     from timpm import Body, Box, NeoHookean, World
-    from timpm.errors import Released
+    from timpm.platform.errors import Released
 
     world = World(domain=(0.4, 0.4), cells=8, gravity=(0.0, 0.0),
                   bodies=[Body(Box((0.1, 0.1), (0.2, 0.2)), NeoHookean(1e3, 0.3, 1e3))])

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 import taichi as ti
 
-from timpm.basis import get_basis
+from timpm.bases import get_basis
 from timpm.engine.expressions import expression
 from timpm.engine.params import ParamBlock
 from timpm.engine.stencil import StencilOps
-from timpm.runtime import ensure_init
+from timpm.platform.runtime import ensure_init
 
 
 def _compiled_without_warnings(kernel):

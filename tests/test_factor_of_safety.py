@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from timpm.basis import Linear
+from timpm.bases import Linear
 from timpm.materials import MohrCoulomb
 from timpm.studies import factor_of_safety as fos
 
@@ -82,7 +82,7 @@ def test_griffiths_and_lane_slope_on_a_coarse_grid(coarse_slope):
 
 
 def test_the_study_refuses_what_it_cannot_reduce(tmp_path, capsys):
-    from timpm.cli import main
+    from timpm.cli.main import main
 
     text = (ROOT / "examples" / "slope_griffiths_lane.toml").read_text()
     f = tmp_path / "rubber.toml"

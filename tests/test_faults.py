@@ -14,9 +14,9 @@ from pathlib import Path
 import pytest
 
 from conftest import CHILD_ENV, default_signals, killed_at_exit, wait_until
-from timpm.checkpoint import load_checkpoint
-from timpm.cli import main
-from timpm.files import OutputError, check_distinct, check_output, replacing, write_json
+from timpm.simulation.checkpoint import load_checkpoint
+from timpm.cli.main import main
+from timpm.platform.files import OutputError, check_distinct, check_output, replacing, write_json
 
 ROOT = Path(__file__).resolve().parent.parent
 ENV = CHILD_ENV
@@ -306,7 +306,7 @@ def test_a_demo_png_directory_that_cannot_be_made_is_named(capsys):
 def test_a_checkpoint_that_fails_at_the_end_keeps_the_record(tmp_path, capsys, monkeypatch):
     """The disk fills as the checkpoint is written after the run: the error names the
     checkpoint, and the JSON record (the result) is written still (issue 35, 1)."""
-    import timpm.checkpoint as ck
+    import timpm.simulation.checkpoint as ck
 
     def full(path, *a, **k):
         raise OutputError(28, "No space left on device", str(path))
@@ -396,7 +396,7 @@ def test_sigterm_to_a_sweep_stops_its_workers_cleanly(executor, tmp_path):
 INTERRUPTED_CLUSTER_START = """
 import os, signal, sys, threading
 import distributed
-from timpm.cli import main
+from timpm.cli.main import main
 
 real = distributed.LocalCluster
 

@@ -12,7 +12,7 @@ import pytest
 from conftest import run_script
 from taichi.lang.misc import is_arch_supported
 
-from timpm import runtime
+from timpm.platform import runtime
 
 GPU = os.environ.get("TIMPM_GPU_ARCH", "cuda")
 pytestmark = pytest.mark.skipif(
@@ -26,7 +26,8 @@ PRELUDE = f'''
 import json, sys
 import numpy as np
 import timpm
-from timpm import runtime, Body, Box, World
+from timpm import Body, Box, World
+from timpm.platform import runtime
 from timpm.materials import DruckerPrager, NeoHookean
 from timpm.problems import get_problem
 GPU = {GPU!r}
@@ -48,7 +49,7 @@ def test_table_3_2_on_the_gpu(tmp_path):
     atomic adds."""
     res = _script(tmp_path, '''
         from timpm.studies.study import convergence
-        from timpm.solver import Solver
+        from timpm.simulation.solver import Solver
         out = {}
         for arch in ("cpu", GPU):
             timpm.init(threads=1, arch=arch)
@@ -99,7 +100,7 @@ def test_scenes_agree_with_the_cpu(tmp_path, name):
     and on the GPU (atomic adds): equal to round-off; mass and momentum on the grid as on
     the CPU."""
     res = _script(tmp_path, SCENES[name] + '''
-        from timpm.solver import Solver
+        from timpm.simulation.solver import Solver
         out = {}
         for arch in ("cpu", GPU):
             timpm.init(threads=1, arch=arch)
@@ -126,7 +127,7 @@ def test_cpu_only_strategies_are_refused_on_the_gpu(tmp_path):
     """The private scatter (a grid copy per CPU thread) and the team mode (CPU threads
     behind spin barriers) are CPU strategies: asked for on a GPU, a clear error."""
     res = _script(tmp_path, '''
-        from timpm.solver import Solver
+        from timpm.simulation.solver import Solver
         timpm.init(arch=GPU)
         scene = get_problem("vibrating-string").scene(elements=64)
         out = {}

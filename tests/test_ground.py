@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from timpm import Body, Box, K0, MohrCoulomb, Polygon, Prism, World
-from timpm.geostatic import geostatic_stress, jaky_k0, vertical_stress
+from timpm.model.geostatic import geostatic_stress, jaky_k0, vertical_stress
 
 ROOT_EXAMPLES = __import__("pathlib").Path(__file__).resolve().parent.parent / "examples"
 
@@ -211,7 +211,7 @@ def test_gravity_loading_brings_a_layer_to_rest_under_its_weight():
 
 def test_a_world_that_asks_for_gravity_loading_is_not_run_stress_free():
     from timpm import GravityLoading
-    from timpm.solver import Solver
+    from timpm.simulation.solver import Solver
 
     with pytest.raises(ValueError, match="run it first, world, record = timpm.gravity_loading"):
         Solver(_layer(GravityLoading()))
@@ -295,7 +295,7 @@ kind = "k0"
     surface = np.minimum(20.0, np.where(x[:, 0] > 30.0, 10.0, 25.0 - x[:, 0] / 2))
     # the weight integral's error is at most one sample's weight (geostatic.SAMPLES from
     # the domain's top): where the surface cuts a sample it is counted in or out
-    from timpm.geostatic import SAMPLES
+    from timpm.model.geostatic import SAMPLES
     one_sample = 2000.0 * 9.81 * 26.0 / SAMPLES
     np.testing.assert_allclose(-sig[:, 1, 1], 2000.0 * 9.81 * (surface - x[:, 1]), rtol=0,
                                atol=one_sample)

@@ -5,7 +5,7 @@ import pytest
 
 import timpm
 from timpm import Body, Box, LinearElastic, SimulationError, Solver, World
-from timpm.errors import ErrorCode
+from timpm.platform.errors import ErrorCode
 from timpm.problems import get_problem
 
 

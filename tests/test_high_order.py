@@ -5,7 +5,7 @@ import pytest
 
 import timpm
 from timpm.problems import get_problem
-from timpm.scene import particle_matrices
+from timpm.model.scene import particle_matrices
 from timpm.studies.study import convergence, displacement_fields, run_problem
 
 

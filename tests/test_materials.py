@@ -5,7 +5,7 @@ import taichi as ti
 
 from timpm.engine.params import ParamBlock
 from timpm.materials import DruckerPrager, LinearElastic, NeoHookean
-from timpm.runtime import ensure_init
+from timpm.platform.runtime import ensure_init
 
 
 @ti.data_oriented

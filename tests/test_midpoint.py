@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from timpm import SimulationError, Solver
-from timpm.errors import ErrorCode
+from timpm.platform.errors import ErrorCode
 from timpm.problems import get_problem
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from timpm import Body, Box, Solver, World
-from timpm.loads import BodyForce
+from timpm.model.loads import BodyForce
 from timpm.materials import NeoHookean
 from timpm.model import Wall
 from timpm.problems import get_problem
@@ -168,7 +168,7 @@ def test_mms_2d_quadratic_converges_at_order_2_to_64_cells(tmp_path):
     # stress projection), without which the rate falls to 1.1 from 32 to 64 cells
     import json
 
-    from timpm.cli import main
+    from timpm.cli.main import main
 
     out = tmp_path / "mms2d.json"
     assert main(["convergence", "mms-2d", "--basis", "bspline2", "--param", "G=0.05",
@@ -201,7 +201,7 @@ def test_mms_3d_converges_with_clamped_quadratics():
 
 
 def test_mms_runs_from_the_command_line(tmp_path, capsys):
-    from timpm.cli import main
+    from timpm.cli.main import main
 
     out = tmp_path / "mms.json"
     assert main(["run", "mms-1d", "--basis", "bspline3", "--elements", "8", "--json",
@@ -371,7 +371,7 @@ def _pulled(tractions, transfer="apic", domain=(1.0, 1.0)):
 
 @pytest.mark.parametrize("transfer", ["musl", "apic"])
 def test_a_surface_traction_is_its_resultant_force_on_the_momentum(transfer):
-    from timpm.loads import Sine, SurfaceTraction
+    from timpm.model.loads import Sine, SurfaceTraction
 
     traction, omega = np.array([1e3, 500.0]), 40.0
     world = _pulled([SurfaceTraction(0, "right", traction, Sine(omega))], transfer)
@@ -393,14 +393,14 @@ def test_a_surface_traction_is_its_resultant_force_on_the_momentum(transfer):
     ([(0, "top", (1.0, 0.0, 0.0))], "must have 2 components"),
 ])
 def test_bad_surface_tractions_are_refused(tractions, message):
-    from timpm.loads import SurfaceTraction
+    from timpm.model.loads import SurfaceTraction
 
     with pytest.raises(ValueError, match=message):
         _pulled([SurfaceTraction(*t) for t in tractions])
 
 
 def test_surface_tractions_share_one_time_function_and_need_faces():
-    from timpm.loads import Ramp, Sine, SurfaceTraction
+    from timpm.model.loads import Ramp, Sine, SurfaceTraction
 
     with pytest.raises(ValueError, match="share one time function"):
         _pulled([SurfaceTraction(0, "top", (0.0, 1.0), Sine(3.0)),

@@ -129,7 +129,7 @@ def test_a_cohesive_block_stands_and_a_frictional_one_spreads(dim):
     stays elastic, no plastic strain; cohesionless with phi = 10 degrees it yields and
     spreads."""
     from timpm import Body, Box, World
-    from timpm.solver import Solver
+    from timpm.simulation.solver import Solver
 
     spread = {}
     for c, phi in ((50e3, 30.0), (0.0, 10.0)):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import assert_same_run
 
-from timpm.cli import main
+from timpm.cli.main import main
 from timpm.output.fields import FieldWriter
 from timpm.scenarios import run_demo
 from timpm.studies.study import run_problem

@@ -266,7 +266,7 @@ def test_walls_are_drawn_along_the_plot(tmp_path, tank):
     assert tuple(bg[y + ph // 2, x - 1]) == WALL_COLOR            # the left wall
     assert tuple(bg[y + ph // 2, x + pw]) == WALL_COLOR           # the right wall
     assert tuple(bg[y - 1, x + pw // 2]) == WALL_COLOR            # the lid
-    from timpm.world import Ball, Body, World
+    from timpm.model.world import Ball, Body, World
     from timpm.materials import NeoHookean
 
     open_top = World(domain=(1.0, 0.5), cells=10, walls={"default": "slip", "top": None},

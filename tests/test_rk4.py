@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from timpm import Solver
-from timpm.cli import main
+from timpm.cli.main import main
 from timpm.model import Wall
 from timpm.problems import get_problem
 from timpm.studies.study import run_problem
@@ -165,7 +165,7 @@ def test_rk4s_critical_step_is_sqrt2_times_euler_cromers():
 def test_an_rk4_run_resumed_from_its_checkpoint_ends_where_the_straight_run_ends(tmp_path):
     # the state between steps is (x, v, F, sigma, V, u): the stages' scratch is rebuilt
     # every step and the body force evaluated at the resumed step's stage times
-    from timpm.checkpoint import load_checkpoint
+    from timpm.simulation.checkpoint import load_checkpoint
     from timpm.studies.study import resume_problem
 
     straight, part, resumed = (tmp_path / f"{k}.npz" for k in ("straight", "part", "resumed"))

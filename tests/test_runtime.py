@@ -16,7 +16,7 @@ import taichi as ti
 from taichi.lang import impl
 from taichi.lang.misc import is_arch_supported
 
-from timpm import runtime, taichi_backend
+from timpm.platform import runtime, taichi_backend
 
 #: seconds a subprocess may take (each needs ~2 s; a hang is what the limit catches)
 TIMEOUT = 60
@@ -26,7 +26,7 @@ PRELUDE = '''
 import os, sys
 import numpy as np
 import timpm
-from timpm import runtime
+from timpm.platform import runtime
 from timpm.problems import get_problem
 
 def string_run(_=None):
@@ -294,7 +294,7 @@ def test_the_fast_line_wrapper_wraps_as_textwrap_does():
     import random
     import textwrap
 
-    from timpm.taichi_frontend import _FittingLineWrapper
+    from timpm.platform.taichi_frontend import _FittingLineWrapper
 
     fast, reference = _FittingLineWrapper(width=80), textwrap.TextWrapper(width=80)
     rng = random.Random(1)
@@ -309,7 +309,7 @@ def test_the_fast_line_wrapper_wraps_as_textwrap_does():
     narrow = _FittingLineWrapper(width=30)
     assert narrow.wrap(texts[-1]) == textwrap.TextWrapper(width=30).wrap(texts[-1])
     # and the memoized fill and dedent of each source line Taichi reads
-    from timpm.taichi_frontend import _MemoizedTextwrap
+    from timpm.platform.taichi_frontend import _MemoizedTextwrap
 
     for text in texts[:2000]:
         assert _MemoizedTextwrap.fill(text, tabsize=4, width=9999) == textwrap.fill(

@@ -5,7 +5,7 @@ import pytest
 from timpm import Body, Box, World
 from timpm.materials import DruckerPrager
 from timpm.problems import get_problem
-from timpm.solver import SCATTERS, SimulationError, Solver, auto_mode
+from timpm.simulation.solver import SCATTERS, SimulationError, Solver, auto_mode
 
 STRATEGIES = [s for s in SCATTERS if s != "auto"]
 
@@ -197,17 +197,17 @@ def test_gpu_program_compiled_for_the_cpu_gives_the_same_bits(transfer, strict_a
     thread: atomic adds in particle order)."""
     import dataclasses
 
-    import timpm.solver
+    import timpm.simulation.solver
 
     scene = sand_column(transfer)
     cpu = run(scene, "atomic", 40)
-    plan = timpm.solver.plan
+    plan = timpm.simulation.solver.plan
 
     def gpu_plan(*args, **kwargs):
         features, layout = plan(*args, **kwargs)
         return dataclasses.replace(features, arch="cuda"), layout
 
-    monkeypatch.setattr(timpm.solver, "plan", gpu_plan)
+    monkeypatch.setattr(timpm.simulation.solver, "plan", gpu_plan)
     s = Solver(scene, mode="parallel", scatter="atomic", energies=False)
     try:
         assert s.program().on_device and s.features.on_device

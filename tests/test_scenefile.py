@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from timpm import runtime
-from timpm.cli import main
+from timpm.platform import runtime
+from timpm.cli.main import main
 from timpm.scenarios.demos import get_demo
 from timpm.scenefile import OUTPUT, key_lines, load_scene, run_scene, schema_reference
 from timpm.studies.study import run_problem
@@ -305,8 +305,8 @@ def test_a_scene_in_another_precision_is_refused_before_the_run(tmp_path):
 
 
 def test_surface_tractions_load_the_named_body(tmp_path):
-    from timpm.loads import Ramp, SurfaceTraction
-    from timpm.world import Wall, World
+    from timpm.model.loads import Ramp, SurfaceTraction
+    from timpm.model.world import Wall, World
 
     text = SCENE.replace("[output]", "[[loads.traction]]\nbody = \"right\"\nside = \"top\"\n"
                          "traction = [0.0, -100.0]\nramp = 0.1\n\n[output]")

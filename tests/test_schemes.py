@@ -1,4 +1,4 @@
-"""The transfer schemes as units (engine/schemes/): each is one file with its step as a list
+"""The transfer schemes as units (schemes/): each is one file with its step as a list
 of labelled phases, chosen from the feature set; a scheme's own run-time values and grid
 fields come with it.  Their physics is tested elsewhere (test_world, test_study: the PIC
 blend damps the oedometer's at-rest noise and keeps momentum)."""
@@ -6,7 +6,7 @@ import pytest
 
 from timpm import Body, Box, World
 from timpm.engine.features import plan
-from timpm.engine.schemes import REGISTRY, Affine, MUSL, PICBlend, scheme_class, scheme_for
+from timpm.schemes import REGISTRY, Affine, MUSL, PICBlend, scheme_class, scheme_for
 from timpm.materials import NeoHookean
 
 
@@ -38,7 +38,7 @@ def test_a_variant_is_registered_before_the_scheme_it_changes():
     ("apic", 0.0, None, "serial"), ("mls-mpm", 0.0, "sticky", "serial"),
     ("apic", 0.0, "slip", "team"), ("musl", 0.3, None, "team")])
 def test_every_step_is_a_list_of_labelled_phases(transfer, pic, walls, mode):
-    from timpm import runtime
+    from timpm.platform import runtime
 
     if mode == "team" and runtime.cpu_threads() < 2:
         pytest.skip("a team needs two CPU threads")
@@ -54,7 +54,7 @@ def test_every_step_is_a_list_of_labelled_phases(transfer, pic, walls, mode):
 
 
 def test_a_scheme_brings_its_own_grid_fields():
-    from timpm.solver import Solver
+    from timpm.simulation.solver import Solver
 
     fields = {}
     for pic in (0.0, 0.3):
@@ -73,7 +73,7 @@ def test_a_1d_wall_reads_the_momentum_in_every_mode():
     import numpy as np
 
     from timpm import Grid1D, Material, Scene
-    from timpm.solver import Solver
+    from timpm.simulation.solver import Solver
 
     x = (np.arange(48) + 0.5) * 0.6 / 48
     out = {}

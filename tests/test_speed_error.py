@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from timpm.cli import main
+from timpm.cli.main import main
 from timpm.output.viz import plot_speed_error
 from timpm.studies.speed_error import (RECORD_KEYS, cheapest_for, choose_dt, default_targets,
                                        format_report, merge_studies, pareto_front, plateaus,
@@ -255,7 +255,7 @@ def test_plateaus_and_merge():
 
 
 def test_a_study_whose_every_configuration_is_skipped_is_an_error(capsys):
-    from timpm.cli import main
+    from timpm.cli.main import main
 
     assert main(["study", "speed-error", "vibrating-string", "--bases", "bspline3",
                  "--masses", "lumped", "--elements", "4", "8", "--ppc", "1", "--quiet"]) == 2

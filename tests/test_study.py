@@ -76,7 +76,7 @@ def test_oedometer_comes_to_rest_with_a_pic_share():
     untouched by local damping on grid forces); the oedometer's 1% PIC share damps it:
     every particle at rest to round-off at t = 6 s, and the strain closer to exact."""
     from timpm.problems import get_problem
-    from timpm.solver import Solver
+    from timpm.simulation.solver import Solver
 
     prob = get_problem("oedometer")
     speeds, errors = {}, {}
@@ -111,7 +111,7 @@ def test_a_pic_share_conserves_momentum_and_mass(b):
     """v_p = (1 - b)(v_p + dt sum phi a) + b sum phi (v_i + dt a_i): with the lumped mass
     both parts carry the grid's momentum, so a body in free flight (no walls, no gravity)
     keeps its momentum to round-off whatever b, here two bodies colliding."""
-    from timpm.solver import Solver
+    from timpm.simulation.solver import Solver
 
     s = Solver(_colliding_blocks(b), energies=False, mode="serial")
     m = s.read("m")
@@ -130,8 +130,8 @@ def test_a_pic_share_conserves_momentum_and_mass(b):
 def test_a_pic_share_runs_alike_in_a_team_and_in_fused_steps():
     """The PIC share's grid velocity v_i^L is formed per node in the grid pass, which a
     team splits over its threads: the same run as the fused serial steps to round-off."""
-    from timpm import runtime
-    from timpm.solver import Solver
+    from timpm.platform import runtime
+    from timpm.simulation.solver import Solver
 
     if runtime.cpu_threads() < 2:
         pytest.skip("a team needs two CPU threads")

@@ -7,8 +7,8 @@ import sys
 
 import pytest
 
-from timpm.cli import main
-from timpm.solver import SimulationError
+from timpm.cli.main import main
+from timpm.simulation.solver import SimulationError
 from timpm.studies.study import convergence
 from timpm.studies.sweep import SweepError, map_runs
 
@@ -99,7 +99,7 @@ def test_a_worker_that_dies_and_a_simulation_error_there():
 def test_workers_start_taichi_with_this_processes_settings():
     from taichi.lang import impl
 
-    from timpm import runtime
+    from timpm.platform import runtime
 
     # the thread count resolved: a worker on a machine with other cores runs as many
     assert runtime.settings() == dict(threads=runtime.cpu_threads(),

@@ -24,7 +24,7 @@ from timpm import SimulationError, Solver
 from timpm.scenarios import Disks
 from timpm.materials import (DruckerPrager, LinearElastic, NeoHookean,
                              WeaklyCompressibleFluid, get_material)
-from timpm.world import PRESETS, Ball, Body, Box, Wall, World
+from timpm.model.world import PRESETS, Ball, Body, Box, Wall, World
 
 # ---- shared free-flight worlds ------------------------------------------------------------
 #: a soft Neo-Hookean block in the middle of a unit domain, no gravity: its stencil stays

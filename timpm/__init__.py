@@ -8,19 +8,19 @@ for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 # the Taichi that runs timpm (taichi, or taichi-forge where only that is installed), then
 # runtime: it imports Taichi without its banner (printed when Taichi starts)
-from . import taichi_backend  # before anything imports taichi
-from .runtime import init
-from .basis import BASES, Basis, Linear, get_basis
-from .scene import (Constant, Grid1D, Material, Ramp, Scene, Sine, Traction,
-                    critical_time_step, equidistant_particles)
+from .platform import taichi_backend  # before anything imports taichi
+from .platform.runtime import init
+from .bases import BASES, Basis, Linear, get_basis
+from .model.scene import (Constant, Grid1D, Material, Ramp, Scene, Sine, Traction,
+                          critical_time_step, equidistant_particles)
 from .materials import (DruckerPrager, LinearElastic, MohrCoulomb, NeoHookean,
                         WeaklyCompressibleFluid, get_material)
-from .solver import SimulationError, Solver
-from .batch import Batch
-from .world import Ball, Body, Box, Points, Polygon, Prism, Wall, World
-from .geostatic import K0, GravityLoading
-from .loading import gravity_loading
-from .model import Model
+from .simulation.solver import SimulationError, Solver
+from .simulation.batch import Batch
+from .model.world import Ball, Body, Box, Points, Polygon, Prism, Wall, World
+from .model.geostatic import K0, GravityLoading
+from .simulation.loading import gravity_loading
+from .model.model import Model
 
 __version__ = "0.1.0"
 

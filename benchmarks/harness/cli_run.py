@@ -17,7 +17,7 @@ ROOT = BENCHMARKS.parent
 
 
 def run_cli(args, engine=ROOT, python=sys.executable, cache=None):
-    """``python -m timpm.cli ARGS --json out.json`` with ``PYTHONPATH=engine`` in an empty
+    """``python -m timpm ARGS --json out.json`` with ``PYTHONPATH=engine`` in an empty
     folder.  ``cache``: Taichi's offline cache, None for the environment's, "cold" for an
     empty one, or a folder.  Returns (end-to-end wall seconds, the command's JSON record);
     a failure raises with its stderr."""
@@ -28,7 +28,7 @@ def run_cli(args, engine=ROOT, python=sys.executable, cache=None):
             env["TI_OFFLINE_CACHE_FILE_PATH"] = str(cache)
         env.pop("PYTHONDONTWRITEBYTECODE", None)  # byte-compiled, as after pip install
         t0 = time.perf_counter()
-        proc = subprocess.run([python, "-m", "timpm.cli", *args, "--json", "out.json"],
+        proc = subprocess.run([python, "-m", "timpm", *args, "--json", "out.json"],
                               cwd=work, env=env, capture_output=True, text=True)
         wall = time.perf_counter() - t0
         if proc.returncode != 0:

@@ -6,7 +6,7 @@ place every step and ``banded_substitute`` solves ``M x = rhs``.
 """
 import taichi as ti
 
-from ..errors import ErrorCode
+from ..platform.errors import ErrorCode
 
 __all__ = ["ConsistentMass"]
 

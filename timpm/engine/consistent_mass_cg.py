@@ -15,7 +15,7 @@ import itertools
 
 import taichi as ti
 
-from ..errors import ErrorCode
+from ..platform.errors import ErrorCode
 
 __all__ = ["ConsistentMassCG", "cg_fields", "cg_particle_fields", "CG_MAX_ITERATIONS"]
 

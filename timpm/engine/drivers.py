@@ -1,7 +1,7 @@
 """The drivers of a step: the fused serial loop and the team of threads.
 
 Mixed into :class:`~timpm.engine.program.Program`.  Every driver runs the same step, the
-phases of the scheme (:mod:`timpm.engine.schemes`), or an integrator's (rk4, midpoint):
+phases of the scheme (:mod:`timpm.schemes`), or an integrator's (rk4, midpoint):
 
 - *parallel*: one launch per step, every loop of the step parallel over the CPU threads;
 - *serial* (fused): many steps in one launch, one task on one thread (``advance_steps``);
@@ -13,11 +13,11 @@ A failure (a particle off the grid, a NaN, an inverted volume, a singular mass m
 a team that does not meet) records its code, step and particle or node
 (:class:`~timpm.engine.failures.Failures`); the run stops after that step and Python
 raises the error.  Each phase runs through
-:class:`~timpm.engine.schemes.phases.PhaseRunner`.
+:class:`~timpm.schemes.phases.PhaseRunner`.
 """
 import taichi as ti
 
-from ..errors import TEAM_SPIN_LIMIT, ErrorCode
+from ..platform.errors import TEAM_SPIN_LIMIT, ErrorCode
 
 __all__ = ["Drivers", "c_order_index"]
 

@@ -1,11 +1,11 @@
 """Why a run stops: the error record the kernels keep (code, step, particle or node:
 :meth:`Failures.fail`, mixed into :class:`~timpm.engine.program.Program` below every other
 unit), and in Python that record and the energy balance of the recorded energies, each as
-a :class:`~timpm.errors.SimulationError` that names the step and where."""
+a :class:`~timpm.platform.errors.SimulationError` that names the step and where."""
 import numpy as np
 import taichi as ti
 
-from ..errors import ErrorCode, SimulationError, TEAM_SPIN_LIMIT
+from ..platform.errors import ErrorCode, SimulationError, TEAM_SPIN_LIMIT
 from .consistent_mass_cg import CG_MAX_ITERATIONS
 from .midpoint import MIDPOINT_MAX_ITERATIONS
 
@@ -18,7 +18,7 @@ class Failures:
 
     @ti.func
     def fail(self, code, where):
-        """Record the first error of the run: its code (an :class:`~timpm.errors.ErrorCode`),
+        """Record the first error of the run: its code (an :class:`~timpm.platform.errors.ErrorCode`),
         step and particle or node."""
         first = False
         if ti.static(self.mode == "serial"):

@@ -1,7 +1,7 @@
 """What a scene asks of the engine: the feature set (compile time) and the layout (run time).
 
 :func:`plan` reads a :class:`~timpm.model.Model` (the one model of 1D to 3D, which a
-:class:`~timpm.scene.Scene` or a :class:`~timpm.world.World` builds) and the solver's
+:class:`~timpm.model.scene.Scene` or a :class:`~timpm.model.world.World` builds) and the solver's
 options and splits them in two:
 
 - a :class:`FeatureSet`, a frozen, hashable value of every compile-time choice (dimension,
@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..model import Model
-from .. import runtime
-from .schemes import scheme_class
+from ..model.model import Model
+from ..platform import runtime
+from ..schemes import scheme_class
 
 __all__ = ["FeatureSet", "Layout", "plan", "MODES", "SCATTERS", "MIN_CPU_BLOCK", "auto_mode"]
 
@@ -50,7 +50,7 @@ class FeatureSet:
     same compiled kernels."""
 
     dim: int
-    basis: type                  # the basis class (timpm.basis), compiled in
+    basis: type                  # the basis class (timpm.bases), compiled in
     transfer: str                # "musl", "apic" or "mls-mpm"
     consistent: bool             # consistent mass matrix (1D banded LU, 2D/3D CG)
     mls: bool                    # MLS projection of 4.4 (1D)

@@ -42,7 +42,7 @@ import math
 
 import taichi as ti
 
-from ..errors import ErrorCode
+from ..platform.errors import ErrorCode
 
 __all__ = ["Midpoint", "midpoint_fields", "MIDPOINT_MAX_ITERATIONS", "MIDPOINT_TOLERANCE"]
 

@@ -32,8 +32,8 @@ from .params import ParamBlock
 from .recorder import Recorder
 from .midpoint import Midpoint, midpoint_fields
 from .rk4 import RungeKutta, rk4_fields
-from .schemes import scheme_for
-from .schemes.phases import PhaseRunner
+from ..schemes import scheme_for
+from .phase_runner import PhaseRunner
 from .scatter import ScatterOps
 from .stencil import StencilOps
 from .transfer import Transfer

@@ -60,7 +60,7 @@ _PROGRAMS: dict = {}
 def program_for(features, layout, slot: int = 0):
     """The process's program of ``features`` (``slot``: another copy, for a Batch), grown
     to hold ``layout``; built and compiled on first use."""
-    from .. import runtime
+    from ..platform import runtime
 
     runtime.check_caller()
     for old in [k for k in _PROGRAMS if k[2] != runtime.generation()]:
@@ -93,7 +93,7 @@ def clear_programs():
     """Free every program's fields and forget the compiled kernels: the state a program
     holds is saved to its solver first, and a solver used again uploads it into a new
     program (compiled again)."""
-    from .. import runtime
+    from ..platform import runtime
 
     for (_, _, gen), prog in _PROGRAMS.items():
         if gen == runtime.generation():  # else Taichi freed them at its restart

@@ -1,7 +1,7 @@
 """Recording in the kernels: time, energies and tracked particles into a history buffer.
 
 Mixed into :class:`~timpm.engine.program.Program`; Python drains the buffer
-(:class:`timpm.solver.Solver`: a dict of one array per drain and key) and reads the
+(:class:`timpm.simulation.solver.Solver`: a dict of one array per drain and key) and reads the
 drained records as time series (:func:`energy_series`, :func:`tracked_series`).
 """
 import numpy as np

@@ -10,7 +10,7 @@ take (``memory``).
 import numpy as np
 import taichi as ti
 
-from ..basis import stencils
+from ..bases import stencils
 from .recorder import entry_size
 from .rk4 import STAGE_TIMES
 

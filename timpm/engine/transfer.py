@@ -4,11 +4,11 @@ velocity and gradient that the scheme gathers, and the grid rates of the Runge-K
 midpoint integrators.
 
 Mixed into :class:`~timpm.engine.program.Program`; the schemes themselves, one file each,
-are in :mod:`timpm.engine.schemes`.
+are in :mod:`timpm.schemes`.
 """
 import taichi as ti
 
-from ..errors import ErrorCode
+from ..platform.errors import ErrorCode
 
 __all__ = ["Transfer"]
 

@@ -4,7 +4,7 @@
 
 A phase receives these and the run-time values (``values.dt()``) as arguments, beside the
 program whose units it calls: the stencil, the scatter, the mass solves, the walls and
-the failure record (:mod:`timpm.engine.schemes.phases`); so do the G2P update and the
+the failure record (:mod:`timpm.schemes.phases`); so do the G2P update and the
 external force of :mod:`timpm.engine.transfer`.  A material's law receives the particle
 fields with the little else it needs (:class:`MaterialState`).  The views hold the
 program's own fields, so a phase compiles to the same kernel as one reading them from

@@ -4,8 +4,8 @@ Materials for multi-dimensional scenes: :class:`LinearElastic`, :class:`NeoHooke
 :class:`DruckerPrager` (sand, return mapping of Klar et al. 2016), :class:`MohrCoulomb`
 (soil with cohesion, dilatancy and a tension cut-off),
 :class:`WeaklyCompressibleFluid` (Tait equation of state) and :class:`JFluid` (mpm88's
-fluid).  :class:`Hypoelastic1D` is the study's 1D law (a :class:`timpm.scene.Scene` makes it from
-its :class:`timpm.scene.Material`).
+fluid).  :class:`Hypoelastic1D` is the study's 1D law (a :class:`timpm.model.scene.Scene` makes it from
+its :class:`timpm.model.scene.Material`).
 """
 from .base import Material, SolidMaterial
 from .drucker_prager import DruckerPrager

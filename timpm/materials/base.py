@@ -36,7 +36,7 @@ import math
 
 import taichi as ti
 
-from ..checks import positive
+from ..platform.checks import positive
 
 __all__ = ["Material", "SolidMaterial"]
 

@@ -3,7 +3,7 @@ import math
 
 import taichi as ti
 
-from ..checks import positive
+from ..platform.checks import positive
 from .base import Material
 
 __all__ = ["Hypoelastic1D"]
@@ -22,8 +22,8 @@ class Hypoelastic1D(Material):
     audit).  Exactly integrated, both laws are hyperelastic in 1D and the records report
     the stored energy W(F) V0 with F = V / V0; the forward-Euler records the path work.
 
-    A :class:`timpm.scene.Scene` makes it from its :class:`timpm.scene.Material`; a 1D
-    :class:`timpm.world.World` takes it as a body's material.  The density acts through
+    A :class:`timpm.model.scene.Scene` makes it from its :class:`timpm.model.scene.Material`; a 1D
+    :class:`timpm.model.world.World` takes it as a body's material.  The density acts through
     the particle masses."""
 
     name = "hypoelastic-1d"

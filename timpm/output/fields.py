@@ -5,7 +5,7 @@ the particles' data: ``particles_00000.vtu`` (VTK unstructured points, written b
 pyevtk) and the time series ``particles.pvd`` that ParaView opens (rewritten after every
 frame, so an interrupted run leaves a readable series); ``format="npz"`` writes
 ``particles_00000.npz`` (NumPy) instead.  Every file is written under a temporary name
-and renamed (:func:`timpm.files.replacing`): a frame on disk is whole.
+and renamed (:func:`timpm.platform.files.replacing`): a frame on disk is whole.
 
 The fields (:func:`particle_fields`): position (as the VTK points), displacement,
 velocity, volume, mass, the Cauchy stress (``stress_xx``, ``stress_xy``, ... in the VTK
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files import check_output, check_output_dir, replacing
+from ..platform.files import check_output, check_output_dir, replacing
 
 __all__ = ["FORMATS", "FieldWriter", "particle_fields", "grid_fields",
            "check_output_directory", "check_output_file"]
@@ -41,7 +41,7 @@ def check_output_directory(directory, what="output directory") -> Path:
 
 def check_output_file(path, what="output file", formats=None) -> Path:
     """``path`` refused before any work when it cannot be written (see
-    :func:`timpm.files.check_output`)."""
+    :func:`timpm.platform.files.check_output`)."""
     return Path(check_output(path, what, formats))
 
 

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import taichi as ti
 
-from ..files import replacing
-from ..runtime import ensure_init
+from ..platform.files import replacing
+from ..platform.runtime import ensure_init
 from .decorations import (DEFAULT_WIDTH, OPEN_SIDE_COLOR, ROUGH_WALL_COLOR, TEXT_COLOR,
                           WALL_COLOR, FrameLayout, check_width)
 
@@ -378,7 +378,7 @@ def check_image(width: int, height: int, frames: int = 0) -> None:
     """Refuse, before allocating, an image the renderer cannot index (more than 2^31 - 1
     pixels) or whose buffers and ``frames`` kept GIF frames (a byte a pixel) need more
     memory than is available."""
-    from ..checks import MAX_INDEX, available_memory
+    from ..platform.checks import MAX_INDEX, available_memory
 
     pixels = width * height
     if pixels > MAX_INDEX:

@@ -8,7 +8,7 @@ import os
 
 import numpy as np
 
-from ..files import replacing
+from ..platform.files import replacing
 
 __all__ = ["plot_convergence", "plot_series", "plot_comparison", "plot_fields", "plot_demo",
            "plot_runout", "plot_speed_error"]

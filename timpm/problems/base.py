@@ -3,10 +3,10 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
-from ..basis import get_basis
-from ..checks import check_size
-from ..model import CRITICAL_STEP_FACTOR, pic_applies
-from ..scene import Grid1D, Material, Scene, equidistant_particles
+from ..bases import get_basis
+from ..platform.checks import check_size
+from ..model.model import CRITICAL_STEP_FACTOR, pic_applies
+from ..model.scene import Grid1D, Material, Scene, equidistant_particles
 
 __all__ = ["Problem", "ProblemScene", "lattice"]
 
@@ -27,7 +27,7 @@ class Problem:
     ppc = 2
     dt = 1e-3
     t_end = 1.0
-    #: particle positions in an element (``timpm.scene.PLACEMENTS``)
+    #: particle positions in an element (``timpm.model.scene.PLACEMENTS``)
     placement = "study"
     #: dimensions of its scenes
     dim = 1
@@ -58,7 +58,7 @@ class Problem:
 
     def check_size(self, elements, ppc) -> None:
         """Refuse, before anything is allocated, a discretisation too large to index or
-        for the memory available (:func:`timpm.checks.check_size`): ``elements`` elements
+        for the memory available (:func:`timpm.platform.checks.check_size`): ``elements`` elements
         along each axis of the body, ``ppc`` particles per element and axis."""
         if all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v > 0
                for v in (elements, ppc)):
@@ -175,7 +175,7 @@ def check_positive(problem, *names):
 
 def lattice(cells, ppc, h, placement):
     """Positions (n, dim) and volumes of ``ppc`` particles per cell and axis, placed by
-    ``placement`` (``timpm.scene.PLACEMENTS``) in ``cells[k]`` cells of size h from 0
+    ``placement`` (``timpm.model.scene.PLACEMENTS``) in ``cells[k]`` cells of size h from 0
     along axis k: tensor products of the 1D placement (its size checked first)."""
     check_size(f"a lattice of {' x '.join(map(str, cells))} cells, {ppc} particles per cell "
                "and axis", np.prod([float(c) * ppc for c in cells]),

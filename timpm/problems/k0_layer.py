@@ -3,7 +3,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import whole
+from ..platform.checks import whole
 from .base import Problem, ProblemScene, check_positive, lattice
 
 
@@ -69,7 +69,7 @@ class K0Layer(Problem):
 
     @property
     def k0_ratio(self) -> float:
-        from ..geostatic import jaky_k0
+        from ..model.geostatic import jaky_k0
         return self.k0 if self.k0 > 0.0 else jaky_k0(self.soil)
 
     def geostatic(self, x0):
@@ -81,7 +81,7 @@ class K0Layer(Problem):
               placement=None, stress_update="study", allow_unstable_dt=False,
               damping=None, projection=None, transfer="musl", pic_fraction=None,
               integrator=None):
-        from ..model import Model, Wall
+        from ..model.model import Model, Wall
 
         if stress_update != "study":
             raise ValueError(f"{self.name} is Mohr-Coulomb soil: it takes no stress_update "

@@ -27,11 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..loads import BodyForce
+from ..model.loads import BodyForce
 from ..materials import NeoHookean
-from ..model import Model, Wall
-from ..scene import (PLACEMENTS, Material, consistent_mass_ratio, discrete_critical_time_step,
-                     equidistant_particles)
+from ..model.model import Model, Wall
+from ..model.scene import (PLACEMENTS, Material, consistent_mass_ratio,
+                           discrete_critical_time_step, equidistant_particles)
 from .base import Problem, ProblemScene, check_positive, lattice
 
 __all__ = ["ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D"]
@@ -145,7 +145,7 @@ class ManufacturedSolution(Problem):
               damping=None, projection=None, transfer="musl",
               pic_fraction=None, integrator=None) -> "ProblemScene":
         """The model on ``elements`` cells per axis, ``ppc`` particles per cell and axis
-        placed by ``placement`` (``timpm.scene.PLACEMENTS``), dt = 0.2 h / c unless given;
+        placed by ``placement`` (``timpm.model.scene.PLACEMENTS``), dt = 0.2 h / c unless given;
         mass, projection and integrator by :meth:`scheme` where not given."""
         if stress_update != "study":
             raise ValueError(f"{self.name} is a Neo-Hookean solid: it takes no stress_update "

@@ -3,7 +3,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene import Constant, Ramp, Traction
+from ..model.scene import Constant, Ramp, Traction
 from .base import Problem, check_positive
 
 

@@ -4,8 +4,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene import Constant, Traction
-from ..checks import whole
+from ..model.scene import Constant, Traction
+from ..platform.checks import whole
 from .base import Problem, ProblemScene, check_positive, last_below, lattice
 
 #: the most terms of the series solution (default 4000): every evaluation sums them all
@@ -149,7 +149,7 @@ class SoilColumn2D(SoilColumn):
               damping=None, projection=None, transfer="musl", pic_fraction=None,
               integrator=None):
         from ..materials import LinearElastic
-        from ..model import Model, Wall
+        from ..model.model import Model, Wall
 
         if stress_update != "study":
             raise ValueError(f"{self.name} is linear elastic (nu = 0): it takes no "

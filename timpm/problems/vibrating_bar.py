@@ -3,7 +3,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene import Sine, Traction
+from ..model.scene import Sine, Traction
 from .base import Problem, check_positive
 
 

@@ -26,10 +26,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..materials import DruckerPrager, NeoHookean, WeaklyCompressibleFluid
-from ..progress import Progress
-from ..checks import positive as _positive, step_count, whole
-from ..solver import Solver
-from ..world import Ball, Body, Box, Wall, World
+from ..platform.progress import Progress
+from ..platform.checks import positive as _positive, step_count, whole
+from ..simulation.solver import Solver
+from ..model.world import Ball, Body, Box, Wall, World
 
 __all__ = ["DEMOS", "get_demo", "run_demo", "run_frames", "DemoResult", "ColumnCollapse", "Disks",
            "DamBreak", "SlopeFailure", "QUANTITIES", "color_range", "lube_runout", "lajeunesse_runout",
@@ -354,8 +354,8 @@ class SlopeFailure(Demo):
                            cohesion=self.cohesion).reduced(F)
 
     def world(self) -> World:
-        from ..geometry import Polygon
-        from ..geostatic import K0
+        from ..model.geometry import Polygon
+        from ..model.geostatic import K0
 
         H = _positive("H", self.H)
         h = H / self.cells_per_H
@@ -511,7 +511,7 @@ def run_frames(solver, t_end, frames, movie=None, color=None, fields=None, progr
     """Run ``solver`` from its time t0 to ``t_end`` in ``frames`` equal parts; at the start
     and after each part ``movie`` gets the particles coloured by ``color``, ``fields`` the
     particle fields and ``observe(solver, t)`` a dict of values.  Returns those values'
-    series (with ``t``) as arrays.  A Ctrl-C (:class:`~timpm.interrupt.RunInterrupted`)
+    series (with ``t``) as arrays.  A Ctrl-C (:class:`~timpm.platform.interrupt.RunInterrupted`)
     leaves at a frame's step boundary; the frames so far are written."""
     series = {}
     bar = Progress(frames, progress)
@@ -547,7 +547,7 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
     :func:`color_range`, fixed for the run), ``movie.add(positions, values, t)`` at every
     frame, ``movie.close()`` after it; its ``out`` and ``seconds`` go into the result.
     ``fields`` (a :class:`timpm.output.fields.FieldWriter`) gets the particle fields at
-    every frame.  A run of more than :data:`~timpm.checks.MAX_STEPS` steps (a time step
+    every frame.  A run of more than :data:`~timpm.platform.checks.MAX_STEPS` steps (a time step
     the CFL limit shrank) is refused before it starts unless ``allow_many_steps``.
     """
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:

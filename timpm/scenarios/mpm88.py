@@ -8,7 +8,7 @@ throughput benchmark (``benchmarks/throughput.py``) runs it beside Taichi's own 
 import numpy as np
 
 from ..materials import JFluid
-from ..world import Body, Points, World
+from ..model.world import Body, Points, World
 
 __all__ = ["MPM88", "mpm88_world"]
 

@@ -7,7 +7,7 @@ A scene file takes one of two forms (docs/scene_files.md lists every key):
   mode, precision), ``[domain]`` (size, cells, walls), ``[material.NAME]`` tables,
   ``[[body]]`` tables (a box or a ball of a material), ``[loads]`` (gravity, surface
   tractions) and ``[output]`` (field frames, GIF, JSON); it builds a
-  :class:`timpm.world.World` and runs it like a demo;
+  :class:`timpm.model.world.World` and runs it like a demo;
 * a **problem**: ``[problem]`` names one of the 1D/2D/3D benchmark problems with the options
   of ``timpm run`` (``[problem.params]``: its physical parameters) and runs it through
   :func:`timpm.studies.study.run_problem`.

@@ -1,22 +1,22 @@
 """The checked scene: a scene file's tables, read and checked, made into a
-:class:`timpm.world.World` (the world form) or the arguments of
+:class:`timpm.model.world.World` (the world form) or the arguments of
 :func:`timpm.studies.study.run_problem` (the problem form)."""
 import re
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-from ..basis import get_basis
-from ..loads import Ramp, SurfaceTraction
+from ..bases import get_basis
+from ..model.loads import Ramp, SurfaceTraction
 from ..materials import MATERIALS, get_material
-from ..model import SIDES
+from ..model.model import SIDES
 from ..problems import PROBLEMS
-from ..geostatic import K0, GravityLoading
-from ..world import PRESETS, Ball, Body, Box, Polygon, Prism, Wall, World
+from ..model.geostatic import K0, GravityLoading
+from ..model.world import PRESETS, Ball, Body, Box, Polygon, Prism, Wall, World
 from .keypaths import key_lines, parse_path
 from .reader import Reader, apply_overrides, describe, read_toml, suggest
 from .schema import (BODY, DOMAIN, INITIAL_STRESS, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
-                     PROBLEM_OUTPUT, PROBLEM_TABLES, SHAPE_KEYS, SIMULATION, TRACTION, WALL, WORLD_TABLES,
-                     material_schema)
+                     PROBLEM_OUTPUT, PROBLEM_TABLES, SHAPE_KEYS, SIMULATION, TRACTION, WALL,
+                     WORLD_TABLES, material_schema)
 
 
 @dataclass(frozen=True, eq=False)

@@ -5,7 +5,7 @@ import argparse
 import os
 import sys
 
-from ..interrupt import RunInterrupted, deferred_sigint
+from ..platform.interrupt import RunInterrupted, deferred_sigint
 from ..output.fields import check_output_file
 from ..problems import PROBLEMS
 from .build import load_scene
@@ -39,7 +39,7 @@ def _setting(text):
 
 
 def _parser():
-    from ..argtypes import add_runtime_arguments, positive_float, positive_int
+    from ..platform.argtypes import add_runtime_arguments, positive_float, positive_int
 
     p = argparse.ArgumentParser(prog="timpm run", description="Run a scene file (TOML): a "
                                 "world of bodies or a benchmark problem; see "
@@ -90,8 +90,8 @@ def _command_line_overrides(args, form):
 def main(argv) -> int:
     """``timpm run FILE.toml [options]``: load, check and run the scene, print a summary;
     an error prints ``timpm: error: ...`` and returns 2."""
-    from .. import runtime
-    from ..solver import SimulationError
+    from ..platform import runtime
+    from ..simulation.solver import SimulationError
 
     args = _parser().parse_args(argv)
     try:
@@ -127,8 +127,8 @@ def resume(args, saved, fields) -> int:
     """``timpm resume FILE --t-end T`` of a scene file's world run (``saved``: the loaded
     checkpoint, ``fields``: the --vtk / --npz writer): the summary, --json the run's
     document; Ctrl-C (SIGTERM, SIGHUP) saves again and returns 128 + the signal."""
-    from .. import runtime
-    from ..files import write_json
+    from ..platform import runtime
+    from ..platform.files import write_json
     from .runner import resume_scene
 
     for option in ("plot", "csv", "checkpoint_every"):

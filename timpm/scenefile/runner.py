@@ -6,9 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..checkpoint import save_checkpoint
-from ..files import OutputError, write_json
-from ..interrupt import INTERRUPTED_CHECKPOINT, RunInterrupted
+from ..simulation.checkpoint import save_checkpoint
+from ..platform.files import OutputError, write_json
+from ..platform.interrupt import INTERRUPTED_CHECKPOINT, RunInterrupted
 from .build import SceneFile, load_scene
 
 
@@ -61,7 +61,7 @@ class SceneResult:
 def _writers(scene, checkpoint=None):
     """The field writer and the movie of the scene's output, every output checked before
     any work: writable, and no two naming one file or the scene file."""
-    from ..files import check_distinct
+    from ..platform.files import check_distinct
     from ..output.fields import FieldWriter, check_output_file
 
     out = scene.output
@@ -109,7 +109,7 @@ def run_scene(scene, progress=None, checkpoint=None, overrides=None,
     ``checkpoint``: a file that gets the whole state at the end and at Ctrl-C, with the
     scene file's path and ``overrides`` (the key paths the file was run with) for
     ``timpm resume``."""
-    from .. import runtime
+    from ..platform import runtime
 
     if not isinstance(scene, SceneFile):
         scene = load_scene(scene, overrides)
@@ -212,9 +212,9 @@ def _color_range(world, color, output):
 def _run_world(scene, fields_writer, movie, progress, checkpoint, run,
                allow_many_steps=False) -> SceneResult:
     from ..scenarios.demos import quantity
-    from ..solver import Solver
+    from ..simulation.solver import Solver
 
-    from ..checks import step_count
+    from ..platform.checks import step_count
 
     world, frames, t_end = scene.world, scene.output["frames"], scene.t_end
     color = scene.output["color"]
@@ -226,8 +226,8 @@ def _run_world(scene, fields_writer, movie, progress, checkpoint, run,
     if steps == 0:
         raise scene.error(("simulation", "t_end"), f"t_end = {t_end:g} s is shorter than half "
                           f"a step (dt = {world.dt:g} s): the run would take no step")
-    from ..geostatic import GravityLoading
-    from ..loading import gravity_loading
+    from ..model.geostatic import GravityLoading
+    from ..simulation.loading import gravity_loading
 
     if isinstance(world.initial_stress, GravityLoading):  # the stresses of a loading run
         try:
@@ -283,13 +283,13 @@ def _frames_saved(scene, solver, run, checkpoint, movie, t_end, frames, **option
 def resume_scene(saved, t_end, mode=None, fields=None, frames=20, checkpoint=None,
                  progress=None, allow_many_steps=False) -> SceneResult:
     """Continue the scene file's world run of the checkpoint ``saved``
-    (:func:`timpm.checkpoint.load_checkpoint`) to ``t_end``: the scene rebuilt from its
+    (:func:`timpm.simulation.checkpoint.load_checkpoint`) to ``t_end``: the scene rebuilt from its
     file with the overrides it ran with, the state restored (a file whose physics changed
     since is refused by the fingerprint), ``frames`` field frames over the resumed part
     into ``fields``, the state saved to ``checkpoint`` at the end and at Ctrl-C.  The
     file's own outputs (GIF, fields, JSON) are not written: the caller's are."""
-    from .. import runtime
-    from ..solver import Solver
+    from ..platform import runtime
+    from ..simulation.solver import Solver
 
     run = saved["run"]
     if "record_every" not in run or "mode" not in run:

@@ -4,14 +4,14 @@ import inspect
 import math
 from dataclasses import dataclass
 
-from ..basis import get_basis
+from ..bases import get_basis
 from ..engine.features import MODES
 from ..materials import MATERIALS
-from ..model import (INTEGRATORS, ND_BASES, SIDES, TRANSFERS, WALL_KINDS, MASS_KINDS,
-                     PROJECTIONS)
+from ..model.model import (INTEGRATORS, ND_BASES, SIDES, TRANSFERS, WALL_KINDS, MASS_KINDS,
+                           PROJECTIONS)
 from ..problems import PROBLEMS
-from ..scene import PLACEMENTS, STRESS_UPDATES
-from ..world import PRESETS
+from ..model.scene import PLACEMENTS, STRESS_UPDATES
+from ..model.world import PRESETS
 
 REQUIRED = object()
 

@@ -39,8 +39,9 @@ def stretched_quadrature_error(basis, strain, n_elements=256, ppc=2) -> float:
     """The particle quadrature's error under a uniform stretch: the RMS over the interior
     nodes of f_i = sum_p V_p dphi_i(x_p), the internal force of a unit constant stress
     (exact value 0), on ``ppc`` Gauss particles per element moved by ``strain`` from
-    their reference cells (element units; nodes within 4 of the body's ends left out)."""
-    from ..basis import evaluate
+    their reference cells (element units; nodes within 4 of the body's ends left out);
+    ``basis`` the class."""
+    from ..bases import evaluate
 
     points, weights = np.polynomial.legendre.leggauss(ppc)
     X = (np.arange(n_elements)[:, None] + (points[None, :] + 1.0) / 2.0).ravel()

@@ -276,7 +276,7 @@ def _root(fn, x0, slope, tol, where):
 
 
 def _generation():
-    from .. import runtime
+    from ..platform import runtime
     return runtime.generation()
 
 
@@ -325,7 +325,7 @@ def plot_element_test(record, path):
                  f"{prm['confinement']:g}; peak {record['peak_deviator']:.4g} against "
                  f"{record['exact_peak_deviator']:.4g}")
     fig.tight_layout()
-    from ..files import replacing
+    from ..platform.files import replacing
     with replacing(path, ".png") as tmp:
         fig.savefig(tmp, dpi=100)
     plt.close(fig)

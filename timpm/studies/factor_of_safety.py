@@ -51,10 +51,10 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     """Run ``world`` with its soil's strength divided by ``F`` to ``t_end``: whether it
     failed (see the module), the largest displacement at 3/4 and at the end, the
     particles' plastic strain and positions at the end."""
-    from ..errors import ErrorCode, SimulationError
-    from ..geostatic import GravityLoading
-    from ..loading import gravity_loading
-    from ..solver import Solver
+    from ..platform.errors import ErrorCode, SimulationError
+    from ..model.geostatic import GravityLoading
+    from ..simulation.loading import gravity_loading
+    from ..simulation.solver import Solver
 
     bodies = tuple(replace(b, material=reduced(b.material, F)) for b in world.bodies)
     w = replace(world, bodies=bodies)
@@ -145,7 +145,7 @@ def plot_mechanism(world, failed, record, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..files import replacing
+    from ..platform.files import replacing
 
     if failed.get("plastic") is None:  # the run stopped (off the grid, no rest under gravity)
         raise ValueError(f"no mechanism to draw: the run at F = {failed['F']:g}, the smallest "

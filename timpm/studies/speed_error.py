@@ -66,12 +66,12 @@ import time
 
 import numpy as np
 
-from ..argtypes import add_runtime_arguments, non_negative_int, param, positive_float, positive_int
-from ..checks import distinct, whole
-from ..basis import BASES, basis_argument, get_basis
+from ..platform.argtypes import add_runtime_arguments, non_negative_int, param, positive_float, positive_int
+from ..platform.checks import distinct, whole
+from ..bases import BASES, basis_argument, get_basis
 from ..engine.features import MODES
 from ..problems import PROBLEMS, get_problem
-from ..scene import MASS_KINDS, PLACEMENTS, STRESS_UPDATES
+from ..model.scene import MASS_KINDS, PLACEMENTS, STRESS_UPDATES
 from .analysis import rms_error
 from .sweep import add_arguments, check_executor, interruptible, map_runs
 from .speed_error_report import (cheapest_for, default_targets, format_report, merge_studies,
@@ -100,7 +100,7 @@ class _Run:
 
     def __init__(self, prob, *, elements, ppc, basis, mass, dt, t_end, placement, mode,
                  stress_update="study"):
-        from ..solver import Solver
+        from ..simulation.solver import Solver
 
         scene = prob.scene(elements=elements, ppc=ppc, basis=basis, mass=mass, dt=dt,
                            placement=placement, stress_update=stress_update)
@@ -127,7 +127,7 @@ class _Run:
     def time_again(self) -> float:
         """Advance a solver of the same scene by the run's number of steps (a new one at
         the first call, from the initial state); its stepping seconds."""
-        from ..solver import Solver
+        from ..simulation.solver import Solver
 
         if self.timer is None:
             self.timer = Solver(self.scene, track=(), energies=False, mode=self.mode)
@@ -320,7 +320,7 @@ def _configuration(prob, conf, settings) -> dict:
     or ``{"skipped": ...}``, with ``note`` (the progress line) and ``compile_seconds``
     (a list of one entry: all the kernel compilation it caused, its scenes' stencils, the
     dt trials, the state uploads and saves and the readers included)."""
-    from .. import runtime
+    from ..platform import runtime
 
     clock = runtime.compile_clock()
     outcome = _configuration_runs(prob, conf, settings)
@@ -329,7 +329,7 @@ def _configuration(prob, conf, settings) -> dict:
 
 
 def _configuration_runs(prob, conf, settings) -> dict:
-    from ..solver import SimulationError
+    from ..simulation.solver import SimulationError
 
     t_end, mode, stress_update = settings["t_end"], settings["mode"], settings["stress_update"]
     repeats = settings["repeats"]

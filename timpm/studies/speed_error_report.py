@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from ..scene import MASS_KINDS
+from ..model.scene import MASS_KINDS
 
 __all__ = ["merge_studies", "pareto_front", "cheapest_for", "plateaus", "default_targets",
            "format_table", "format_report", "group_label", "groups_by_label", "is_measured"]

@@ -6,10 +6,10 @@ import time
 
 import numpy as np
 
-from ..batch import Batch
-from ..checks import distinct, finite, step_count, whole
+from ..simulation.batch import Batch
+from ..platform.checks import distinct, finite, step_count, whole
 from ..problems import get_problem
-from ..solver import Solver
+from ..simulation.solver import Solver
 from .analysis import energy_drift, observed_rates, rms_error
 from .sweep import check_executor, interruptible, map_runs
 
@@ -59,20 +59,20 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     compiles nothing.  ``fields`` (a
     :class:`timpm.output.fields.FieldWriter`) receives the particle fields at ``frames``
     times spread evenly over the run, and at its start.  A ``t_end`` shorter than half a
-    step is refused, and so is a run of more than :data:`~timpm.checks.MAX_STEPS` steps
+    step is refused, and so is a run of more than :data:`~timpm.platform.checks.MAX_STEPS` steps
     unless ``allow_many_steps``.
 
     ``checkpoint`` (a file name) receives the whole state and the run's description every
     ``checkpoint_every`` steps, at the end, and when Ctrl-C stops the run inside
-    :func:`timpm.interrupt.deferred_sigint` (then :class:`~timpm.interrupt.RunInterrupted`
+    :func:`timpm.platform.interrupt.deferred_sigint` (then :class:`~timpm.platform.interrupt.RunInterrupted`
     is raised carrying the partial ``result`` and the ``checkpoint`` written; there
     ``interrupted_to``, when given, names the file instead);
-    ``resume`` (a :func:`timpm.checkpoint.load_checkpoint` dict) continues a saved run of
+    ``resume`` (a :func:`timpm.simulation.checkpoint.load_checkpoint` dict) continues a saved run of
     the same arguments from its step (see :func:`resume_problem`).
     """
     given = dict(locals())  # the arguments: the first statement, before any other name
-    from ..checkpoint import save_checkpoint
-    from ..interrupt import RunInterrupted
+    from ..simulation.checkpoint import save_checkpoint
+    from ..platform.interrupt import RunInterrupted
 
     if fields is not None and (isinstance(frames, bool) or not isinstance(frames, int)
                                or frames < 1):
@@ -149,7 +149,7 @@ def resume_problem(path, t_end, saved=None, **options) -> RunResult:
     saved run's arguments; ``saved``: the file's ``load_checkpoint`` where the caller read
     it already; ``options`` are run_problem's output and progress options (``fields``,
     ``frames``, ``checkpoint``, ``checkpoint_every``, ``progress``)."""
-    from ..checkpoint import load_checkpoint
+    from ..simulation.checkpoint import load_checkpoint
 
     if saved is None:
         saved = load_checkpoint(path)

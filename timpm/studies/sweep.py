@@ -3,12 +3,12 @@ a Dask cluster; the results come back in the order of the runs, equal to a seria
 
 :func:`map_runs` calls ``task(*args)`` for each ``args`` of a list.  With ``workers=N``
 the calls go to a pool of N processes started with the "spawn" method (a forked child of
-a process running Taichi would hang: :mod:`timpm.runtime`); with ``dask=ADDRESS`` to the
+a process running Taichi would hang: :mod:`timpm.platform.runtime`); with ``dask=ADDRESS`` to the
 workers of a ``dask.distributed`` scheduler, or with ``dask="local"`` to a LocalCluster on
 this machine, one single-threaded worker process per core.
 
 Each worker process starts Taichi itself with the settings of this one
-(:func:`timpm.runtime.settings`: the same worker-thread count, precision, arch), so a
+(:func:`timpm.platform.runtime.settings`: the same worker-thread count, precision, arch), so a
 run's ``mode="auto"`` and its scatter resolve there as here and the run computes the same
 numbers: serial (fused) runs are bit-reproducible on any thread count, and a parallel
 run's particle state depends only on the thread count, which is the same (its recorded
@@ -31,7 +31,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from ..argtypes import positive_int
+from ..platform.argtypes import positive_int
 
 __all__ = ["SweepError", "SweepInterrupted", "interruptible", "check_executor", "map_runs",
            "add_arguments", "CONNECT_TIMEOUT", "DASK_INSTALL"]
@@ -61,10 +61,10 @@ class SweepInterrupted(Exception):
 @contextlib.contextmanager
 def interruptible(partial, planned: int):
     """Turn an interruption of the sweep in the block (``KeyboardInterrupt``, or a run's
-    own :class:`~timpm.interrupt.RunInterrupted`) into :class:`SweepInterrupted`
+    own :class:`~timpm.platform.interrupt.RunInterrupted`) into :class:`SweepInterrupted`
     carrying ``partial()``, the record of the runs done so far, and how many they are
     (its ``"runs"``)."""
-    from ..interrupt import RunInterrupted
+    from ..platform.interrupt import RunInterrupted
 
     try:
         yield
@@ -134,7 +134,8 @@ def map_runs(task, calls, *, workers=None, dask=None, on_result=None, cost=None,
     except Exception as exc:
         raise ValueError(f"the runs cannot be sent to worker processes (their arguments "
                          f"must be plain, picklable data): {exc}") from None
-    from .. import __version__, runtime
+    from .. import __version__
+    from ..platform import runtime
 
     job = _Job(task, runtime.settings(), __version__, own_thread=dask is not None)
     # the order in which the calls start: costliest first (a stable sort: ties in order)
@@ -164,7 +165,8 @@ class _Job:
     def _run(self, args):
         import socket
 
-        from .. import __version__, runtime
+        from .. import __version__
+        from ..platform import runtime
 
         if __version__ != self.version:
             raise ValueError(f"the worker on {socket.gethostname()} runs timpm {__version__}, "
@@ -376,7 +378,7 @@ def _on_dask(job, calls, start, address, timeout, on_result) -> list:
         except ValueError as exc:
             raise SweepError(f"dask={address!r} is not a scheduler address such as "
                              f"tcp://host:8786 (or 'local'): {exc}") from None
-    from .. import interrupt
+    from ..platform import interrupt
 
     with contextlib.ExitStack() as stack:
         quiet = stack.enter_context(_QuietTeardown())  # entered first: it exits last

@@ -19,17 +19,17 @@ import time
 
 import numpy as np
 
-from . import interrupt, runtime
-from .checks import (check_steps, index, is_whole, matrices, solver_options, step_count,
-                     whole)
-from .engine.failures import energy_balance, recorded_failure
-from .geostatic import GravityLoading
-from .engine.features import SCATTERS, auto_mode, plan
-from .engine.program_cache import program_for, release_state_of
-from .engine.recorder import energy_series, tracked_series
-from .engine.state import State
-from .errors import ERRORS, Released, SimulationError
-from .progress import Progress
+from ..platform import interrupt, runtime
+from ..platform.checks import (check_steps, index, is_whole, matrices, solver_options, step_count,
+                               whole)
+from ..engine.failures import energy_balance, recorded_failure
+from ..model.geostatic import GravityLoading
+from ..engine.features import SCATTERS, auto_mode, plan
+from ..engine.program_cache import program_for, release_state_of
+from ..engine.recorder import energy_series, tracked_series
+from ..engine.state import State
+from ..platform.errors import ERRORS, Released, SimulationError
+from ..platform.progress import Progress
 
 __all__ = ["Solver", "SimulationError", "ERRORS", "SCATTERS", "auto_mode"]
 
@@ -135,7 +135,7 @@ class Solver:
     def program(self):
         """The compiled program of this solver's feature set, with this solver's state in
         its fields (the state there before is saved to its owner first; drivers such as
-        :class:`~timpm.batch.Batch` launch its kernels)."""
+        :class:`~timpm.simulation.batch.Batch` launch its kernels)."""
         self.check_usable()
         with self._compiling():  # the first upload (or save) of a program compiles it
             prog = program_for(self.features, self.layout, self._slot)
@@ -281,7 +281,7 @@ class Solver:
 
     def steps_for(self, t_end: float, allow_many_steps: bool = False) -> int:
         """Number of steps of size dt that reach ``t_end`` (rounded to the nearest step);
-        more than :data:`~timpm.checks.MAX_STEPS` are refused unless ``allow_many_steps``."""
+        more than :data:`~timpm.platform.checks.MAX_STEPS` are refused unless ``allow_many_steps``."""
         return step_count(t_end, self.dt, allow_many_steps)
 
     def compile(self):
@@ -309,15 +309,15 @@ class Solver:
             allow_many_steps: bool = False):
         """Advance to ``t_end`` (or by ``n_steps``); returns self.
 
-        A run of more than :data:`~timpm.checks.MAX_STEPS` (1e8) steps is refused before
+        A run of more than :data:`~timpm.platform.checks.MAX_STEPS` (1e8) steps is refused before
         it starts (a mistaken dt or t_end) unless ``allow_many_steps``.
         Raises :class:`SimulationError` at the first step whose state is invalid.  A
         progress line is drawn on stderr for runs that last more than two seconds when
         stderr is a terminal (``progress=True`` forces it, ``False`` turns it off).
         Wall time spent stepping accumulates in ``run_seconds``; kernel compilation is
-        booked apart in ``compile_seconds``.  Inside :func:`timpm.interrupt.deferred_sigint`
+        booked apart in ``compile_seconds``.  Inside :func:`timpm.platform.interrupt.deferred_sigint`
         a Ctrl-C stops the run at the next step boundary (launches then last at most about
-        half a second) with :class:`~timpm.interrupt.RunInterrupted`; the state is whole
+        half a second) with :class:`~timpm.platform.interrupt.RunInterrupted`; the state is whole
         and can be saved (:meth:`snapshot`).
         """
         total = self.steps_to(t_end, n_steps, allow_many_steps)
@@ -499,7 +499,7 @@ class Solver:
         """u_h(x) = sum_i phi_i(x) u_i at points x from the accumulated nodal displacements."""
         if not self.grid_displacement:
             raise RuntimeError("build the solver with grid_displacement=True")
-        from .basis import evaluate
+        from ..bases import evaluate
 
         phi, _ = evaluate(self.basis, (np.asarray(x, dtype=float) - self.origin[0]) * self.inv_h,
                           self.n_elements)

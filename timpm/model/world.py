@@ -1,7 +1,7 @@
 """Scenes of bodies in a box: a box-shaped domain in 1D, 2D or 3D, bodies of material,
 walls and gravity.
 
-A :class:`World` is, like :class:`timpm.scene.Scene`, a checked, immutable builder of the
+A :class:`World` is, like :class:`timpm.model.scene.Scene`, a checked, immutable builder of the
 one model of 1D to 3D (:class:`timpm.model.Model`), which the engine reads.  Bodies are
 shapes (:class:`Box`, :class:`Ball`, :class:`Points`) filled with a regular lattice of
 ``ppc`` particles per cell and axis; walls bound the domain (``sticky``, ``slip``, Coulomb
@@ -19,12 +19,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .basis import get_basis
-from .checks import check_size, positive as _positive, positive_int, vector as _vector
+from ..bases import get_basis
+from ..platform.checks import check_size, positive as _positive, positive_int, vector as _vector
 from .geometry import Polygon, Prism
 from .geostatic import K0, GravityLoading, geostatic_stress, jaky_k0
 from .loads import field_function
-from .materials import MATERIALS, Material, get_material
+from ..materials import MATERIALS, Material, get_material
 from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Wall, check_scheme,
                     walls_from)
 
@@ -215,15 +215,15 @@ class World:
     and the grid, which stops the run with an error); ``fixed_nodes`` grid nodes (index
     tuples of the padded grid, ``world.model.nodes``) held at zero velocity, or a dict of
     node to prescribed velocity (times the time function ``fixed_time``).  ``tractions``
-    lists :class:`~timpm.loads.SurfaceTraction` loads on the faces of bodies (2D, 3D; one
+    lists :class:`~timpm.model.loads.SurfaceTraction` loads on the faces of bodies (2D, 3D; one
     time function for all).  Gravity points down y in 2D and 3D, down x
     in 1D, unless given.  ``dt=None`` picks ``courant`` (default 0.4) times the CFL
     limit h / (c + |v|), where c is the stiffest material's wave speed and |v| bounds the speed
     (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``
     above the limit is refused unless ``allow_unstable_dt``.  ``integrator``: the time
     integration (``timpm.model.INTEGRATORS``; rk4 takes roller and sticky walls only).
-    ``initial_stress``: :class:`~timpm.geostatic.K0` (the K0 procedure: the weight of the
-    bodies above each particle, sigma_h = K0 sigma_v), :class:`~timpm.geostatic.
+    ``initial_stress``: :class:`~timpm.model.geostatic.K0` (the K0 procedure: the weight of the
+    bodies above each particle, sigma_h = K0 sigma_v), :class:`~timpm.model.geostatic.
     GravityLoading` (a damped run under gravity to rest, which the Solver makes first), an
     (n, 3, 3) array of Cauchy stresses, or None (stress-free).
     """
@@ -307,11 +307,11 @@ class World:
         object.__setattr__(self, "fixed_nodes", model.fixed_nodes)
 
     def _initial_stress(self, dim, g, domain):
-        """The particles' initial stresses: a :class:`~timpm.geostatic.K0` procedure's
+        """The particles' initial stresses: a :class:`~timpm.model.geostatic.K0` procedure's
         geostatic stress, or the (n, 3, 3) array given (None: stress-free)."""
         spec = self.initial_stress
         if isinstance(spec, GravityLoading):
-            return None  # computed by a loading run (timpm.loading), stress-free before it
+            return None  # computed by a loading run (timpm.simulation.loading), stress-free before it
         if not isinstance(spec, K0):
             return spec
         if dim == 1:
@@ -358,7 +358,7 @@ class World:
 
     def _check_size(self, dim, h, domain):
         """The grid and the lattices the bodies are filled from, checked before either is
-        allocated (:func:`timpm.checks.check_size`)."""
+        allocated (:func:`timpm.platform.checks.check_size`)."""
         basis = self.basis
         nodes = np.prod([float(basis.n_nodes(e)) for e in self.grid_elements])
         particles = 0.0
@@ -440,7 +440,7 @@ class World:
         forces = np.zeros_like(x)
         for k, load in enumerate(tractions):
             if not isinstance(load, SurfaceTraction):
-                raise ValueError(f"tractions[{k}] must be a timpm.loads.SurfaceTraction, got "
+                raise ValueError(f"tractions[{k}] must be a timpm.model.loads.SurfaceTraction, got "
                                  f"{load!r}")
             if not (isinstance(load.body, (int, np.integer)) and 0 <= load.body < len(self.bodies)):
                 raise ValueError(f"tractions[{k}]: body {load.body!r} does not exist "

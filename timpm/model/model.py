@@ -7,8 +7,8 @@ boundaries: walls on the sides of a box (sticky, slip, Coulomb friction, or none
 Dirichlet nodes held at rest.  Every value is checked on construction, each error naming
 what is wrong and where.
 
-Two builders make models: :class:`timpm.scene.Scene` (1D: a grid and particles placed in
-its elements, the study's problems) and :class:`timpm.world.World` (a box domain in 1D,
+Two builders make models: :class:`timpm.model.scene.Scene` (1D: a grid and particles placed in
+its elements, the study's problems) and :class:`timpm.model.world.World` (a box domain in 1D,
 2D or 3D filled with bodies).  Both take walls and Dirichlet nodes; the engine
 (:func:`timpm.engine.features.plan`) reads only the model.
 """
@@ -17,10 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .basis import get_basis
-from .checks import check_size, positive, positive_int, vector
+from ..bases import get_basis
+from ..platform.checks import check_size, positive, positive_int, vector
 from .loads import BodyForce, field_function, time_function
-from .materials import Material
+from ..materials import Material
 from .walls import SIDES, WALL_KINDS, Wall, walls_from
 
 __all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "SIDES", "WALL_KINDS",
@@ -141,9 +141,9 @@ class Model:
     (per axis the lower and upper wall position in cells from the grid origin; default the
     grid's ends); ``fixed_nodes`` grid nodes (index tuples) held at zero velocity, or a
     dict of node to prescribed velocity v (a number in 1D, a vector): the node moves at
-    v f(t), f the time function ``fixed_time`` (default :class:`~timpm.loads.Constant`;
+    v f(t), f the time function ``fixed_time`` (default :class:`~timpm.model.loads.Constant`;
     lumped mass, standard projection);
-    ``gravity`` the acceleration per axis; ``body_force`` a :class:`~timpm.loads.BodyForce`
+    ``gravity`` the acceleration per axis; ``body_force`` a :class:`~timpm.model.loads.BodyForce`
     b(X, t) per unit mass (a Python function, vectorised); ``traction`` the study's load
     on one particle (1D); ``damping`` the local damping factor alpha of A.4;
     ``pic_fraction`` b blends the MUSL particle velocity update: v_p = (1 - b)(v_p + dt
@@ -162,7 +162,7 @@ class Model:
     Cauchy stresses the particles start from (2D and 3D; in 2D entry [2, 2] is the
     out-of-plane stress of plane strain): each material sets its elastic strain from it
     (``Material.elastic_state``: Drucker-Prager and Mohr-Coulomb), e.g. the geostatic
-    stress of :mod:`timpm.geostatic`.
+    stress of :mod:`timpm.model.geostatic`.
     """
 
     basis: str
@@ -521,7 +521,7 @@ class Model:
                              "zero (a list of nodes) or use mass='lumped'")
         if self.body_force is not None:
             if not isinstance(self.body_force, BodyForce):
-                raise ValueError(f"body_force must be a timpm.loads.BodyForce (a function "
+                raise ValueError(f"body_force must be a timpm.model.loads.BodyForce (a function "
                                  f"b(X, t) wrapped), got {self.body_force!r}")
             self.body_force(self.positions, 0.0)  # signature, shape, finite: checked now
         if self.particle_force is not None:

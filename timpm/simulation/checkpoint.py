@@ -6,7 +6,7 @@ its records so far, and a JSON header: the format version, the solver's fingerpr
 the restoring solver must match) and, when a driver knows it, the description of the run
 (``run``: the arguments that rebuild its scene, e.g. :func:`timpm.studies.study.run_problem`'s).
 
-``save_checkpoint(path, solver, run=...)`` writes it whole (:func:`timpm.files.replacing`);
+``save_checkpoint(path, solver, run=...)`` writes it whole (:func:`timpm.platform.files.replacing`);
 ``load_checkpoint(path)`` reads and checks it;
 ``solver.restore(checkpoint)`` continues from it bit for bit (one thread, the same mode).
 """
@@ -17,7 +17,7 @@ import zipfile
 
 import numpy as np
 
-from .files import replacing
+from ..platform.files import replacing
 
 __all__ = ["save_checkpoint", "load_checkpoint", "FORMAT", "VERSION"]
 
@@ -31,7 +31,7 @@ HEADER_KEYS = ("step", "t", "fingerprint", "columns", "energy_input", "run_secon
 def save_checkpoint(path, solver, run=None) -> str:
     """Write ``solver``'s state (and ``run``, a JSON-able description of how to rebuild its
     scene) to ``path``; returns the path."""
-    from . import __version__
+    from .. import __version__
 
     snap = solver.snapshot()
     header = {"format": FORMAT, "version": VERSION, "timpm": __version__,

@@ -12,10 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .basis import get_basis
-from .checks import check_size, finite, positive as _positive, positive_int as _positive_int
+from ..bases import get_basis
+from ..platform.checks import check_size, finite, positive as _positive, positive_int as _positive_int
 from .loads import Constant, Ramp, Sine, Traction
-from .materials import Hypoelastic1D
+from ..materials import Hypoelastic1D
 from .model import CRITICAL_STEP_FACTOR, MASS_KINDS, PROJECTIONS, Model, walls_from
 
 __all__ = [
@@ -112,7 +112,7 @@ def equidistant_particles(n_elements: int, ppc: int, h: float, start: float = 0.
     the study's Table 3.2.  ``"centered"`` uses ``(k + 1/2) / ppc`` (each particle in the
     middle of an equal sub-cell), ``"gauss"`` the Gauss-Legendre points with their weights
     as volumes.  Volumes sum to the filled length in every case.  A size that cannot be
-    indexed or held in memory is refused first (:func:`timpm.checks.check_size`).
+    indexed or held in memory is refused first (:func:`timpm.platform.checks.check_size`).
     """
     n_elements = _positive_int("number of elements", n_elements)
     ppc = _positive_int("particles per element", ppc)
@@ -143,7 +143,7 @@ def particle_matrices(grid: Grid1D, material: Material, basis, positions, volume
     """Per-particle stencil contributions to K = sum_p E V_p dphi dphi^T and
     M = sum_p m_p phi phi^T (A.1, A.3), from the basis' own stencil: returns the node base
     of each particle and arrays k, m of shape (particles, support, support)."""
-    from .basis import stencils
+    from ..bases import stencils
 
     basis = get_basis(basis)
     xi = (np.asarray(positions) - grid.origin) / grid.h

@@ -6,11 +6,11 @@ bad input, and writes its record before its plot."""
 import argparse
 import sys
 
-from . import runtime
-from .errors import SimulationError
-from .files import check_distinct, check_output, write_json
-from .studies import element_test as elements
-from .studies import factor_of_safety as fos
+from ..platform import runtime
+from ..platform.errors import SimulationError
+from ..platform.files import check_distinct, check_output, write_json
+from ..studies import element_test as elements
+from ..studies import factor_of_safety as fos
 
 __all__ = ["element_test", "factor_of_safety", "listing"]
 
@@ -43,7 +43,7 @@ def _error(exc) -> int:
 
 def element_test(argv) -> int:
     """``timpm run biaxial-mc|triaxial-mc [--param NAME=VALUE ...] [--json F] [--plot P]``."""
-    from .argtypes import param
+    from ..platform.argtypes import param
 
     ap = argparse.ArgumentParser(prog=f"timpm run {argv[0] if argv else 'biaxial-mc'}",
                                  description="an element test of a soil law (Mohr-Coulomb, "
@@ -83,7 +83,7 @@ def element_test(argv) -> int:
 
 def factor_of_safety(args) -> int:
     """``timpm study factor-of-safety FILE.toml``: the bisection, its record and plot."""
-    from .scenefile import load_scene
+    from ..scenefile import load_scene
 
     try:
         _check_outputs(args, {"the scene file": args.scene})

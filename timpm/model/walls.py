@@ -3,7 +3,7 @@
 import math
 from dataclasses import dataclass
 
-from .checks import vector
+from ..platform.checks import vector
 
 __all__ = ["Wall", "walls_from", "SIDES", "WALL_KINDS"]
 

@@ -9,21 +9,22 @@ import sys
 
 import numpy as np
 
-from . import __version__, interrupt
-from .argtypes import (add_runtime_arguments, numbers_as_values, param, positive_float,
-                       positive_int, setting)
-from .basis import BASES, basis_argument, get_basis
-from .checks import MAX_STEPS, step_count
-from .engine.features import MODES
-from .files import replacing, write_json as _write_json
-from .model import INTEGRATORS
-from .output.tables import run_table, scheme_line
-from .problems import PROBLEMS, get_problem
-from .runtime import exit_process
-from .scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
-from .solver import SimulationError
-from . import soil_commands
-from .studies import factor_of_safety, speed_error, sweep
+from .. import __version__
+from ..platform import interrupt
+from ..platform.argtypes import (add_runtime_arguments, numbers_as_values, param, positive_float,
+                                 positive_int, setting)
+from ..bases import BASES, basis_argument, get_basis
+from ..platform.checks import MAX_STEPS, step_count
+from ..engine.features import MODES
+from ..platform.files import replacing, write_json as _write_json
+from ..model.model import INTEGRATORS
+from ..output.tables import run_table, scheme_line
+from ..problems import PROBLEMS, get_problem
+from ..platform.runtime import exit_process
+from ..model.scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
+from ..simulation.solver import SimulationError
+from . import soil as soil_commands
+from ..studies import factor_of_safety, speed_error, sweep
 
 __all__ = ["main", "entry", "demo_script"]
 
@@ -110,7 +111,7 @@ def _field_writer(args):
             raise ValueError("--grid writes the grid beside the particle fields: give --vtk "
                              "DIR or --npz DIR too")
         return None
-    from .output.fields import FieldWriter
+    from ..output.fields import FieldWriter
 
     return FieldWriter(args.vtk or args.npz, "vtk" if args.vtk else "npz", grid=args.grid)
 
@@ -133,7 +134,7 @@ def _check_output_files(args, inputs=None):
     """--json, --csv, --plot, --out, --checkpoint: each writable (its directory probed, the
     plot's format known), no two naming one file or an input (``inputs``: what -> path),
     before any work."""
-    from .files import PLOT_FORMATS, check_distinct, check_output, check_output_dir
+    from ..platform.files import PLOT_FORMATS, check_distinct, check_output, check_output_dir
 
     outputs = {}
     for flag in ("json", "csv", "plot", "out", "checkpoint"):
@@ -174,7 +175,7 @@ def _start_taichi(args):
     """Taichi with ``--threads`` and ``--arch``; without them, as it runs already where it
     was started (a notebook or a test calling ``main``: no restart, no recompilation),
     else the defaults."""
-    from . import runtime
+    from ..platform import runtime
 
     threads, arch = getattr(args, "threads", None), getattr(args, "arch", None)
     try:
@@ -275,8 +276,8 @@ def _listing() -> str:
     bases, the demos with their parameters."""
     from dataclasses import fields
 
-    from .basis import MAX_BSPLINE_DEGREE
-    from .scenarios.demos import DEMOS
+    from ..bases import MAX_BSPLINE_DEGREE
+    from ..scenarios.demos import DEMOS
 
     def params(obj):
         shown = {f.name: getattr(obj, f.name) for f in fields(obj)}
@@ -303,8 +304,8 @@ def _listing() -> str:
 
 
 def _compare(args):
-    from .output.viz import plot_comparison
-    from .studies.study import compare_large_column
+    from ..output.viz import plot_comparison
+    from ..studies.study import compare_large_column
 
     cmp = compare_large_column(elements=args.elements, ppc=args.ppc, dt=args.dt,
                                t_end=args.t_end, basis=args.basis,
@@ -327,7 +328,7 @@ def _run(args, start):
     """``timpm run`` / ``timpm resume``: ``start(**outputs)`` runs; print the table, write the
     outputs; returns the JSON document, or None when Ctrl-C stopped the run (then the
     checkpoint and the partial record are written and one line says where)."""
-    from .output.viz import plot_series
+    from ..output.viz import plot_series
 
     try:
         with interrupt.deferred_sigint():
@@ -339,7 +340,7 @@ def _run(args, start):
         if kept is not None and args.json:
             _write_json(args.json, {"command": args.command, "problem": kept.record["problem"],
                                     "runs": [kept.record]})
-            from .files import OutputError
+            from ..platform.files import OutputError
             raise OutputError(exc.errno, f"{exc.strerror}; the record is in {args.json}",
                               exc.filename) from None
         raise
@@ -384,8 +385,8 @@ def _options(args):
 
 
 def _demo(args):
-    from .output.render import Movie
-    from .scenarios.demos import run_demo
+    from ..output.render import Movie
+    from ..scenarios.demos import run_demo
 
     params = dict(args.param)
     if args.t_end is not None:
@@ -410,7 +411,7 @@ def _demo(args):
         doc["series"] = {k: v.tolist() for k, v in result.series.items()}
         _write_json(args.json, doc)
     if args.plot:
-        from .output.viz import plot_demo
+        from ..output.viz import plot_demo
 
         plot_demo(result, args.plot)
     return 0
@@ -431,7 +432,7 @@ def _partial_sweep(args, stop) -> int:
 
 def _speed_error(args) -> int:
     """``timpm study speed-error``: run the sweep, print the report, write plot and JSON."""
-    from .output.viz import plot_speed_error
+    from ..output.viz import plot_speed_error
 
     def progress(msg):
         print(msg, file=sys.stderr, flush=True)
@@ -477,7 +478,7 @@ def _speed_error(args) -> int:
 
 def entry():
     """The ``timpm`` command (console script and ``python -m timpm``): :func:`main`, then
-    the process ends without the interpreter's teardown (:func:`timpm.runtime.exit_process`;
+    the process ends without the interpreter's teardown (:func:`timpm.platform.runtime.exit_process`;
     an uncaught error exits as usual, with its traceback)."""
     exit_process(main() or 0)
 
@@ -494,11 +495,11 @@ def main(argv=None):
 def _main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["run"]:  # scene files: their reader imported where one may be run
-        from .scenefile import is_scene_argument, main as run_scene_file
+        from ..scenefile import is_scene_argument, main as run_scene_file
 
         if is_scene_argument(argv[1:]):
             return run_scene_file(argv[1:])
-        from .studies.element_test import ELEMENT_TESTS
+        from ..studies.element_test import ELEMENT_TESTS
 
         if argv[1:2] and argv[1] in ELEMENT_TESTS:  # a soil law's element test
             return soil_commands.element_test(argv[1:])
@@ -515,8 +516,8 @@ def _main(argv=None):
         print(_listing())
         print("scene files: timpm run FILE.toml (examples/, docs/scene_files.md)")
         return 0
-    from .output.viz import plot_convergence
-    from .studies.study import convergence, run_problem
+    from ..output.viz import plot_convergence
+    from ..studies.study import convergence, run_problem
 
     try:
         if args.command == "compare-ulfem":
@@ -525,13 +526,13 @@ def _main(argv=None):
                           args.t_end, args.allow_many_steps)
             return _compare(args)
         if args.command == "resume":
-            from .checkpoint import load_checkpoint
-            from .studies.study import resume_problem
+            from ..simulation.checkpoint import load_checkpoint
+            from ..studies.study import resume_problem
 
             _check_output_files(args, {"the checkpoint resumed": args.saved})
             saved = load_checkpoint(args.saved)
             if (saved["run"] or {}).get("scene_file") is not None:  # a world's scene file
-                from .scenefile.command import resume
+                from ..scenefile.command import resume
 
                 return resume(args, saved, _field_writer(args))
             _start_taichi(args)

@@ -73,7 +73,7 @@ def positive_float(text):
 
 
 def add_runtime_arguments(parser):
-    """``--threads`` and ``--arch``: where Taichi runs (see :func:`timpm.runtime.init`)."""
+    """``--threads`` and ``--arch``: where Taichi runs (see :func:`timpm.platform.runtime.init`)."""
     from .runtime import ARCHS
 
     parser.add_argument("--threads", type=positive_int, help="CPU threads for Taichi")

@@ -9,7 +9,7 @@
 """
 import taichi as ti
 
-from ...errors import ErrorCode
+from ..platform.errors import ErrorCode
 from .phases import Nodes, Particles, Scatter, Whole
 
 __all__ = ["Affine"]

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import taichi as ti
 
-from .checks import finite, positive, whole
+from ..platform.checks import finite, positive, whole
 
 __all__ = ["Constant", "Sine", "Ramp", "Traction", "BodyForce", "SurfaceTraction",
            "field_function", "time_function", "TIME_FUNCTIONS"]
@@ -198,7 +198,7 @@ class BodyForce:
 class SurfaceTraction:
     """A traction (force per unit area, a vector) ``traction * time_function(t)`` on the
     ``side`` face (``"left"``, ``"right"``, ``"bottom"``, ``"top"``, ``"back"``,
-    ``"front"``) of body ``body`` of a :class:`timpm.world.World` in 2D or 3D.  The
+    ``"front"``) of body ``body`` of a :class:`timpm.model.world.World` in 2D or 3D.  The
     particles within half a particle spacing of the body's extreme on that side carry it:
     each the force traction * V_p / dx, dx = h / ppc the spacing normal to the face, so
     that the forces sum to traction times the face's area (length in 2D, per unit depth)."""
@@ -209,7 +209,7 @@ class SurfaceTraction:
     time_function: object = field(default_factory=Constant)
 
     def __post_init__(self):
-        from .checks import vector
+        from ..platform.checks import vector
 
         object.__setattr__(self, "traction", tuple(vector("surface traction", self.traction)))
         time_function("surface traction time_function", self.time_function)

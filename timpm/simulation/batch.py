@@ -11,10 +11,10 @@ import time
 import numpy as np
 import taichi as ti
 
-from . import runtime
-from .engine.features import MIN_CPU_BLOCK
-from .errors import Released, SimulationError
-from .progress import Progress
+from ..platform import runtime
+from ..engine.features import MIN_CPU_BLOCK
+from ..platform.errors import Released, SimulationError
+from ..platform.progress import Progress
 from .solver import Solver
 
 __all__ = ["Batch"]
@@ -231,7 +231,7 @@ class Batch:
     def run(self, t_end: float | None = None, n_steps: int | None = None, progress=None,
             allow_many_steps: bool = False):
         """Advance every member to ``t_end`` (or by ``n_steps``); returns self.  A member's
-        run of more than :data:`~timpm.checks.MAX_STEPS` steps is refused unless
+        run of more than :data:`~timpm.platform.checks.MAX_STEPS` steps is refused unless
         ``allow_many_steps``.
 
         Raises :class:`SimulationError` naming the member at the first invalid state.

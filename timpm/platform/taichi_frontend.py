@@ -2,7 +2,7 @@
 again and again while it turns a kernel's Python into its IR (the source positions of
 every AST node, each function's source at every call site, the decorator line at every
 ``@ti.func``), each cached by what it depends on: the same strings, the same IR, the same
-offline-cache keys.  Installed by :mod:`timpm.runtime`: the decorator line's check as
+offline-cache keys.  Installed by :mod:`timpm.platform.runtime`: the decorator line's check as
 Taichi is imported (an import hook), the rest when Taichi starts.  Imports no Taichi
 itself, so that runtime can install the hook before it imports Taichi.
 """

@@ -44,7 +44,7 @@ class K0:
 
 @dataclass(frozen=True)
 class GravityLoading:
-    """Gravity loading as a scene's initial stress (run by :func:`timpm.loading.gravity_loading`,
+    """Gravity loading as a scene's initial stress (run by :func:`timpm.simulation.loading.gravity_loading`,
     which a Solver calls for a world that asks for it): ``damping`` the local damping factor
     of the loading run, ``t_max`` its longest time (None: 40 times the time a P-wave takes
     across the ground's height), ``tolerance`` the kinetic energy at rest per unit of the

@@ -10,7 +10,7 @@ projection:
 """
 import taichi as ti
 
-from ...errors import ErrorCode
+from ..platform.errors import ErrorCode
 from .phases import Nodes, Particles, Scatter, Whole
 
 __all__ = ["MUSL"]

@@ -1,6 +1,6 @@
 """Initial stresses by gravity loading: the ground brought to rest under its own weight.
 
-The other procedure of :mod:`timpm.geostatic` (the K0 procedure writes a stress down; this
+The other procedure of :mod:`timpm.model.geostatic` (the K0 procedure writes a stress down; this
 one computes it): the scene runs from its initial state (stress-free, or the K0 stress)
 with gravity and the local damping of A.4 on the MUSL transfer until its kinetic energy
 is a ``tolerance`` of its weight times its height, or ``t_max`` has passed; the stresses
@@ -14,7 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .geostatic import GravityLoading
+from ..model.geostatic import GravityLoading
 
 __all__ = ["GravityLoading", "gravity_loading"]
 
