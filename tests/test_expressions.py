@@ -3,6 +3,7 @@ value getters and the stencil offsets give what the inlined ti.func gave, and Ta
 of no function from outside."""
 import itertools
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ import taichi as ti
 from timpm.bases import get_basis
 from timpm.engine.expressions import expression
 from timpm.engine.params import ParamBlock
-from timpm.engine.stencil import StencilOps
+from timpm.engine.stencil import Stencil
 from timpm.platform.runtime import ensure_init
 
 
@@ -68,24 +69,47 @@ def test_the_run_time_value_getters_read_the_uploaded_values():
 
 @pytest.mark.parametrize("dim, basis", [(1, "bspline3"), (2, "uniform-bspline2"),
                                         (3, "uniform-bspline2"), (3, "linear")])
-def test_the_stencil_offsets_run_through_the_rows_in_c_order(dim, basis):
+def test_the_stencil_rows_visit_every_node_in_c_order_with_its_weights(dim, basis):
+    """Stencil.row, the one iterator of the phases over a particle's stencil: the offsets
+    in C order (rows over every axis but the last, then the last), and at each the basis
+    value and gradient of the tensor product node by node (node_weight: the same products
+    in the same order, to the bit without fast math; the test session has it on, where
+    the compiler may contract them differently in the two places)."""
     ensure_init()
-
-    @ti.data_oriented
-    class Stencil(StencilOps):
-        def __init__(self):
-            self.dim, self.basis = dim, get_basis(basis)
-            self.stencil_rows = self.basis.support ** (dim - 1)
-
-    s, support = Stencil(), get_basis(basis).support
-    out = ti.Vector.field(dim, ti.i32, shape=support ** dim)
+    b = get_basis(basis)
+    features = SimpleNamespace(dim=dim, basis=b, node_offset=0)
+    s, support = Stencil(features, None), b.support
+    n = support ** dim
+    out = ti.Vector.field(dim, ti.i32, shape=n)
+    phis = ti.field(ti.f64, shape=(2, n))
+    grads = ti.Vector.field(dim, ti.f64, shape=(2, n))
+    rng = np.random.default_rng(1)
+    w_host, dw_host = rng.random((support, dim)), rng.standard_normal((support, dim))
 
     @ti.kernel
-    def offsets():
-        for r in range(s.stencil_rows):
-            for a in ti.static(range(support)):
-                out[r * support + a] = s._offset_of(r, a)
+    def visit(w_in: ti.types.ndarray(), dw_in: ti.types.ndarray()):
+        w = ti.Matrix.zero(ti.f64, support, dim)
+        dw = ti.Matrix.zero(ti.f64, support, dim)
+        for a, k in ti.static(ti.ndrange(support, dim)):
+            w[a, k] = w_in[a, k]
+            dw[a, k] = dw_in[a, k]
+        for r in range(s.rows):
+            for a, offset, phi, grad in ti.static(s.row(w, dw, r)):
+                out[r * support + a] = offset
+                phis[0, r * support + a] = phi
+                grads[0, r * support + a] = grad
+                phi1, grad1 = s.node_weight(w, dw, offset)
+                phis[1, r * support + a] = phi1
+                grads[1, r * support + a] = grad1
 
-    _compiled_without_warnings(offsets)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        visit(w_host, dw_host)
     expected = np.array(list(itertools.product(range(support), repeat=dim)))
     assert np.array_equal(out.to_numpy().reshape(-1, dim), expected)
+    phi, grad = phis.to_numpy(), grads.to_numpy()
+    assert np.allclose(phi[0], phi[1], rtol=1e-15, atol=0)
+    assert np.allclose(grad[0], grad[1], rtol=1e-15, atol=1e-300)
+    # and they are the tensor products of the weights
+    for i, o in enumerate(expected):
+        assert phi[0, i] == pytest.approx(np.prod([w_host[o[k], k] for k in range(dim)]))

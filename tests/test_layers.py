@@ -12,8 +12,8 @@ timpm defines elsewhere, through ``obj._x`` on anything but ``self``/``cls`` or 
 ``from module import _x``.
 """
 import ast
-import re
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -234,7 +234,7 @@ def test_imports_point_down_the_layers():
 def test_no_module_reaches_into_another_units_private_names():
     sources = {m: p.read_text() for m, p in MODULES.items()}
     defined = private_names(sources.values())
-    assert {"_team_member", "_one_step", "_state"} <= defined  # it sees methods, globals
+    assert {"_team_member", "_row_node", "_state"} <= defined  # it sees methods, globals
     bad = [hit for m, src in sorted(sources.items()) for hit in private_reaches(m, src, defined)]
     assert not bad, "private names used from outside their unit:\n" + "\n".join(bad)
 
@@ -297,119 +297,222 @@ def test_private_reaches_are_found():
 
 
 # ---- the units of a compiled program ------------------------------------------------------
-def unit_calls(units):
-    """For each class of ``units`` (lowest first), the names it reads through ``self.`` that
-    another class of ``units`` defines: {class: {(other class, name), ...}} (from the source,
-    with ``ast``; every function of the class body, kernels and ``ti.func``s alike)."""
-    import inspect
-    import textwrap
-
-    owner = {}
-    for cls in units:
-        for name in vars(cls):
-            if not name.startswith("__"):
-                owner.setdefault(name, cls)
-    calls = {}
-    for cls in units:
-        tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
-        calls[cls] = {(owner[node.attr], node.attr) for node in ast.walk(tree)
-                      if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
-                      and node.value.id == "self" and owner.get(node.attr, cls) is not cls}
-    return calls
+#: the engine's units, lowest first: a unit holds (and calls) only units before it.  The
+#: transfer schemes sit above the operations they are given, the integrators above the
+#: scheme they wrap, the drivers above the scheme whose phases they run
+UNIT_ORDER = ("Failures", "Stencil", "_Adds", "Scatter", "Boundary", "BandedMass", "CGMass",
+              "MLSProjection", "MLSStressND", "GridSolve", "Loads", "Laws", "G2P",
+              "transfer scheme", "integrator", "Recorder", "Drivers", "Uploads", "HostState")
 
 
-def test_the_units_of_a_program_call_only_the_units_below_them():
-    """Program is its units mixed into one ``self`` (failures, stencil, scatter, phase
-    runner, grid nodes, consistent mass, MLS, grid solve, transfer, integrators, uploads,
-    recorder, drivers), listed lowest first: a unit reads what the units before it define,
-    never one after it (no unit calls back into another), only their public names, and no
-    two define one name."""
+def _rank(obj):
+    """The place of a unit (an engine unit or a scheme) in UNIT_ORDER, None for anything
+    else (a phase, a view, a field)."""
+    from timpm.schemes import INTEGRATORS, Scheme
+
+    cls = type(obj)
+    if isinstance(obj, Scheme):
+        return UNIT_ORDER.index("integrator" if cls in INTEGRATORS.values()
+                                else "transfer scheme")
+    if cls.__module__.startswith("timpm.engine.") and cls.__name__ in UNIT_ORDER:
+        return UNIT_ORDER.index(cls.__name__)
+    return None
+
+
+def unit_edges(program):
+    """(holder, held, attribute) of every unit a program's unit holds (an attribute whose
+    value is a unit, or a bound method of one), from the live objects."""
+    roots = [*vars(program.ops).values(), program.scheme, program.recorder, program.drivers,
+             program.uploads, program.host]
+    seen, edges, todo = set(), [], [u for u in roots if u is not None]
+    while todo:
+        unit = todo.pop()
+        if id(unit) in seen:
+            continue
+        seen.add(id(unit))
+        for name, value in vars(unit).items():
+            held = getattr(value, "__self__", value)  # a bound method: its unit
+            if held is not unit and _rank(held) is not None:
+                edges.append((unit, held, name))
+                todo.append(held)
+    return edges
+
+
+def _programs():
+    """Programs of feature sets that together build every unit (fields allocated, nothing
+    compiled)."""
+    from timpm import Body, Box, World
+    from timpm.engine.features import plan
+    from timpm.engine.program import Program
+    from timpm.engine.program_cache import Capacity
+    from timpm.materials import LinearElastic, NeoHookean
+    from timpm.problems import get_problem
+    from timpm.platform.runtime import ensure_init
+
+    ensure_init()
+    rubber = NeoHookean(E=1e4, nu=0.3, density=1000.0)
+    steel = LinearElastic(E=1e5, nu=0.3, density=2000.0)
+
+    def world(walls="slip", **kw):
+        bodies = [Body(Box((0.25, 0.25), (0.5, 0.5)), rubber),
+                  Body(Box((0.5, 0.25), (0.75, 0.5)), steel)]
+        return World(domain=(1.0, 1.0), cells=8, bodies=bodies, walls=walls, **kw)
+
+    mms_1d, mms_2d = get_problem("mms-1d"), get_problem("mms-2d")
+    scenes = [
+        (get_problem("vibrating-string").scene(elements=8, basis="bspline2",
+                                               mass="consistent", projection="mls"), {}),
+        (get_problem("vibrating-string").scene(elements=8, projection="mls"), {}),  # 4.4
+        (mms_1d.scene(elements=8, integrator="rk4"), {}),  # a body force, its stages
+        (mms_1d.scene(elements=8, integrator="midpoint"), {}),
+        (mms_2d.scene(elements=4, basis="bspline2"), {}),  # the 2D MLS stress
+        (mms_2d.scene(elements=4, basis="uniform-bspline2", mass="consistent",
+                      projection="standard"), {}),  # the 2D conjugate gradients
+        (world(transfer="musl", pic_fraction=0.2), {"mode": "parallel"}),
+        (world(walls="roller", transfer="apic", integrator="midpoint"), {"mode": "serial"}),
+        (world(transfer="mls-mpm"), {"mode": "parallel", "scatter": "private"}),
+    ]
+    programs = []
+    for scene, options in scenes:
+        features, layout = plan(scene, track=[0], **options)
+        programs.append(Program(features, Capacity.first(features, layout)))
+    return programs
+
+
+@pytest.fixture(scope="module")
+def programs():
+    built = _programs()
+    yield built
+    for prog in built:
+        prog.release()
+
+
+def test_program_holds_its_units_as_objects(programs):
+    """Program mixes nothing in: it builds its units, each from what it reads."""
     from timpm.engine.program import Program
 
-    units = list(Program.__bases__)  # lowest first
-    assert all(cls.__module__.startswith("timpm.engine") for cls in units)
-    names = [name for cls in units for name in vars(cls) if not name.startswith("__")]
-    assert sorted({n for n in names if names.count(n) > 1}) == []
-    rank = {cls: k for k, cls in enumerate(units)}
-    calls = unit_calls(units)
-    upward = sorted(f"{cls.__name__}.{name} is {other.__name__}'s, a unit above it"
-                    for cls, found in calls.items() for other, name in found
-                    if rank[other] > rank[cls])
+    assert Program.__bases__ == (object,)
+    held = {type(u).__name__ for prog in programs for _, u, _ in unit_edges(prog)}
+    assert {"Stencil", "Scatter", "Boundary", "GridSolve", "G2P", "Laws", "Drivers",
+            "BandedMass", "CGMass", "MLSProjection", "MLSStressND"} <= held
+
+
+def test_the_units_of_a_program_hold_only_the_units_below_them(programs):
+    """A unit is given the units it calls when it is built, and only units below it:
+    no unit calls back into one above it (the picture is a stack, not a web)."""
+    upward = sorted({f"{type(a).__name__}.{name} holds {type(b).__name__}, a unit above it"
+                     for prog in programs for a, b, name in unit_edges(prog)
+                     if _rank(b) >= _rank(a) and not (a is b)})
     assert upward == []
-    # and what a unit offers the others is public (a private name stays in its unit)
-    private = sorted(f"{cls.__name__} calls {other.__name__}.{name}"
-                     for cls, found in calls.items() for other, name in found
-                     if name.startswith("_"))
-    assert private == []
+    assert any(type(a).__name__ == "RungeKutta" and type(b).__name__ == "MUSL"
+               for prog in programs for a, b, _ in unit_edges(prog))
 
 
 def test_a_call_up_the_units_is_found():
     class Low:
-        def f(self):
-            return self.g()
+        pass
 
-    class High:
-        def g(self):
-            return self.f()
+    from timpm.engine.stencil import Stencil
+    from timpm.engine.failures import Failures
 
-    assert unit_calls([Low, High]) == {Low: {(High, "g")}, High: {(Low, "f")}}
-
-
-def state_names():
-    """What a phase reads as state: the names Program gives its particle, grid, scratch and
-    run fields (``"x": ti.Vector.field``, ``particle["C"] = ti.Matrix.field``, ...), the
-    grid's kernel names (grid.NODE_NAMES) and ``values``."""
-    source = "".join((PACKAGE / "engine" / name).read_text()  # the integrators' scratch
-                     for name in ("program.py", "rk4.py", "midpoint.py", "mls_stress_nd.py"))
-    names = set(re.findall(r'"(\w+)": ti\.(?:Vector\.|Matrix\.)?field', source))
-    names |= set(re.findall(r'(\w+)=ti\.(?:Vector\.|Matrix\.)?field', source))
-    names |= set(re.findall(r'\w+\["(\w+)"\] = ti\.(?:Vector\.|Matrix\.)?field', source))
-    tree = ast.parse((PACKAGE / "engine" / "grid.py").read_text())
-    node_names = next(node.value for node in ast.walk(tree) if isinstance(node, ast.Assign)
-                      and getattr(node.targets[0], "id", None) == "NODE_NAMES")
-    return names | set(ast.literal_eval(node_names)) | {"values"}
+    low = Failures.__new__(Failures)
+    high = Stencil.__new__(Stencil)
+    low.stencil = high  # a failure record holding the stencil: upward
+    fake = SimpleNamespace(ops=SimpleNamespace(failures=low), scheme=None, recorder=None,
+                           drivers=None, uploads=None, host=None)
+    edges = unit_edges(fake)
+    assert [(type(a).__name__, type(b).__name__, n) for a, b, n in edges] == [
+        ("Failures", "Stencil", "stencil")]
+    assert _rank(high) > _rank(low)
 
 
-def state_reads_through_the_program(source, program="prog"):
-    """(line, name) of every ``prog.NAME`` (``program.NAME``) in ``source`` that names
-    state."""
-    names = state_names()
+def state_names(programs):
+    """What a phase reads as state: the names of every field of the programs (particle,
+    grid by the kernels' names, run, history, scratch) and ``values``."""
+    names = {"values"}
+    for prog in programs:
+        for view in (prog.particles, prog.grid, prog.run, prog.history):
+            names |= set(view.names)
+        names |= set(prog.scratch_fields) | set(prog.grid_fields)
+    return names
+
+
+def reads(source, names, owner="self"):
+    """(line, name) of every ``owner.NAME`` in ``source`` that names a field."""
     return sorted((node.lineno, node.attr) for node in ast.walk(ast.parse(source))
                   if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
-                  and node.value.id == program and node.attr in names)
+                  and node.value.id == owner and node.attr in names)
 
 
-def test_a_scheme_reads_its_state_from_its_arguments():
+SCHEMES = sorted((PACKAGE / "schemes").glob("*.py"))
+
+
+def test_no_phase_reads_the_program(programs):
     """A scheme's phases receive the particle fields, the grid fields and the run-time
-    values (``particles.v[p]``, ``grid.node_mass[I]``, ``values.dt()``); through the
-    program they reach its units' operations and compile-time choices only."""
-    assert {"x", "v", "sigma", "C", "node_mass", "node_velocity", "band", "values"} <= \
-        state_names()
-    found = {path.name: state_reads_through_the_program(path.read_text())
-             for path in sorted((PACKAGE / "schemes").glob("*.py"))}
-    assert len(found) >= 4  # the schemes were read
-    assert {name: reads for name, reads in found.items() if reads} == {}
+    values (``particles.v[p]``, ``grid.node_mass[I]``, ``values.dt()``); through ``self``
+    they reach the operations they were given and their compile-time choices only: no
+    program, no field."""
+    names = state_names(programs)
+    assert {"x", "v", "sigma", "C", "node_mass", "node_velocity", "band", "x_start",
+            "F_rate", "v_end", "values"} <= names
+    assert len(SCHEMES) >= 7
+    found = {path.name: reads(path.read_text(), names) for path in SCHEMES}
+    assert {name: r for name, r in found.items() if r} == {}
+    program_names = {path.name: sorted({node.id for node in ast.walk(ast.parse(path.read_text()))
+                                        if isinstance(node, ast.Name)
+                                        and node.id in ("prog", "program", "Program")})
+                     for path in SCHEMES}
+    assert {name: n for name, n in program_names.items() if n} == {}
 
 
-@pytest.mark.parametrize("unit", ["rk4.py", "midpoint.py", "mls_projection.py",
-                                  "mls_stress_nd.py", "consistent_mass.py"])
-def test_an_integrator_projection_or_solve_reads_its_state_from_its_arguments(unit):
-    """The integrators', the MLS projections' and the 1D consistent mass's functions
-    receive the particle and grid fields (the MLS sums and the band with the grid:
-    ``grid.g_mom[e, g]``, ``grid.q_mom[I, g]``, ``grid.band[i, k]``), the integrators'
-    scratch (``stages.x_start[p]``, ``iterate.v_end[p]``) and the run-time values; through
-    ``self`` they reach the program's operations and compile-time choices only."""
-    assert {"x_start", "F_rate", "b_stages", "F_start", "v_end", "x_end", "g_mom", "n_vel",
-            "body", "q_mom", "q_sig", "band", "inactive", "neg_pivots"} <= state_names()
+def _operation_calls(source):
+    """(line, operation, name) of every ``self.OP.NAME`` in ``source``, OP an operation a
+    scheme is given."""
+    from timpm.schemes import OPERATIONS
+
+    return sorted((node.lineno, node.value.attr, node.attr)
+                  for node in ast.walk(ast.parse(source))
+                  if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Attribute)
+                  and isinstance(node.value.value, ast.Name) and node.value.value.id == "self"
+                  and node.value.attr in OPERATIONS)
+
+
+def test_a_scheme_calls_only_what_its_operations_offer(programs):
+    """Every ``self.stencil.of``, ``self.scatter.deposit``, ... of a scheme names a public
+    member of the unit the engine gives it under that name."""
+    offered = {}
+    for prog in programs:
+        for op, unit in vars(prog.ops).items():
+            if unit is not None:
+                offered.setdefault(op, set()).update(n for n in dir(unit) if not n.startswith("_"))
+    bad = [f"{path.name}:{line} self.{op}.{name}" for path in SCHEMES
+           for line, op, name in _operation_calls(path.read_text())
+           if name not in offered.get(op, ())]
+    assert bad == []
+    assert ("stencil", "of") in {(op, n) for p in SCHEMES
+                                 for _, op, n in _operation_calls(p.read_text())}
+
+
+@pytest.mark.parametrize("unit", ["mls_projection.py", "mls_stress_nd.py", "consistent_mass.py",
+                                  "consistent_mass_cg.py", "grid.py", "g2p.py", "loads.py",
+                                  "laws.py", "drivers.py", "recorder.py", "failures.py",
+                                  "scatter.py", "stencil.py", "uploads.py"])
+def test_a_unit_reads_fields_through_its_views(programs, unit):
+    """An engine unit reads a field from the views it was given or the arguments it
+    receives (``grid.g_mom[e, g]``, ``self.grid.node_mass[I]``, ``self.run.time[None]``),
+    never as its own attribute (``self.time``): what it holds is what it was given."""
+    names = state_names(programs) - {"values"}
+    views = {"particles", "grid", "run", "history", "team", "work", "buffer", "state"}
     source = (PACKAGE / "engine" / unit).read_text()
-    assert state_reads_through_the_program(source, program="self") == []
+    assert [r for r in reads(source, names) if r[1] not in views] == []
 
 
 def test_a_state_read_through_the_program_is_found():
     source = "def f(self, prog, grid, p):\n    return prog.v[p] + grid.node_mass[p] + prog.dim\n"
-    assert state_reads_through_the_program(source) == [(2, "v")]
-    source = "def f(self, stages, p):\n    return self.x_start[p] + stages.v_start[p]\n"
-    assert state_reads_through_the_program(source, program="self") == [(2, "x_start")]
+    assert reads(source, {"v", "node_mass"}, owner="prog") == [(2, "v")]
+    source = "def f(self, p):\n    return self.x_start[p] + self.stencil.of(p)\n"
+    assert reads(source, {"x_start", "x"}) == [(2, "x_start")]
+    assert _operation_calls(source) == [(2, "stencil", "of")]
 
 
 def test_a_field_the_program_lacks_is_named():

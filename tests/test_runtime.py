@@ -433,3 +433,25 @@ def test_the_taichi_choice_is_checked_at_import(tmp_path, choice, message):
     rc, _, err = run_script(script, dict(os.environ, TIMPM_TAICHI=choice), TIMEOUT)
     assert rc == 1
     assert message in err
+
+
+def test_a_program_released_before_its_kernels_ran_leaves_later_builds_whole(tmp_path):
+    """Taichi checks the fields made since its last kernel build at the next build, reading
+    their trees: a program freed before any of its kernels ran (built, then grown or
+    dropped) left that check reading freed memory (RuntimeError "Members of the following
+    field have different shapes [(), (35, -536496646, ...)]", or a crash of the process).
+    Program.release runs the check first."""
+    rc, out, err = _script(tmp_path, """
+        from timpm.engine.features import plan
+        from timpm.engine.program import Program
+        from timpm.engine.program_cache import Capacity
+        world = timpm.World(domain=(1.0, 1.0), cells=8, transfer="apic", bodies=[
+            timpm.Body(timpm.Box((0.25, 0.25), (0.5, 0.5)),
+                       timpm.NeoHookean(E=1e4, nu=0.3, density=1000.0))])
+        timpm.init()
+        features, layout = plan(world)
+        Program(features, Capacity.first(features, layout)).release()
+        print("string", string_run()[-1])
+        """)
+    assert rc == 0, err
+    assert "string" in out

@@ -210,7 +210,7 @@ def test_gpu_program_compiled_for_the_cpu_gives_the_same_bits(transfer, strict_a
     monkeypatch.setattr(timpm.simulation.solver, "plan", gpu_plan)
     s = Solver(scene, mode="parallel", scatter="atomic", energies=False)
     try:
-        assert s.program().on_device and s.features.on_device
+        assert s.program().f.on_device and s.features.on_device
         s.run(n_steps=40)
         assert np.array_equal(s.positions(), cpu[1])
         assert np.array_equal(s.velocities(), cpu[2])

@@ -6,7 +6,7 @@ import pytest
 
 from timpm import Body, Box, World
 from timpm.engine.features import plan
-from timpm.schemes import REGISTRY, Affine, MUSL, PICBlend, scheme_class, scheme_for
+from timpm.schemes import REGISTRY, Affine, MUSL, PICBlend, scheme_class
 from timpm.materials import NeoHookean
 
 
@@ -42,8 +42,11 @@ def test_every_step_is_a_list_of_labelled_phases(transfer, pic, walls, mode):
 
     if mode == "team" and runtime.cpu_threads() < 2:
         pytest.skip("a team needs two CPU threads")
-    features, _ = plan(_world(transfer, pic, walls=walls), mode=mode)
-    phases = scheme_for(features).phases()
+    from timpm.simulation.solver import Solver
+
+    solver = Solver(_world(transfer, pic, walls=walls), mode=mode, energies=False)
+    features, phases = solver.features, solver.program().phases
+    solver.release()
     labels = [ph.label for ph in phases]
     assert len(set(labels)) == len(labels) and all(labels)
     kinds = [ph.kind for ph in phases]

@@ -1,22 +1,28 @@
 """The consistent mass matrix (study A.1): banded LU without pivoting, on one thread.
 
-Mixed into :class:`~timpm.engine.program.Program` (1D scenes with ``mass="consistent"``):
-P2G assembles ``band[i, k] = M[i, i + k - b]``, ``banded_factorise`` factorises it in
-place every step and ``banded_substitute`` solves ``M x = rhs``.
+For 1D scenes with ``mass="consistent"``: P2G assembles ``band[i, k] = M[i, i + k - b]``,
+``factorise`` factorises it in place every step and ``substitute`` solves ``M x = rhs``.
 """
 import taichi as ti
 
 from ..platform.errors import ErrorCode
 
-__all__ = ["ConsistentMass"]
+__all__ = ["BandedMass"]
 
 
-class ConsistentMass:
-    """See the module.  Its functions receive the grid fields (the band ``grid.band`` and
-    its rows' flags ``grid.inactive`` with them) and the run-time values."""
+@ti.data_oriented
+class BandedMass:
+    """See the module: the bandwidth and dimension of the feature set, the boundary (its
+    Dirichlet nodes) and the failure record; its functions receive the grid fields (the
+    band ``grid.band`` and its rows' flags ``grid.inactive`` with them) and the run-time
+    values."""
+
+    def __init__(self, features, boundary, failures):
+        self.bandwidth, self.dim = features.bandwidth, features.dim
+        self.boundary, self.failures = boundary, failures
 
     @ti.func
-    def banded_factorise(self, grid: ti.template(), values: ti.template()):
+    def factorise(self, grid: ti.template(), values: ti.template()):
         # consistent mass (A.1): banded LU without pivoting, in place, on one thread; fixed
         # and empty rows become identity rows (their right-hand sides are zeroed)
         b = ti.static(self.bandwidth)
@@ -24,7 +30,7 @@ class ConsistentMass:
         for _ in range(1):
             for i in range(nn):
                 grid.inactive[i] = 0
-                if self.is_fixed(i) or grid.band[i, b] <= values.mass_tol():
+                if self.boundary.is_fixed(i) or grid.band[i, b] <= values.mass_tol():
                     grid.inactive[i] = 1
                     for k in ti.static(range(2 * b + 1)):
                         grid.band[i, k] = 0.0
@@ -37,11 +43,11 @@ class ConsistentMass:
             for k in range(nn):
                 pivot = grid.band[k, b]
                 if ti.abs(pivot) <= values.pivot_tol():
-                    self.fail(ErrorCode.SINGULAR_MASS, k)
+                    self.failures.fail(ErrorCode.SINGULAR_MASS, k)
                     pivot = 1.0
                     grid.band[k, b] = 1.0
                 if pivot < 0.0:
-                    self.count_negative_pivot()
+                    self.failures.count_negative_pivot()
                 for r in ti.static(range(1, b + 1)):
                     i = k + r
                     if i < nn:
@@ -52,7 +58,7 @@ class ConsistentMass:
                                 grid.band[i, b - r + c] -= lik * grid.band[k, b + c]
 
     @ti.func
-    def banded_substitute(self, grid: ti.template(), values: ti.template(), rhs: ti.template()):
+    def substitute(self, grid: ti.template(), values: ti.template(), rhs: ti.template()):
         b = ti.static(self.bandwidth)
         nn = values.nodes()[0]
         for _ in range(1):

@@ -1,65 +1,72 @@
 """Why a run stops: the error record the kernels keep (code, step, particle or node:
-:meth:`Failures.fail`, mixed into :class:`~timpm.engine.program.Program` below every other
-unit), and in Python that record and the energy balance of the recorded energies, each as
-a :class:`~timpm.platform.errors.SimulationError` that names the step and where."""
+:meth:`Failures.fail`, the unit below every other), and in Python that record and the
+energy balance of the recorded energies, each as a :class:`~timpm.platform.errors.SimulationError`
+that names the step and where."""
 import numpy as np
 import taichi as ti
 
 from ..platform.errors import ErrorCode, SimulationError, TEAM_SPIN_LIMIT
+from ..schemes.midpoint import MIDPOINT_MAX_ITERATIONS
 from .consistent_mass_cg import CG_MAX_ITERATIONS
-from .midpoint import MIDPOINT_MAX_ITERATIONS
 
 __all__ = ["Failures", "recorded_failure", "energy_balance"]
 
 
+@ti.data_oriented
 class Failures:
-    """The error record written by the kernels (fields ``err``, ``err_count``, ``err_step``,
-    ``err_where``)."""
+    """The error record written by the kernels: the run fields ``err``, ``err_count``,
+    ``err_step``, ``err_where``, ``neg_pivots`` and ``step_count`` (``run``), a team's
+    ``rank_step`` (the step each thread is in) and the run-time values."""
+
+    def __init__(self, features, run, rank_step, values):
+        self.mode, self.team = features.mode, features.team
+        self.run, self.rank_step, self.values = run, rank_step, values
 
     @ti.func
     def fail(self, code, where):
-        """Record the first error of the run: its code (an :class:`~timpm.platform.errors.ErrorCode`),
-        step and particle or node."""
+        """Record the first error of the run: its code (an
+        :class:`~timpm.platform.errors.ErrorCode`), step and particle or node."""
         first = False
         if ti.static(self.mode == "serial"):
-            first = self.err_count[None] == 0
-            self.err_count[None] = self.err_count[None] + 1
+            first = self.run.err_count[None] == 0
+            self.run.err_count[None] = self.run.err_count[None] + 1
         else:
-            first = ti.atomic_add(self.err_count[None], 1) == 0
+            first = ti.atomic_add(self.run.err_count[None], 1) == 0
         if first:
-            self.err[None] = code
+            self.run.err[None] = code
             if ti.static(self.team):  # where: a particle of the thread's block
-                self.err_step[None] = self.rank_step[where // self.values.scatter_block()]
+                self.run.err_step[None] = self.rank_step[where // self.values.scatter_block()]
             else:
-                self.err_step[None] = self.step_count[None]
-            self.err_where[None] = where
+                self.run.err_step[None] = self.run.step_count[None]
+            self.run.err_where[None] = where
 
     @ti.func
     def count_negative_pivot(self):
         """One more negative pivot of the consistent mass (an indefinite matrix: quadratic
         Lagrange elements), reported with the run."""
         if ti.static(self.mode == "serial"):
-            self.neg_pivots[None] = self.neg_pivots[None] + 1
+            self.run.neg_pivots[None] = self.run.neg_pivots[None] + 1
         else:
-            self.neg_pivots[None] += 1
+            self.run.neg_pivots[None] += 1
 
     @ti.func
     def failed(self):
         """Whether the run has recorded an error (in this step or before)."""
-        return self.err_count[None] != 0
+        return self.run.err_count[None] != 0
 
     @ti.func
     def halted(self, p):
         """A step before this one failed: the particles stay as they were at the failure
         (Python reads the error back every ``check_every`` steps).  The fused serial mode
-        stops before the step after a failure instead (see ``_advance``), a team at the
-        first barrier after it (its step is that of particle p's thread)."""
+        stops before the step after a failure instead (see ``advance_steps``), a team at
+        the first barrier after it (its step is that of particle p's thread)."""
         halted = False
         if ti.static(self.team):
-            halted = (self.err_count[None] != 0 and
-                      self.err_step[None] < self.rank_step[p // self.values.scatter_block()])
+            halted = (self.run.err_count[None] != 0 and
+                      self.run.err_step[None] < self.rank_step[p // self.values.scatter_block()])
         elif ti.static(self.mode != "serial"):
-            halted = self.err_count[None] != 0 and self.err_step[None] < self.step_count[None]
+            halted = (self.run.err_count[None] != 0
+                      and self.run.err_step[None] < self.run.step_count[None])
         return halted
 
 

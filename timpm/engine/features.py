@@ -18,7 +18,7 @@ import numpy as np
 
 from ..model.model import Model
 from ..platform import runtime
-from ..schemes import scheme_class
+from ..schemes import INTEGRATORS, scheme_class
 
 __all__ = ["FeatureSet", "Layout", "plan", "MODES", "SCATTERS", "MIN_CPU_BLOCK", "auto_mode"]
 
@@ -124,9 +124,23 @@ class FeatureSet:
 
     @property
     def needs(self) -> frozenset:
-        """The particle state the materials keep; F for every law under rk4 and midpoint."""
-        needs = frozenset().union(*(cls.needs for cls, _ in self.materials))
-        return needs | {"F"} if self.rk4 or self.midpoint else needs
+        """The particle state the laws and the integrator keep (the names of their declared
+        particle fields, scratch aside): F for every law under rk4 and midpoint."""
+        names = set()
+        for cls, _ in self.materials:
+            names |= set(cls.particle_fields(self.dim))
+        integrator = INTEGRATORS[self.integrator]
+        if integrator is not None:
+            names |= {name for name, fld in integrator.particle_fields(self).items()
+                      if not fld.scratch}
+        return frozenset(names)
+
+    @property
+    def path_work(self) -> bool:
+        """The strain energy is the work sigma : d_eps V integrated along the path (a field
+        of it) for some law: one without a stored energy W(F)."""
+        return self.energies and not all(cls.has_energy_function(flags)
+                                         for cls, flags in self.materials)
 
     @property
     def multi_material(self) -> bool:
@@ -140,6 +154,21 @@ class FeatureSet:
     @property
     def has_walls(self) -> bool:
         return self.walls is not None
+
+    @property
+    def has_traction(self) -> bool:
+        """The study's particle traction (1D)."""
+        return self.traction is not None
+
+    @property
+    def has_surface_force(self) -> bool:
+        """Surface tractions spread over a face's particles."""
+        return self.surface_force is not None
+
+    @property
+    def has_prescribed(self) -> bool:
+        """Dirichlet nodes (or walls) moving at a prescribed velocity."""
+        return self.prescribed is not None
 
     @property
     def recording(self) -> bool:

@@ -1,42 +1,52 @@
-"""The grid operations the schemes share, in two units mixed into
-:class:`~timpm.engine.program.Program`: :class:`GridNodes`, what holds at one node (Dirichlet
-nodes held or moving at a prescribed velocity v_i f(t), walls, the lumped solve), which the
-consistent mass solves call; and :class:`GridSolve`, clearing the grid and the mass solve
-of the whole grid, which calls them (lumped, banded or conjugate gradients).
+"""The grid operations the schemes share, in two units: :class:`Boundary`, what holds at
+one node (Dirichlet nodes held or moving at a prescribed velocity v_i f(t), walls, the
+lumped solve), which the consistent mass solves call; and :class:`GridSolve`, clearing the
+grid and the mass solve of the whole grid (lumped, banded or conjugate gradients).
 """
 import taichi as ti
 
 from .mls_projection import GAUSS_POINTS
 
-__all__ = ["GridNodes", "GridSolve", "NODE_NAMES"]
+__all__ = ["Boundary", "GridSolve", "NODE_NAMES"]
 
 #: the grid as the kernels name it, by what a field holds in each phase -> its storage (the
 #: names Solver.read and the checkpoints take): the mass m_i; the momentum P_i that P2G
 #: scatters, turned into the velocity v_i in place by the mass solve; the force F_i, turned
 #: into the acceleration a_i in place (the affine midpoint iteration keeps its v_i^(n+1)
-#: there); the displacement u_i; a scheme's new velocity v_i^(n+1), the midpoint's iterate
+#: there); the displacement u_i; a scheme's new velocity v_i^(n+1), the midpoint's iterate;
+#: a scheme's grid velocity before the forces (ASFLIP's v_i^n)
 NODE_NAMES = {"node_mass": "gm", "node_momentum": "gp", "node_velocity": "gp",
               "node_force": "gf", "node_acceleration": "gf", "node_end_velocity": "gf",
-              "node_displacement": "gu", "node_new_velocity": "gv"}
+              "node_displacement": "gu", "node_new_velocity": "gv",
+              "node_old_velocity": "gv0"}
 
 
-class GridNodes:
-    """The boundary conditions and the lumped solve at one node (see the module)."""
+@ti.data_oriented
+class Boundary:
+    """The boundary conditions and the lumped solve at one node (see the module): the
+    feature set's walls and Dirichlet nodes, the grid (``fixed``, ``fixed_v``,
+    ``node_mass``), the run fields (its time) and the run-time values."""
+
+    def __init__(self, features, grid, run, values):
+        f = self.f = features
+        self.dim, self.walls, self.has_walls = f.dim, f.walls, f.has_walls
+        self.prescribed_fn = f.prescribed
+        self.grid, self.run, self.values = grid, run, values
 
     @ti.func
     def is_fixed(self, I):
         fixed = 0
         if ti.static(self.f.fixed):
-            fixed = self.fixed[I]
+            fixed = self.grid.fixed[I]
         return fixed
 
     @ti.func
     def prescribed_velocity(self, I, step_end: ti.template()):
         """v_i f(t) of Dirichlet node I at the step's start (t_n) or end (t_n + dt)."""
-        t = self.time[None]
+        t = self.run.time[None]
         if ti.static(step_end):
             t += self.values.dt()
-        return self.fixed_v[I] * self.prescribed_fn.at(t, self.values.prescribed_param())
+        return self.grid.fixed_v[I] * self.prescribed_fn.at(t, self.values.prescribed_param())
 
     @ti.func
     def apply_walls(self, I, v):
@@ -57,7 +67,7 @@ class GridNodes:
                             v = ti.Vector.zero(float, self.dim)
                         elif ti.static(self.walls[2 * k + side] == "driven"):
                             speeds = self.values.wall_velocity()
-                            f = self.prescribed_fn.at(self.time[None] + self.values.dt(),
+                            f = self.prescribed_fn.at(self.run.time[None] + self.values.dt(),
                                                       self.values.prescribed_param())
                             for j in ti.static(range(self.dim)):
                                 v[j] = speeds[(2 * k + side) * self.dim + j] * f
@@ -82,59 +92,87 @@ class GridNodes:
         """value / m_i at node I; zero at Dirichlet and empty nodes."""
         out = ti.Vector.zero(float, self.dim)
         if self.is_free(I):
-            out = value / self.node_mass[I]
+            out = value / self.grid.node_mass[I]
         return out
 
     @ti.func
     def is_free(self, I):
         """Node I carries mass (above ``mass_tol``) and is not a Dirichlet node."""
-        return not (self.is_fixed(I) or self.node_mass[I] <= self.values.mass_tol())
+        return not (self.is_fixed(I) or self.grid.node_mass[I] <= self.values.mass_tol())
 
 
+@ti.data_oriented
 class GridSolve:
-    """Clearing the grid and the mass solve over it (see the module)."""
+    """Clearing the grid and the mass solve over it (see the module): the grid, the
+    run-time values, the boundary, the solves of the consistent mass (``banded``: 1D,
+    ``cg``: 2D and 3D), the MLS projections' sums to clear (``mls_nd``: 2D), and the
+    stencil and the add of the mode (``project``)."""
+
+    def __init__(self, features, grid, values, boundary, stencil, accumulate, banded=None,
+                 cg=None, mls_nd=None):
+        f = self.f = features
+        self.dim = f.dim
+        self.grid, self.values, self.boundary = grid, values, boundary
+        self.stencil, self.accumulate = stencil, accumulate
+        self.banded, self.cg, self.mls_nd = banded, cg, mls_nd
 
     @ti.func
-    def clear_grid(self):
+    def clear(self):
         for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-            self.node_mass[I] = 0.0
-            self.node_momentum[I] = ti.Vector.zero(float, self.dim)
-            if ti.static(not self.affine or self.midpoint):
-                self.node_force[I] = ti.Vector.zero(float, self.dim)
-        if ti.static(self.consistent and self.dim == 1):
-            for i, k in ti.ndrange(self.values.nodes()[0], 2 * self.bandwidth + 1):
-                self.band[i, k] = 0.0
-        if ti.static(self.mls and self.dim > 1):
-            self.clear_gauss_nd(self.grid, self.values)
-        elif ti.static(self.mls):
+            self.grid.node_mass[I] = 0.0
+            self.grid.node_momentum[I] = ti.Vector.zero(float, self.dim)
+            if ti.static("gf" in self.grid.storage):
+                self.grid.node_force[I] = ti.Vector.zero(float, self.dim)
+        if ti.static(self.f.consistent and self.dim == 1):
+            for i, k in ti.ndrange(self.values.nodes()[0], 2 * self.f.bandwidth + 1):
+                self.grid.band[i, k] = 0.0
+        if ti.static(self.f.mls and self.dim > 1):
+            self.mls_nd.clear_gauss(self.grid, self.values)
+        elif ti.static(self.f.mls):
+            order = ti.static(self.f.mls_stress_order)
             for e, g in ti.ndrange(self.values.elements()[0], ti.static(len(GAUSS_POINTS))):
-                self.g_mom[e, g] = ti.Vector.zero(float, 2 * self.mls_order + 1)
-                self.g_rho[e, g] = ti.Vector.zero(float, 2)
-                self.g_sig[e, g] = ti.Vector.zero(float, self.mls_order + 1)
-            self.body[None] = ti.Vector([1e300, -1e300])
-            if ti.static(self.mls_study):
+                self.grid.g_mom[e, g] = ti.Vector.zero(float, 2 * order + 1)
+                self.grid.g_rho[e, g] = ti.Vector.zero(float, 2)
+                self.grid.g_sig[e, g] = ti.Vector.zero(float, order + 1)
+            self.grid.body[None] = ti.Vector([1e300, -1e300])
+            if ti.static(self.f.mls_study):
                 for i in range(self.values.nodes()[0]):
-                    self.n_mom[i] = ti.Vector.zero(float, 3)
-                    self.n_vel[i] = ti.Vector.zero(float, 2)
+                    self.grid.n_mom[i] = ti.Vector.zero(float, 3)
+                    self.grid.n_vel[i] = ti.Vector.zero(float, 2)
 
     @ti.func
-    def solve_mass(self, rhs: ti.template(), walls: ti.template()):
+    def solve(self, rhs: ti.template(), walls: ti.template()):
         """rhs <- M^-1 rhs with Dirichlet nodes held at zero and empty nodes left at zero;
         ``walls``: apply the wall conditions to the result (a velocity)."""
-        if ti.static(not self.consistent):
+        if ti.static(not self.f.consistent):
             for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-                self.solve_mass_node(rhs, walls, I)
+                self.solve_node(rhs, walls, I)
         elif ti.static(self.dim > 1):
-            self.cg_solve(rhs)  # the walls' held components are constraints of the solve
+            self.cg.solve(rhs)  # the walls' held components are constraints of the solve
         else:
-            self.banded_substitute(self.grid, self.values, rhs)
+            self.banded.substitute(self.grid, self.values, rhs)
 
     @ti.func
-    def solve_mass_node(self, rhs: ti.template(), walls: ti.template(), I):
-        """The lumped solve of ``solve_mass`` at node I."""
-        rhs[I] = self.lumped_solve(I, rhs[I])
-        if ti.static(walls and self.has_walls):
-            rhs[I] = self.apply_walls(I, rhs[I])
-        if ti.static(walls and self.prescribed):  # a velocity: Dirichlet nodes at v(t_n + dt)
-            if self.is_fixed(I):
-                rhs[I] = self.prescribed_velocity(I, True)
+    def solve_node(self, rhs: ti.template(), walls: ti.template(), I):
+        """The lumped solve of ``solve`` at node I."""
+        rhs[I] = self.boundary.lumped_solve(I, rhs[I])
+        if ti.static(walls and self.f.has_walls):
+            rhs[I] = self.boundary.apply_walls(I, rhs[I])
+        if ti.static(walls and self.f.has_prescribed):
+            # a velocity: Dirichlet nodes at v(t_n + dt)
+            if self.boundary.is_fixed(I):
+                rhs[I] = self.boundary.prescribed_velocity(I, True)
+
+    @ti.func
+    def project(self, particles: ti.template()):
+        # the grid cleared, then P2G of mass and momentum alone: m_i = sum m_p phi_i, P_i =
+        # sum m_p phi_i v_p (the grid fields of an output frame)
+        self.clear()
+        for p in range(self.values.n_particles()):
+            base, w, dw, xi, inside = self.stencil.of(particles.x[p])
+            if inside:
+                for r in range(self.stencil.rows):
+                    for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
+                        self.accumulate(self.grid.node_mass[base + offset], particles.m[p] * phi)
+                        self.accumulate(self.grid.node_momentum[base + offset],
+                                        particles.m[p] * phi * particles.v[p])

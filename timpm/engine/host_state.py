@@ -4,8 +4,8 @@ particle, node and scalar blocks, tracked particles, the grid and scratch fields
 and the one that reads it back (``save``), and one field read or written alone
 (``read``, ``write``).
 
-Mixed into :class:`~timpm.engine.program.Program`, the top unit: the solver's states
-(:mod:`timpm.engine.state`), the checkpoints and the batches move through it.
+The solver's states (:mod:`timpm.engine.state`), the checkpoints and the batches move
+through it.
 """
 import math
 
@@ -19,8 +19,20 @@ from .recorder import NUMPY_DTYPES, components, entry_size
 __all__ = ["HostState"]
 
 
+@ti.data_oriented
 class HostState:
-    """See the module; ``_bind_transfers`` builds the two kernels."""
+    """See the module: a program's fields by group (``particle``, ``grid``, ``copies``,
+    ``scratch``, ``run``: dicts of name to field), its run-time values (``params``, the
+    block, and ``values``, its getters), the flat-to-node index of the drivers
+    (``node_of``) and, where it records, the count of records (``rec_count``)."""
+
+    def __init__(self, fields, params, values, node_of, rec_count=None):
+        self.particle_fields, self.grid_fields = fields["particle"], fields["grid"]
+        self.copies, self.scratch_fields = fields["copies"], fields["scratch"]
+        self.run_fields = fields["run"]
+        self.params, self.values, self.node_of = params, values, node_of
+        self.rec_count, self.recording = rec_count, rec_count is not None
+        self._bind_transfers()
 
     @ti.func
     def _zero_entry(self, groups: ti.template(), i):
@@ -63,7 +75,9 @@ class HostState:
             add("scalars", "body", self.scratch_fields["body"])
         self._state_layout = {b: entries for b, entries in blocks.items()}
         self.state_columns = {b: max(cols[b], 1) for b in blocks}
-        spec = {b: [(getattr(self, name), col, components(getattr(self, name)))
+        by_name = {**self.particle_fields, **self.grid_fields, **self.run_fields,
+                   **self.scratch_fields}
+        spec = {b: [(by_name[name], col, components(by_name[name]))
                     for name, col, _ in entries] for b, entries in blocks.items()}
 
         @expression

@@ -1,6 +1,6 @@
 """The moving-least-squares projection of study 4.4 (1D).
 
-Mixed into :class:`~timpm.engine.program.Program`.  The study's case (linear basis,
+The study's case (linear basis,
 lumped mass): nodal velocities are reconstructed from the particles by MLS (cubic-spline
 weight), density and stress by MLS at the Gauss points of each element's part of the body
 (quadratic-spline weight), where mass and forces are integrated.  With any other basis or
@@ -68,14 +68,21 @@ def _mls_value_quadratic(mom, b):
     return value
 
 
+@ti.data_oriented
 class MLSProjection:
-    """See the module.  Its functions receive the particle fields, the grid fields (with
-    the Gauss points' and the nodes' MLS sums: ``grid.g_mom``, ``grid.g_sig``,
-    ``grid.g_rho``, ``grid.n_mom``, ``grid.n_vel``, and the body's extent ``grid.body``)
-    and the run-time values."""
+    """See the module: the feature set (the basis, the study's case, the order of the
+    stress fit), the add of the mode (``accumulate``) and the boundary (Dirichlet nodes).
+    Its functions receive the particle fields, the grid fields (with the Gauss points' and
+    the nodes' MLS sums: ``grid.g_mom``, ``grid.g_sig``, ``grid.g_rho``, ``grid.n_mom``,
+    ``grid.n_vel``, and the body's extent ``grid.body``) and the run-time values."""
+
+    def __init__(self, features, accumulate, boundary):
+        self.basis, self.mode = features.basis, features.mode
+        self.mls_study, self.mls_order = features.mls_study, features.mls_stress_order
+        self.accumulate, self.boundary = accumulate, boundary
 
     @ti.func
-    def scatter_gauss_moments(self, particles: ti.template(), grid: ti.template(),
+    def scatter_gauss(self, particles: ti.template(), grid: ti.template(),
                               values: ti.template(), p):
         # MLS moments at the Gauss points within 1.5 h of the particle, quadratic-spline
         # weight, basis [1, d] with d = (x_p - y) / h
@@ -149,7 +156,7 @@ class MLSProjection:
                                             -jw * sig * dw[a] * values.inv_h())
 
     @ti.func
-    def scatter_node_moments(self, particles: ti.template(), grid: ti.template(),
+    def scatter_nodes(self, particles: ti.template(), grid: ti.template(),
                              values: ti.template(), p, vp):
         # MLS moments at the nodes within 2 h, cubic-spline weight (r = |d| / 2)
         xi = (particles.x[p][0] - values.origin()[0]) * values.inv_h()
@@ -164,10 +171,10 @@ class MLSProjection:
                     self.accumulate(grid.n_vel[i], w * vp * ti.Vector([1.0, d]))
 
     @ti.func
-    def mls_nodal_velocity(self, grid: ti.template(), values: ti.template()):
+    def nodal_velocity(self, grid: ti.template(), values: ti.template()):
         # v_i = sum_p Phi_p(x_i) v_p: the MLS reconstruction of the velocity field (4.4)
         for i in range(values.nodes()[0]):
             v = 0.0
-            if not self.is_fixed(i):
+            if not self.boundary.is_fixed(i):
                 v = _mls_value(grid.n_mom[i], grid.n_vel[i])
             grid.node_velocity[i][0] = v

@@ -1,16 +1,16 @@
 """The MLS stress projection in 2D: internal forces at the Gauss points.
 
-Mixed into :class:`~timpm.engine.program.Program` (``projection="mls"`` on a 2D grid with
-a B-spline basis of degree 2 or more and the lumped mass).  The code is written for any
-dimension, but the Model refuses 3D (10 x 10 fits, 10^3 candidate points per particle:
-neither compiled nor measured).  The 1D projection of study 4.4 (:mod:`.mls_projection`)
-taken to tensor products, stress part only: each particle adds its moments to the Gauss
-points (2 per cell and axis) within 1.5 h along every axis, weight the product of the
-quadratic-spline weights of 4.4 per axis; at each Gauss point the Cauchy stress is the
-MLS fit's value (basis 1, d, and with the bases of degree 2 and up the products d_j d_k),
-and the internal force ``F_i = -sum_g w_g sigma_h(y_g) grad phi_i(y_g)`` is integrated over
-every cell.  The body must fill the grid (the manufactured solutions do; the Model checks
-it): the cells are the integration domain.  Mass and momentum come from the particles.
+For ``projection="mls"`` on a 2D grid with a B-spline basis of degree 2 or more and the
+lumped mass).  The code is written for any dimension, but the Model refuses 3D (10 x 10
+fits, 10^3 candidate points per particle: neither compiled nor measured).  The 1D
+projection of study 4.4 (:mod:`.mls_projection`) taken to tensor products, stress part
+only: each particle adds its moments to the Gauss points (2 per cell and axis) within 1.5 h
+along every axis, weight the product of the quadratic-spline weights of 4.4 per axis; at
+each Gauss point the Cauchy stress is the MLS fit's value (basis 1, d, and with the bases
+of degree 2 and up the products d_j d_k), and the internal force ``F_i = -sum_g w_g
+sigma_h(y_g) grad phi_i(y_g)`` is integrated over every cell.  The body must fill the grid
+(the manufactured solutions do; the Model checks it): the cells are the integration domain.
+Mass and momentum come from the particles.
 """
 import taichi as ti
 
@@ -30,9 +30,16 @@ def mls_nd_fields(dim, order, real):
     return {"q_mom": ti.Matrix.field(n, n, real), "q_sig": ti.Matrix.field(n, dim * dim, real)}
 
 
+@ti.data_oriented
 class MLSStressND:
-    """See the module.  Its functions receive the particle fields, the grid fields (with
-    the Gauss points' sums ``grid.q_mom``, ``grid.q_sig``) and the run-time values."""
+    """See the module: the feature set (dimension, order of the fit), the stencil and the
+    add of the mode (``accumulate``).  Its functions receive the particle fields, the grid
+    fields (with the Gauss points' sums ``grid.q_mom``, ``grid.q_sig``) and the run-time
+    values."""
+
+    def __init__(self, features, stencil, accumulate):
+        self.dim, self.mls_order = features.dim, features.mls_stress_order
+        self.stencil, self.accumulate = stencil, accumulate
 
     @ti.func
     def _monomials(self, d):
@@ -51,7 +58,7 @@ class MLSStressND:
         return P
 
     @ti.func
-    def scatter_gauss_moments_nd(self, particles: ti.template(), grid: ti.template(),
+    def scatter_gauss(self, particles: ti.template(), grid: ti.template(),
                                  values: ti.template(), p):
         # MLS moments at the Gauss points within 1.5 h along each axis: the Gauss points of
         # the cells e0 - 2 .. e0 + 2 per axis (global index 2 e + g), weight prod w(|d_k|)
@@ -131,7 +138,7 @@ class MLSStressND:
         return z @ B
 
     @ti.func
-    def integrate_gauss_nd(self, grid: ti.template(), values: ti.template()):
+    def integrate_gauss(self, grid: ti.template(), values: ti.template()):
         # F_i = -sum_cells sum_g w_g h^dim sigma_h(y_g) grad phi_i(y_g), sigma_h the MLS fit
         # of the particles' stress at the Gauss point y_g (each cell full: the body fills
         # the grid)
@@ -147,16 +154,14 @@ class MLSStressND:
                     for k in ti.static(range(self.dim)):
                         y[k] = I[k] + GAUSS_POINTS[0] + ((g >> k) & 1) * (GAUSS_POINTS[1]
                                                                          - GAUSS_POINTS[0])
-                    base, w, dw, _ = self.stencil_at(y)
+                    base, w, dw, _ = self.stencil.at(y)
                     scale = jw * values.h() ** self.dim
-                    for r in range(self.stencil_rows):
-                        row = self.stencil_row(w, dw, r)
-                        for a in ti.static(range(self.basis.support)):
-                            offset, phi, grad = self.row_node(w, dw, r, row, a)
+                    for r in range(self.stencil.rows):
+                        for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
                             self.accumulate(grid.node_force[base + offset], -scale * (sig @ grad))
 
     @ti.func
-    def clear_gauss_nd(self, grid: ti.template(), values: ti.template()):
+    def clear_gauss(self, grid: ti.template(), values: ti.template()):
         n = ti.static(monomial_count(self.dim, self.mls_order))
         for I in ti.grouped(ti.ndrange(*[values.elements()[k] for k in range(self.dim)])):
             for g in ti.static(range(2 ** self.dim)):

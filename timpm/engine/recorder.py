@@ -1,6 +1,6 @@
 """Recording in the kernels: time, energies and tracked particles into a history buffer.
 
-Mixed into :class:`~timpm.engine.program.Program`; Python drains the buffer
+Python drains the buffer
 (:class:`timpm.simulation.solver.Solver`: a dict of one array per drain and key) and reads the
 drained records as time series (:func:`energy_series`, :func:`tracked_series`).
 """
@@ -26,70 +26,63 @@ def entry_size(fld) -> int:
     return fld.n * fld.m if isinstance(fld, ti.MatrixField) else 1
 
 
+@ti.data_oriented
 class Recorder:
-    """See the module."""
+    """See the module: the feature set, the particle fields, the history buffer (its
+    fields ``history``, the count of records ``rec_count`` and the tracked particles'
+    ids ``track_ids``: ``buffer``), the run fields, the laws (strain energies), the add of
+    the mode and the run-time values."""
+
+    def __init__(self, features, particles, history, buffer, run, laws, accumulate, values):
+        self.f, self.dim = features, features.dim
+        self.particles, self.history, self.buffer = particles, history, buffer
+        self.run, self.laws, self.accumulate, self.values = run, laws, accumulate, values
+        self.external_work = (features.traction is not None or features.body_force
+                              or features.surface_force is not None)
+        self.read_history = self._history_reader()
 
     @ti.func
     def record_step(self):
-        slot = self.rec_count[None]
-        self.h_t[slot] = ti.cast(self.time[None], self.h_t.dtype)  # f32 records: rounded
-        self.h_step[slot] = self.step_count[None]
-        if ti.static(self.tracking):
+        slot = self.buffer.rec_count[None]
+        # (f32 records: the time rounded)
+        self.history.t[slot] = ti.cast(self.run.time[None], self.history.t.dtype)
+        self.history.step[slot] = self.run.step_count[None]
+        if ti.static(self.f.tracking):
             for j in range(self.values.n_tracked()):
-                p = self.track_ids[j]
-                self.h_x[slot, j] = self.x[p]
-                if ti.static(self.has_u):
-                    self.h_u[slot, j] = self.u[p]
-                self.h_v[slot, j] = self.v[p]
-                self.h_s[slot, j] = self.sigma[p]
-        if ti.static(self.record_energies):
-            self.h_energy[slot] = ti.Vector.zero(float, 4)
+                p = self.buffer.track_ids[j]
+                self.history.x[slot, j] = self.particles.x[p]
+                if ti.static(self.f.has_u):
+                    self.history.u[slot, j] = self.particles.u[p]
+                self.history.v[slot, j] = self.particles.v[p]
+                self.history.stress[slot, j] = self.particles.sigma[p]
+        if ti.static(self.f.energies):
+            self.history.energy[slot] = ti.Vector.zero(float, 4)
             for p in range(self.values.n_particles()):
-                # potential of gravity: -m g . u (1D), -m g . x (2D/3D, taken from its start in energies())
+                # potential of gravity: -m g . u (1D), -m g . x (2D/3D, taken from its start
+                # in energies())
                 pot = 0.0
                 for k in ti.static(range(self.dim)):
                     if ti.static(self.f.gravity[k]):
-                        if ti.static(self.has_u):
-                            pot -= self.m[p] * self.values.gravity()[k] * self.u[p][k]
+                        m, g = self.particles.m[p], self.values.gravity()[k]
+                        if ti.static(self.f.has_u):
+                            pot -= m * g * self.particles.u[p][k]
                         else:
-                            pot -= self.m[p] * self.values.gravity()[k] * self.x[p][k]
-                e = ti.Vector([0.5 * self.m[p] * self.v[p].norm_sqr(), self._strain_energy(p),
-                               pot, 0.0])
-                self.accumulate(self.h_energy[slot], e)
+                            pot -= m * g * self.particles.x[p][k]
+                e = ti.Vector([0.5 * self.particles.m[p] * self.particles.v[p].norm_sqr(),
+                               self.laws.strain_energy(p), pot, 0.0])
+                self.accumulate(self.history.energy[slot], e)
             if ti.static(self.external_work):
-                self.h_energy[slot][3] = self.ext_work[None]
-        self.rec_count[None] = slot + 1
+                self.history.energy[slot][3] = self.run.ext_work[None]
+        self.buffer.rec_count[None] = slot + 1
 
-    @ti.func
-    def _strain_energy(self, p):
-        """Particle p's strain energy: W(F_p) V0_p of a hyperelastic material, else its
-        path work."""
-        energy = 0.0
-        if ti.static(not self.multi_material):
-            energy = self._unit_strain_energy(self.material_units[0], p)
-        else:
-            for k in ti.static(range(len(self.material_units))):
-                if self.mat[p] == k:
-                    energy = self._unit_strain_energy(self.material_units[k], p)
-        return energy
-
-    @ti.func
-    def _unit_strain_energy(self, unit: ti.template(), p):
-        energy = 0.0
-        if ti.static(unit.stores_energy):
-            energy = unit.energy(self.material_state, p)
-        else:
-            energy = self.work[p]
-        return energy
-
-    def _bind_history_reader(self):
+    def _history_reader(self):
         """``read_history(n)``: the first n records of every history field, copied by one
         kernel into two float64 arrays (per record; per record and tracked particle) and
         returned in each field's dtype and ``to_numpy`` shape: one launch per drain (a
         ``to_numpy`` per field loads a kernel per field, ~9 ms each on the first read)."""
-        fields = self.history_fields
+        fields = self.history.fields
         if not fields:
-            return
+            return None
         layout = {1: [], 2: []}  # per record, per record and tracked particle
         cols = {1: 0, 2: 0}
         for name, fld in fields.items():
@@ -146,26 +139,7 @@ class Recorder:
                     out[name] = a.reshape(lead + entry).astype(NUMPY_DTYPES[fld.dtype])
             return out
 
-        self.read_history = read_history
-
-    @ti.func
-    def _clear_and_project(self):
-        self.clear_grid()
-        self._project()
-
-    @ti.func
-    def _project(self):
-        # P2G of mass and momentum alone: m_i = sum m_p phi_i, P_i = sum m_p phi_i v_p
-        for p in range(self.values.n_particles()):
-            base, w, dw, xi, inside = self.stencil(self.x[p])
-            if inside:
-                for r in range(self.stencil_rows):
-                    row = self.stencil_row(w, dw, r)
-                    for a in ti.static(range(self.basis.support)):
-                        offset, phi, grad = self.row_node(w, dw, r, row, a)
-                        self.accumulate(self.node_mass[base + offset], self.m[p] * phi)
-                        self.accumulate(self.node_momentum[base + offset],
-                                        self.m[p] * phi * self.v[p])
+        return read_history
 
 
 def series(history, key, empty=None):

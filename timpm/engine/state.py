@@ -12,7 +12,7 @@ import taichi as ti
 
 from ..bases import stencils
 from .recorder import entry_size
-from .rk4 import STAGE_TIMES
+from ..schemes.rk4 import STAGE_TIMES
 
 __all__ = ["State"]
 
@@ -137,14 +137,20 @@ class State:
 
     def initial(self, prog):
         """The scene's initial state as the program's host arrays: positions, velocities,
-        masses, volumes, F = I, J = 1, material indices, Dirichlet nodes, elements
-        (crossings); the rest zero.  An initial stress sets sigma, F (and ezz) instead.  An initial displacement u0 places the particles at
-        X + u0 (and sets the 1D u); its deformation is applied after the upload
+        masses, volumes, the initial values the fields declare (F = I, J = 1), material
+        indices, Dirichlet nodes, elements (crossings); the rest zero.  An initial stress
+        sets sigma, F (and ezz) instead.  An initial displacement u0 places the particles
+        at X + u0 (and sets the 1D u); its deformation is applied after the upload
         (``prestrain``)."""
         model, n, d = self.model, self.layout.n_particles, self.features.dim
         x = model.positions
-        values = {"v": model.velocity, "m": model.mass_per_particle, "vol": model.volume,
-                  "J": np.ones(n), "F": np.broadcast_to(np.eye(d), (n, d, d))}
+        values = {}
+        for name, fld in prog.particle_declarations.items():  # the declared initial values
+            if fld.initial == "identity":
+                values[name] = np.broadcast_to(np.eye(d), (n, d, d))
+            elif fld.initial != 0.0:
+                values[name] = np.full((n,) + fld.entries(d), float(fld.initial))
+        values.update(v=model.velocity, m=model.mass_per_particle, vol=model.volume)
         if model.initial_displacement is not None:
             x = x + model.initial_displacement
             values["u"] = model.initial_displacement

@@ -1,49 +1,61 @@
 """The stencil of a particle: its nodes, the basis weights and gradients (any dimension).
 
-Mixed into :class:`~timpm.engine.program.Program`.  Reads a particle's position (given)
-and the run-time grid values (``self.values``); the basis (``self.basis``) is a
-compile-time class whose ``stencil`` ``ti.func`` gives the 1D weights, combined here as
-tensor products.
+The basis (``features.basis``) is a compile-time class whose ``stencil`` ``ti.func`` gives
+the 1D weights; this unit combines them as tensor products, reading only the run-time
+grid values (origin, 1 / h, elements and nodes per axis).
 
-The phases loop over a particle's stencil nodes row by row: a run-time loop over the
-rows (every axis but the last: ``stencil_rows`` = support^(dim - 1), one in 1D), the row's
-weight products over those axes once (``row = stencil_row(w, dw, r)``), and the nodes of
-the row unrolled (``ti.static``), each node from ``row_node(w, dw, r, row, a)``: the same
-products in the same order as ``stencil_node``, so the same bits, without recomputing the
-row's products per node (3D steps 3 % faster, docs/performance.md).
-Taichi's IR passes cost about the square of a kernel's statement count (each replaced
-statement rescans the kernel): the 3D cube scene's step, 27 nodes unrolled, compiled
-cold for 62 s, 2.2 s so.  The unrolled row keeps the weights of the last axis in registers and the
-column adds of ``times_offset``; 1D stencils are unrolled whole, as before
-(docs/performance.md, "Time to the first step").
+A phase visits a particle's stencil nodes row by row: a run-time loop over the rows (every
+axis but the last: ``rows`` = support^(dim - 1), one in 1D) and the row's nodes unrolled::
+
+    for r in range(self.stencil.rows):
+        for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
+            ...  # node base + offset, basis value phi, gradient grad
+
+(``row``: the row's weight products over those axes once, then per node the same products
+in the same order as ``node_weight``, so the same bits; 3D steps 3 % faster than the
+products per node, docs/performance.md).  Taichi's IR passes cost about the square of a
+kernel's statement count (each replaced statement rescans the kernel): the 3D cube scene's
+step, 27 nodes unrolled, compiled cold for 62 s, 2.2 s by rows.  The unrolled row keeps the
+weights of the last axis in registers and the column adds of ``times_offset``; 1D stencils
+are unrolled whole (docs/performance.md, "Time to the first step").
 """
 import taichi as ti
+from taichi.lang import impl
 
 from .expressions import at, expression
 
-__all__ = ["StencilOps"]
+__all__ = ["Stencil"]
 
 
-class StencilOps:
-    """See the module."""
+@ti.data_oriented
+class Stencil:
+    """See the module: ``features`` (the dimension and basis) and the run-time ``values``."""
+
+    def __init__(self, features, values):
+        self.dim, self.basis, self.values = features.dim, features.basis, values
+        self.support = self.basis.support
+        #: the rows of a stencil: every axis but the last
+        self.rows = self.support ** (self.dim - 1)
+        #: padding nodes before x = 0 (the uniform B-splines)
+        self.node_offset = features.node_offset
 
     @ti.func
-    def stencil(self, x):
+    def of(self, x):
         """Node base, weights and gradients of a particle at ``x``, its coordinate in
         element units, and whether it is on the grid."""
         xi = ti.Vector.zero(float, self.dim)
         for k in ti.static(range(self.dim)):
             xi[k] = (x[k] - self.values.origin()[k]) * self.values.inv_h()
-        base, w, dw, inside = self.stencil_at(xi)
+        base, w, dw, inside = self.at(xi)
         return base, w, dw, xi, inside
 
     @ti.func
-    def stencil_at(self, xi):
+    def at(self, xi):
         """Node base, weights and gradients at a point ``xi`` (element units), and whether
         it is on the grid."""
         base = ti.Vector.zero(ti.i32, self.dim)
-        w = ti.Matrix.zero(float, self.basis.support, self.dim)
-        dw = ti.Matrix.zero(float, self.basis.support, self.dim)
+        w = ti.Matrix.zero(float, self.support, self.dim)
+        dw = ti.Matrix.zero(float, self.support, self.dim)
         inside = 1
         for k in ti.static(range(self.dim)):
             # NaN fails both comparisons, so it is caught here too
@@ -51,9 +63,9 @@ class StencilOps:
                 inside = 0
             b, wk, dwk = self.basis.stencil(xi[k], self.values.elements()[k])
             base[k] = b
-            if b < 0 or b + self.basis.support > self.values.nodes()[k]:
+            if b < 0 or b + self.support > self.values.nodes()[k]:
                 inside = 0
-            for a in ti.static(range(self.basis.support)):
+            for a in ti.static(range(self.support)):
                 w[a, k] = wk[a]
                 dw[a, k] = dwk[a] * self.values.inv_h()
         return base, w, dw, inside
@@ -86,7 +98,7 @@ class StencilOps:
         """(o_0, o_1) of stencil row r: the offsets along every axis but the last (the
         rows run in C order; unused axes zero); expressions, not variables."""
         if self.dim == 3:
-            return r // self.basis.support, r % self.basis.support
+            return r // self.support, r % self.support
         if self.dim == 2:
             return 0, r
         return 0, 0
@@ -97,18 +109,10 @@ class StencilOps:
         o0, o1 = self._row_offsets(r)
         return ti.Vector([o0, o1, a][3 - self.dim:])
 
-    @ti.func
-    def stencil_node(self, w, dw, r, a: ti.template()):
-        """Node a of stencil row r: its offset, basis value and gradient (the loop
-        ``for r in range(self.stencil_rows): for a in ti.static(range(support))``)."""
-        offset = self._offset_of(r, a)
-        phi, grad = self.node_weight(w, dw, offset)
-        return offset, phi, grad
-
     @expression
-    def stencil_row(self, w, dw, r):
-        """The products of stencil row r over every axis but the last, computed once per
-        row: (w_0 w_1, dw_0 w_1, w_0 dw_1) in 3D, (w_0, dw_0, 0) in 2D, (1, 0, 0) in 1D."""
+    def _row_products(self, w, dw, r):
+        """The products of stencil row r over every axis but the last: (w_0 w_1, dw_0 w_1,
+        w_0 dw_1) in 3D, (w_0, dw_0, 0) in 2D, (1, 0, 0) in 1D."""
         o0, o1 = self._row_offsets(r)
         if self.dim == 3:
             return ti.Vector([at(w, o0, 0) * at(w, o1, 1), at(dw, o0, 0) * at(w, o1, 1),
@@ -118,9 +122,9 @@ class StencilOps:
         return ti.Vector([1.0, 0.0, 0.0])
 
     @expression
-    def row_node(self, w, dw, r, row, a):
-        """Node a of stencil row r from the row's products (``stencil_row``): its offset,
-        basis value and gradient, the same numbers as ``stencil_node``."""
+    def _row_node(self, w, dw, r, row, a):
+        """Node a of stencil row r from the row's products: its offset, basis value and
+        gradient, the same numbers as ``node_weight``."""
         last = self.dim - 1
         w_a, dw_a = at(w, a, last), at(dw, a, last)
         phi = at(row, 0) * w_a
@@ -132,14 +136,26 @@ class StencilOps:
             grad = ti.Vector([at(row, 0) * dw_a])
         return self._offset_of(r, a), phi, grad
 
+    @expression
+    def row(self, w, dw, r):
+        """The nodes of stencil row r, for a ``ti.static`` loop in the loop over the rows:
+        per node a (a Python integer) its offset o, basis value phi and gradient grad.  The
+        row's products are one variable, each node's offset, value and gradient one each
+        (what an assignment in the kernel would make of them)."""
+        products = impl.expr_init(self._row_products(w, dw, r))
+        nodes = []
+        for a in range(self.support):
+            offset, phi, grad = self._row_node(w, dw, r, products, a)
+            nodes.append((a, impl.expr_init(offset), impl.expr_init(phi),
+                          impl.expr_init(grad)))
+        return nodes
+
     @ti.func
     def interpolate(self, node_field: ti.template(), base, w, dw):
         """A vector grid field at a particle: sum_i phi_i f_i over its stencil."""
         value = ti.Vector.zero(float, self.dim)
-        for r in range(self.stencil_rows):
-            row = self.stencil_row(w, dw, r)
-            for a in ti.static(range(self.basis.support)):
-                offset, phi, grad = self.row_node(w, dw, r, row, a)
+        for r in range(self.rows):
+            for a, offset, phi, grad in ti.static(self.row(w, dw, r)):
                 value += phi * node_field[base + offset]
         return value
 

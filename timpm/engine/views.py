@@ -1,24 +1,28 @@
-"""The state a scheme's phase reads and writes, by name: the particle fields
+"""The state a phase, a law or a unit reads and writes, by name: the particle fields
 (``particles.x``, ``particles.sigma``, ...) and the grid fields as the kernels name them
 (``grid.node_mass``, ``grid.node_momentum``, ...; ``grid.band``, the 1D consistent mass).
 
-A phase receives these and the run-time values (``values.dt()``) as arguments, beside the
-program whose units it calls: the stencil, the scatter, the mass solves, the walls and
-the failure record (:mod:`timpm.schemes.phases`); so do the G2P update and the
-external force of :mod:`timpm.engine.transfer`.  A material's law receives the particle
-fields with the little else it needs (:class:`MaterialState`).  The views hold the
-program's own fields, so a phase compiles to the same kernel as one reading them from
-the program."""
+A scheme's phase receives these and the run-time values (``values.dt()``) as arguments;
+a material's law receives the particle fields with the little else it needs
+(:class:`MaterialState`).  The views hold the program's own fields, so a phase compiles to
+the same kernel as one reading them from the program."""
+
+import taichi as ti
 
 __all__ = ["FieldView", "MaterialState"]
 
 
+@ti.data_oriented  # (ti.static takes it)
 class FieldView:
-    """Fields by attribute (``view.x`` is the field named "x"); ``names`` lists them."""
+    """Fields by attribute (``view.x`` is the field named "x"); ``names`` lists them,
+    ``fields`` maps them; ``storage`` names the fields behind them (the grid's storage
+    names, ``engine/grid.py``'s ``NODE_NAMES``; the names themselves elsewhere)."""
 
-    def __init__(self, what: str, fields: dict):
+    def __init__(self, what: str, fields: dict, storage=None):
         self._what = what
         self.names = tuple(fields)
+        self.fields = dict(fields)
+        self.storage = frozenset(fields if storage is None else storage)
         for name, fld in fields.items():
             setattr(self, name, fld)
 

@@ -3,9 +3,12 @@
 A material is a value (its parameters, checked on construction) and a compiled unit.  The
 value says what the engine compiles and with which numbers:
 
-- ``needs``: the particle state the law keeps besides stress and volume (``"F"``, the
-  deformation gradient; ``"plastic"``, the plastic strain; ``"J"``; ``"eps"``); the engine
-  allocates a field only when a material of the scene needs it;
+- ``particle_fields(dim)``: the particle state the law keeps besides stress and volume,
+  name -> :class:`~timpm.platform.declare.Field` (``F``, the deformation gradient;
+  ``plastic``, the plastic strain; ``J``; ``eps``; its own: a hardening variable); the
+  engine allocates the union of a scene's declarations (a name two laws declare is one
+  field: they must declare it alike), each field from its ``initial`` value, or from the
+  law's ``initial_state`` where the scene starts from a stress;
 - ``flags()``: the compile-time choices of the law (part of the feature set);
 - ``constants(dt)``: the run-time numbers its update reads, by name (``CONSTANTS``), every
   derived constant computed here once, in double precision; ``density`` among them (the
@@ -37,17 +40,17 @@ import math
 import taichi as ti
 
 from ..platform.checks import positive
+from ..platform.declare import Field
 
 __all__ = ["Material", "SolidMaterial"]
 
 
 @ti.data_oriented
 class Material:
-    """Common interface: ``density``, ``wave_speed`` (for the CFL limit), ``needs``."""
+    """Common interface: ``density``, ``wave_speed`` (for the CFL limit), the particle
+    state it keeps (``particle_fields``)."""
 
     name = ""
-    #: particle state this material keeps, besides stress and volume
-    needs = frozenset()
     #: names of the run-time constants the update reads
     CONSTANTS = ("density",)
     #: wave speed (m/s) that bounds the time step, set by each material
@@ -74,6 +77,17 @@ class Material:
 
     def parameters(self) -> dict:
         return {"density": self.density}
+
+    @classmethod
+    def particle_fields(cls, dim: int) -> dict:
+        """The particle state this law keeps besides stress and volume, in ``dim``
+        dimensions: name -> Field."""
+        return {}
+
+    @classmethod
+    def needs(cls, dim: int = 3) -> frozenset:
+        """The names of :meth:`particle_fields`."""
+        return frozenset(cls.particle_fields(dim))
 
     def flags(self) -> tuple:
         """Compile-time choices (hashable); the feature set holds (class, flags)."""
@@ -108,6 +122,27 @@ class Material:
         return s.m[p] / self.c.density()
 
     @ti.func
+    def strain_energy(self, s: ti.template(), p):
+        """The particle's strain energy: W(F_p) V0_p where the law has a stored energy,
+        else the work sigma : d_eps V the engine integrates along its path (``s.work``)."""
+        energy = 0.0
+        if ti.static(self.stores_energy):
+            energy = self.energy(s, p)
+        else:
+            energy = s.work[p]
+        return energy
+
+    @ti.func
+    def volume_in_range(self, s: ti.template(), p, vol, lowest, highest):
+        """lowest <= V_p / V0 <= highest (the volume guard), V0 = m_p / density; a law
+        that lets a particle expand freely has no upper bound."""
+        ratio = vol * self.c.density() / s.m[p]
+        ok = ratio >= lowest
+        if ti.static(not self.free_expansion):
+            ok = ok and ratio <= highest
+        return ok
+
+    @ti.func
     def _initial_over_current_volume(self, s: ti.template(), p):
         """V0 / V_p: Cauchy stress = Kirchhoff stress times this."""
         return s.m[p] / self.c.density() / s.vol[p]
@@ -116,7 +151,6 @@ class Material:
 class SolidMaterial(Material):
     """Isotropic elastic constants from Young's modulus and Poisson's ratio."""
 
-    needs = frozenset({"F"})
     CONSTANTS = ("density", "mu", "lam", "two_mu")
 
     def __init__(self, E, nu, density):
@@ -137,6 +171,11 @@ class SolidMaterial(Material):
 
     def parameters(self) -> dict:
         return {"E": self.E, "nu": self.nu, "density": self.density}
+
+    @classmethod
+    def particle_fields(cls, dim):
+        return {"F": Field("matrix", initial="identity",
+                           doc="the (elastic) deformation gradient")}
 
     def constants(self, dt: float) -> dict:
         return {"density": self.density, "mu": self.mu, "lam": self.lam,

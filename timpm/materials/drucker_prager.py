@@ -4,6 +4,7 @@ import math
 
 import taichi as ti
 
+from ..platform.declare import Field
 from .base import SolidMaterial
 
 __all__ = ["DruckerPrager"]
@@ -33,7 +34,6 @@ class DruckerPrager(SolidMaterial):
     """
 
     name = "drucker-prager"
-    needs = frozenset({"F", "plastic"})
     free_expansion = True  # beyond the cut-off a particle expands stress-free
     CONSTANTS = SolidMaterial.CONSTANTS + ("alpha", "cone_2d", "cone_3d", "alpha_psi",
                                            "apex_2d", "apex_3d", "cut_2d", "cut_3d")
@@ -68,6 +68,11 @@ class DruckerPrager(SolidMaterial):
         self.tensile_strength = self._tensile_strength(tensile_strength, self.apex)
         # Klar et al.'s law exactly (compiled as before) unless one of these is given
         self.general = bool(c > 0.0 or psi > 0.0 or tensile_strength is not None)
+
+    @classmethod
+    def particle_fields(cls, dim):
+        return {**super().particle_fields(dim),
+                "plastic": Field(doc="the accumulated plastic strain")}
 
     def parameters(self) -> dict:
         out = {**super().parameters(), "friction_angle": self.friction_angle}

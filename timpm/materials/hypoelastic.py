@@ -4,6 +4,7 @@ import math
 import taichi as ti
 
 from ..platform.checks import positive
+from ..platform.declare import Field
 from .base import Material
 
 __all__ = ["Hypoelastic1D"]
@@ -27,7 +28,6 @@ class Hypoelastic1D(Material):
     the particle masses."""
 
     name = "hypoelastic-1d"
-    needs = frozenset({"eps"})
     CONSTANTS = ("E", "density")
     dims = (1,)
 
@@ -37,6 +37,10 @@ class Hypoelastic1D(Material):
         self.exact = bool(exact)
         self.stress_from_F = self.exact  # exactly integrated: sigma(F), F = V / V0
         self.wave_speed = math.sqrt(self.E / self.density)
+
+    @classmethod
+    def particle_fields(cls, dim):
+        return {"eps": Field("matrix", doc="the accumulated (logarithmic) strain")}
 
     def parameters(self) -> dict:
         return {"E": self.E, "density": self.density, "study": self.study, "exact": self.exact}

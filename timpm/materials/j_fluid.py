@@ -3,6 +3,7 @@ import math
 
 import taichi as ti
 
+from ..platform.declare import Field
 from .base import Material, positive
 
 __all__ = ["JFluid"]
@@ -16,7 +17,6 @@ class JFluid(Material):
     mpm88, a particle's volume stays V0 (J holds the volume ratio)."""
 
     name = "j-fluid"
-    needs = frozenset({"J"})
     initial_volume = True
     free_expansion = True  # no tension: a particle expands stress-free
     CONSTANTS = ("density", "bulk_modulus")
@@ -25,6 +25,10 @@ class JFluid(Material):
         super().__init__(density)
         self.bulk_modulus = positive(f"{self.name}: bulk modulus", bulk_modulus)
         self.wave_speed = math.sqrt(self.bulk_modulus / self.density)
+
+    @classmethod
+    def particle_fields(cls, dim):
+        return {"J": Field(initial=1.0, doc="the volume ratio, by its linearised rate")}
 
     def parameters(self) -> dict:
         return {"bulk_modulus": self.bulk_modulus, "density": self.density}

@@ -4,6 +4,7 @@ import math
 import numpy as np
 import taichi as ti
 
+from ..platform.declare import Field
 from .base import SolidMaterial
 
 __all__ = ["MohrCoulomb", "principal_return"]
@@ -46,7 +47,6 @@ class MohrCoulomb(SolidMaterial):
     """
 
     name = "mohr-coulomb"
-    needs = frozenset({"F", "plastic", "ezz"})
     CONSTANTS = SolidMaterial.CONSTANTS + ("sin_phi", "sin_psi", "two_c_cos_phi", "apex",
                                            "tension", "bulk3")
     dims = (2, 3)
@@ -76,6 +76,15 @@ class MohrCoulomb(SolidMaterial):
         # the apex of the surface, t1 = t2 = t3 = c cot(phi): the most tension it carries
         self.apex = c * math.cos(math.radians(phi)) / sin_phi if phi > 0.0 else UNBOUNDED
         self.tensile_strength = self._tensile_strength(tensile_strength, self.apex)
+
+    @classmethod
+    def particle_fields(cls, dim):
+        fields = dict(super().particle_fields(dim))  # F, the elastic deformation gradient
+        if dim == 2:
+            fields["ezz"] = Field(doc="the out-of-plane elastic log strain (plane strain)")
+        fields["plastic"] = Field(doc="the accumulated norm of the deviatoric plastic strain "
+                                      "increments")
+        return fields
 
     def parameters(self) -> dict:
         out = {**super().parameters(), "friction_angle": self.friction_angle,

@@ -1,40 +1,56 @@
-"""The transfer schemes, one file each, and the phases a driver runs.
+"""The transfer schemes and the integrators, one file each, and their registries.
 
 A scheme is the step of one particle-grid transfer written as a list of phases, each
-under a one-line label (``Scheme.phases``), with the ``ti.func``s that make them:
+under a one-line label (``Scheme.phases``), with the ``ti.func``s that make them; what it
+owns (its parameters, its particle and grid fields) it declares in its own file
+(:mod:`.base` states the contract):
 
 - :mod:`.musl`: the study's Modified Lagrangian step (2.2.4, Euler-Cromer);
-- :mod:`.affine`: APIC (Jiang et al. 2015) and MLS-MPM (Hu et al. 2018);
-- :mod:`.pic_blend`: MUSL with a PIC share b of the velocity update, written as a change
-  of two MUSL functions.
+- :mod:`.pic_blend`: MUSL with a PIC share b of the velocity update (two MUSL functions
+  changed);
+- :mod:`.affine`: APIC (Jiang et al. 2015) and MLS-MPM (Hu et al. 2018).
 
-A phase receives the state it reads as arguments: the particle fields and the grid fields
-by name (``particles.v``, ``grid.node_mass``: :class:`~timpm.engine.views.FieldView`) and
-the run-time values (``values.dt()``), beside the program whose units it calls (the
-stencil of a position, the scatter, the mass solves, the walls, the failure record, the
-shared G2P update and external force of :mod:`timpm.engine.transfer`, which receive the
-state too; a material's law gets the particle state alone,
-:class:`~timpm.engine.views.MaterialState`).  ``tests/test_layers.py`` checks that no
-scheme reads a field through the program.
+An integrator replaces a scheme's step by its own phases, calling the scheme's P2G and
+gathers: :mod:`.rk4` (the classical Runge-Kutta method on the particles' equations) and
+:mod:`.midpoint` (the energy-conserving midpoint iteration).
 
-Every driver (``engine/drivers.py``) runs the same list: one launch per step with each
-phase its parallel loop, the fused serial loop, or a team of threads with a barrier
-between two phases.  The kinds of phase are in :mod:`.phases`.
-
-A new scheme is one file, with a class whose ``applies(features)`` says when it runs (its
-``PARAMS``: run-time values of its own, taken from the Model's attributes of those names;
-``grid_fields``: fields of its own), and one line in :data:`REGISTRY` (the first that
-applies is used).
+Every driver of the engine runs the list; the kinds of phase are in :mod:`.phases`.  A
+new scheme is one file and one line in :data:`REGISTRY` (the first that applies to a
+feature set is used: a variant before the scheme it changes); its ``transfers`` join the
+names that the Model, the scene files and the command line accept (:data:`TRANSFERS`).
 """
 from .affine import Affine
+from .base import OPERATIONS, Scheme
+from .midpoint import Midpoint
 from .musl import MUSL
-from .phases import Nodes, Particles, Scatter, Whole
+from .phases import Nodes, Particles, Repeat, Scatter, Whole
 from .pic_blend import PICBlend
+from .rk4 import RungeKutta
 
-__all__ = ["Scatter", "Particles", "Nodes", "Whole", "REGISTRY", "scheme_class", "scheme_for"]
+__all__ = ["Scheme", "Scatter", "Particles", "Nodes", "Whole", "Repeat", "REGISTRY",
+           "INTEGRATORS", "TRANSFERS", "OPERATIONS", "scheme_class", "scheme_classes",
+           "scheme_params", "scheme_for"]
 
-#: the schemes, a variant before the scheme it changes
+#: the transfer schemes, a variant before the scheme it changes
 REGISTRY = (PICBlend, MUSL, Affine)
+#: the integrators that replace a scheme's step, by ``Model.integrator`` (None: the scheme's
+#: own Euler-Cromer step)
+INTEGRATORS = {"euler-cromer": None, "rk4": RungeKutta, "midpoint": Midpoint}
+#: the names of ``Model.transfer``, in the registry's order
+TRANSFERS = tuple(dict.fromkeys(name for cls in REGISTRY for name in cls.transfers))
+
+
+def scheme_classes(transfer):
+    """The schemes that run transfer ``transfer`` (its variants first)."""
+    return [cls for cls in REGISTRY if transfer in cls.transfers]
+
+
+def scheme_params(transfer) -> dict:
+    """The parameters the schemes of ``transfer`` declare, name -> Param."""
+    out = {}
+    for cls in reversed(scheme_classes(transfer)):
+        out.update(cls.PARAMS)
+    return out
 
 
 def scheme_class(features):
@@ -45,6 +61,9 @@ def scheme_class(features):
     raise ValueError(f"no transfer scheme for transfer={features.transfer!r}")
 
 
-def scheme_for(features):
-    """The scheme a feature set runs, made for it (its functions read the features)."""
-    return scheme_class(features)(features)
+def scheme_for(features, ops):
+    """The step a feature set runs, made for it with the engine's operations ``ops``: its
+    transfer scheme, or the integrator that wraps it."""
+    transfer = scheme_class(features)(features, ops)
+    integrator = INTEGRATORS[features.integrator]
+    return transfer if integrator is None else integrator(features, ops, transfer)

@@ -9,29 +9,32 @@
 """
 import taichi as ti
 
+from ..platform.declare import Field
 from ..platform.errors import ErrorCode
+from .base import Scheme
 from .phases import Nodes, Particles, Scatter, Whole
 
 __all__ = ["Affine"]
 
 
 @ti.data_oriented
-class Affine:
+class Affine(Scheme):
     """See the module."""
 
-    PARAMS = {}
+    transfers = ("apic", "mls-mpm")
 
     @staticmethod
-    def applies(features):
-        return features.transfer in ("apic", "mls-mpm")
+    def particle_fields(features):
+        return {"C": Field("matrix", doc="the affine velocity C_p (B_p = C_p D_p for the "
+                                         "linear basis)")}
 
     @staticmethod
-    def grid_fields(dim, real):
-        """The grid velocity v_i of the last grid update (G2P reads it: node_new_velocity)."""
-        return {"gv": ti.Vector.field(dim, real)}
+    def grid_fields(features):
+        return {"gv": Field("vector", doc="v_i of the last grid update (G2P reads it)")}
 
-    def __init__(self, features):
-        self.f = features
+    def __init__(self, features, ops):
+        super().__init__(features, ops)
+        self.dim, self.support = features.dim, features.basis.support
         self.p2g = Scatter("P2G: m_i, P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i",
                            self.p2g_particle, rows=("node_mass", "node_momentum"))
         self.remap = Scatter("G2P: v_p, C_p; P2G: P'_i = sum m_p phi_i v_p (strain remap)",
@@ -49,173 +52,170 @@ class Affine:
         return tuple(steps)
 
     @ti.func
-    def clear(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
-              values: ti.template()):
-        prog.clear_grid()
+    def clear(self, particles: ti.template(), grid: ti.template(), values: ti.template()):
+        self.nodes.clear()
 
     @ti.func
-    def p2g_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
-                     values: ti.template(), p, copy):
+    def p2g_particle(self, particles: ti.template(), grid: ti.template(), values: ti.template(),
+                     p, copy):
         # P2G: m_i = sum m_p phi_i; P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) + dt F_i,
         # F_i = sum phi_i m_p (g + b_p) - sigma_p V_p grad phi_i (MLS-MPM: the stress as
         # -dt D^-1 sigma_p V_p (x_i - x_p) phi_i, in the affine matrix)
-        base, w, dw, xi, inside = prog.stencil(particles.x[p])
-        node_values = ti.Matrix.zero(float, 3, prog.basis.support)
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
+        node_values = ti.Matrix.zero(float, 3, self.support)
         if not inside:
-            prog.fail(ErrorCode.OFF_GRID, p)
+            self.failures.fail(ErrorCode.OFF_GRID, p)
         else:
             mp = particles.m[p]
-            fp = prog.external_force(particles, values, p)
+            fp = self.loads.force(particles, values, p)
             stress_volume = particles.sigma[p] * particles.vol[p]
-            affine = ti.Matrix.zero(float, prog.dim, prog.dim)
-            if ti.static(prog.mls_mpm):
+            affine = ti.Matrix.zero(float, self.dim, self.dim)
+            if ti.static(self.f.mls_mpm):
                 affine = mp * particles.C[p] - values.dt_D_inv() * stress_volume
             # the affine momentum A (x_i - x_p) with x_i - x_p = h o - d (o: the node's
             # offset in the stencil) is h A o - A d: one vector per particle, then adds
-            d = prog.from_first_node(xi, base)
-            if ti.static(not prog.mls_mpm and prog.basis.support > 2):
+            d = self.stencil.from_first_node(xi, base)
+            if ti.static(not self.f.mls_mpm and self.support > 2):
                 affine = mp * particles.C[p]  # APIC: the stress enters through grad phi
             mom = mp * particles.v[p] + values.dt() * fp - affine @ d
             h_affine = values.h() * affine
-            for r in range(prog.stencil_rows):
-                row = prog.stencil_row(w, dw, r)
-                for a in ti.static(range(prog.basis.support)):
-                    offset, phi, grad = prog.row_node(w, dw, r, row, a)
+            for r in range(self.stencil.rows):
+                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
                     node = base + offset
-                    if ti.static(prog.mls_mpm):
-                        prog.scatter_add("node_mass", copy, node, mp * phi)
-                        prog.scatter_add("node_momentum", copy, node,
-                                         phi * (mom + prog.times_offset(h_affine, r, a)))
+                    if ti.static(self.f.mls_mpm):
+                        self.scatter.add("node_mass", copy, node, mp * phi)
+                        self.scatter.add("node_momentum", copy, node,
+                                         phi * (mom + self.stencil.times_offset(h_affine, r, a)))
                     else:
                         # m_p C_p (x_i - x_p) phi_i; the linear basis keeps B_p in C and
                         # applies D_p^-1 at the new position: B_p D_p^-1 (x_i - x_p) phi_i =
                         # B_p grad phi_i (Jiang et al. 2015), bounded where a particle barely
                         # touches a node
-                        momentum = ti.Vector.zero(float, prog.dim)
-                        if ti.static(prog.basis.support > 2):
-                            momentum = phi * (mom + prog.times_offset(h_affine, r, a))
+                        momentum = ti.Vector.zero(float, self.dim)
+                        if ti.static(self.support > 2):
+                            momentum = phi * (mom + self.stencil.times_offset(h_affine, r, a))
                         else:
                             momentum = (phi * (mp * particles.v[p] + values.dt() * fp)
                                         + mp * (particles.C[p] @ grad))
-                        prog.scatter_add("node_mass", copy, node, mp * phi)
-                        prog.scatter_add("node_momentum", copy, node,
+                        self.scatter.add("node_mass", copy, node, mp * phi)
+                        self.scatter.add("node_momentum", copy, node,
                                          momentum - values.dt() * (stress_volume @ grad))
         return base, inside, node_values
 
     @ti.func
-    def velocity_node(self, prog: ti.template(), grid: ti.template(), values: ti.template(), I):
+    def velocity_node(self, grid: ti.template(), values: ti.template(), I):
         # v_i = P_i / m_i, wall conditions applied; in the same pass the private copies
         # are summed in and m_i, P_i cleared for the next P2G (a node no particle reached
         # has m = P = 0 and is left alone: G2P weighs it by 0)
-        if prog.reached(I):
-            m = prog.merged("node_mass", I)
-            P = prog.merged("node_momentum", I)
-            v = ti.Vector.zero(float, prog.dim)
-            if m > values.mass_tol() and not prog.is_fixed(I):
+        if self.scatter.reached(I):
+            m = self.scatter.merged("node_mass", I)
+            P = self.scatter.merged("node_momentum", I)
+            v = ti.Vector.zero(float, self.dim)
+            if m > values.mass_tol() and not self.boundary.is_fixed(I):
                 v = P / m
-                if ti.static(prog.has_walls):
-                    v = prog.apply_walls(I, v)
-            if ti.static(prog.prescribed):
-                if prog.is_fixed(I):
-                    v = prog.prescribed_velocity(I, True)
+                if ti.static(self.f.has_walls):
+                    v = self.boundary.apply_walls(I, v)
+            if ti.static(self.f.has_prescribed):
+                if self.boundary.is_fixed(I):
+                    v = self.boundary.prescribed_velocity(I, True)
             grid.node_new_velocity[I] = v
-            if ti.static(prog.strain_remap):
+            if ti.static(self.f.strain_remap):
                 grid.node_mass[I] = m  # P cleared for the remap
-                grid.node_momentum[I] = ti.Vector.zero(float, prog.dim)
-            elif ti.static(not prog.private_scatter):
+                grid.node_momentum[I] = ti.Vector.zero(float, self.dim)
+            elif ti.static(not self.f.private_scatter):
                 grid.node_mass[I] = 0.0
-                grid.node_momentum[I] = ti.Vector.zero(float, prog.dim)
+                grid.node_momentum[I] = ti.Vector.zero(float, self.dim)
 
     @ti.func
-    def remap_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+    def remap_particle(self, particles: ti.template(), grid: ti.template(),
                        values: ti.template(), p, copy):
         # the strain remap: v_p = sum_i phi_i v_i, C_p = B_p (as update_particle), then
         # P'_i = sum m_p phi_i v_p
-        base, w, dw, xi, inside = prog.stencil(particles.x[p])
-        node_values = ti.Matrix.zero(float, 3, prog.basis.support)
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
+        node_values = ti.Matrix.zero(float, 3, self.support)
         if inside:
-            vp, B, _ = self.affine_gather(prog, grid, values, base, w, dw, xi, False)
+            vp, B, _ = self.affine_gather(grid, values, base, w, dw, xi, False)
             particles.C[p] = B  # the linear basis keeps B_p (see p2g_particle)
             particles.v[p] = vp
-            for r in range(prog.stencil_rows):
-                row = prog.stencil_row(w, dw, r)
-                for a in ti.static(range(prog.basis.support)):
-                    offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                    node_values = prog.deposit("node_momentum", copy, base + offset, offset,
-                                                particles.m[p] * phi * vp, node_values)
+            for r in range(self.stencil.rows):
+                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
+                    node_values = self.scatter.deposit("node_momentum", copy, base + offset,
+                                                       offset, particles.m[p] * phi * vp,
+                                                       node_values)
         return base, inside, node_values
 
     @ti.func
-    def remap_node(self, prog: ti.template(), grid: ti.template(), values: ti.template(), I):
-        prog.solve_mass_node(grid.node_momentum, True, I)  # P'_i into v'_i in place
+    def remap_node(self, grid: ti.template(), values: ti.template(), I):
+        self.nodes.solve_node(grid.node_momentum, True, I)  # P'_i into v'_i in place
 
     @ti.func
-    def affine_gather(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
-                      base, w, dw, xi, gradient: ti.template()):
+    def affine_gather(self, grid: ti.template(), values: ti.template(), base, w, dw, xi,
+                      gradient: ti.template()):
         """G2P of the grid velocity: v_p = sum_i phi_i v_i, B_p = sum_i phi_i v_i (x_i -
         x_p)^T and, with ``gradient``, grad du = sum_i v_i dt grad phi_i^T."""
-        vp = ti.Vector.zero(float, prog.dim)
-        grad_du = ti.Matrix.zero(float, prog.dim, prog.dim)
-        B = ti.Matrix.zero(float, prog.dim, prog.dim)  # sum_i phi_i v_i o_i^T
-        for r in range(prog.stencil_rows):
-            row = prog.stencil_row(w, dw, r)
-            for a in ti.static(range(prog.basis.support)):
-                offset, phi, grad = prog.row_node(w, dw, r, row, a)
+        vp = ti.Vector.zero(float, self.dim)
+        grad_du = ti.Matrix.zero(float, self.dim, self.dim)
+        B = ti.Matrix.zero(float, self.dim, self.dim)  # sum_i phi_i v_i o_i^T
+        for r in range(self.stencil.rows):
+            for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
                 vi = grid.node_new_velocity[base + offset]
                 vp += phi * vi
                 if ti.static(gradient):
                     grad_du += (vi * values.dt()).outer_product(grad)
-                B += prog.outer_offset(phi * vi, r, a)
+                B += self.stencil.outer_offset(phi * vi, r, a)
         # sum_i phi_i v_i (x_i - x_p)^T = h sum_i phi_i v_i o_i^T - v_p d^T
-        d = prog.from_first_node(xi, base)
+        d = self.stencil.from_first_node(xi, base)
         return vp, values.h() * B - vp.outer_product(d), grad_du
 
     @ti.func
-    def affine_of(self, prog: ti.template(), values: ti.template(), B, base, w, xi):
+    def affine_of(self, values: ti.template(), B, base, w, xi):
         """C_p = B_p D_p^-1 from B_p = sum_i phi_i v_i (x_i - x_p)^T: D^-1 the constant of
         MLS-MPM, else D_p = sum_i phi_i (x_i - x_p)(x_i - x_p)^T, diagonal for tensor
         products of a basis reproducing linear fields (the linear basis keeps B_p, see
         p2g_particle)."""
         C = B
-        if ti.static(prog.mls_mpm):
+        if ti.static(self.f.mls_mpm):
             C = B * values.D_inv()
-        elif ti.static(prog.basis.support > 2):
-            for k in ti.static(range(prog.dim)):
+        elif ti.static(self.support > 2):
+            for k in ti.static(range(self.dim)):
                 dk = 0.0
-                for a in ti.static(range(prog.basis.support)):
-                    r = (base[k] + a - prog.node_offset - xi[k]) * values.h()
+                for a in ti.static(range(self.support)):
+                    r = (base[k] + a - self.stencil.node_offset - xi[k]) * values.h()
                     dk += w[a, k] * r * r
-                for j in ti.static(range(prog.dim)):
+                for j in ti.static(range(self.dim)):
                     C[j, k] /= dk
         return C
 
     @ti.func
-    def gather(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
-               values: ti.template(), p, base, w, dw, xi):
+    def gather(self, particles: ti.template(), grid: ti.template(), values: ti.template(), p,
+               base, w, dw, xi):
         """v_p and grad du: from the remapped P'_i (the strain remap: v_p and C_p came with
         it), else v_p = sum_i phi_i v_i, C_p = B_p D_p^-1 stored and grad du from the grid
         (MLS-MPM: C_p dt)."""
-        vp = ti.Vector.zero(float, prog.dim)
-        grad_du = ti.Matrix.zero(float, prog.dim, prog.dim)
-        if ti.static(prog.strain_remap):
+        vp = ti.Vector.zero(float, self.dim)
+        grad_du = ti.Matrix.zero(float, self.dim, self.dim)
+        if ti.static(self.f.strain_remap):
             vp = particles.v[p]
-            for r in range(prog.stencil_rows):
-                row = prog.stencil_row(w, dw, r)
-                for a in ti.static(range(prog.basis.support)):
-                    offset, phi, grad = prog.row_node(w, dw, r, row, a)
+            for r in range(self.stencil.rows):
+                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
                     grad_du += (grid.node_velocity[base + offset]
                                 * values.dt()).outer_product(grad)
         else:
-            B = ti.Matrix.zero(float, prog.dim, prog.dim)
-            vp, B, grad_du = self.affine_gather(prog, grid, values, base, w, dw, xi,
-                                                not prog.mls_mpm)
+            B = ti.Matrix.zero(float, self.dim, self.dim)
+            vp, B, grad_du = self.affine_gather(grid, values, base, w, dw, xi,
+                                                not self.f.mls_mpm)
             particles.v[p] = vp
-            particles.C[p] = self.affine_of(prog, values, B, base, w, xi)
-            if ti.static(prog.mls_mpm):
+            particles.C[p] = self.affine_of(values, B, base, w, xi)
+            if ti.static(self.f.mls_mpm):
                 grad_du = particles.C[p] * values.dt()
         return vp, grad_du
 
     @ti.func
-    def update_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+    def update_particle(self, particles: ti.template(), grid: ti.template(),
                         values: ti.template(), p):
-        prog.g2p_update_particle(particles, grid, values, p)
+        # G2P: v_p, C_p and grad du from the grid, then the particle's state from them
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
+        if inside and not self.failures.halted(p):
+            vp, grad_du = self.gather(particles, grid, values, p, base, w, dw, xi)
+            du = vp * values.dt()
+            self.g2p.update(particles, values, p, vp, du, grad_du)

@@ -10,33 +10,28 @@ projection:
 """
 import taichi as ti
 
+from ..platform.declare import Field
 from ..platform.errors import ErrorCode
+from .base import Scheme
 from .phases import Nodes, Particles, Scatter, Whole
 
 __all__ = ["MUSL"]
 
 
 @ti.data_oriented
-class MUSL:
-    """See the module.  Its phases take the program (whose units they call: the stencil,
-    the scatter, the mass solves, the walls, the failure record) and the state they read:
-    ``particles``, ``grid`` (:class:`~timpm.engine.views.FieldView`) and the run-time
-    ``values``; a node phase the grid and the values only."""
+class MUSL(Scheme):
+    """See the module."""
 
-    #: run-time values of its own (name: "real" or "int"), read from the Model's attribute
-    PARAMS = {}
+    transfers = ("musl",)
 
     @staticmethod
-    def applies(features):
-        return features.transfer == "musl"
+    def grid_fields(features):
+        return {"gf": Field("vector", doc="F_i, then a_i = M^-1 F_i")}
 
-    @staticmethod
-    def grid_fields(dim, real):
-        """Grid fields of its own."""
-        return {}
-
-    def __init__(self, features):
-        f = self.f = features
+    def __init__(self, features, ops):
+        super().__init__(features, ops)
+        f = features
+        self.dim, self.support = f.dim, f.basis.support
         # P2G scatters the momentum where a later phase reads it (the grid phase's damping
         # and walls, the Runge-Kutta and midpoint rates)
         self.scatters_momentum = f.damping or f.has_walls or f.rk4 or f.midpoint
@@ -75,176 +70,190 @@ class MUSL:
 
     # ---- P2G -----------------------------------------------------------------------------
     @ti.func
-    def clear(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
-              values: ti.template()):
+    def clear(self, particles: ti.template(), grid: ti.template(), values: ti.template()):
         # the grid cleared; with the MLS projection in 1D the body's extent
-        prog.clear_grid()
-        if ti.static(prog.mls and prog.dim == 1):
-            prog.body_extent(particles, grid, values)
+        self.nodes.clear()
+        if ti.static(self.f.mls and self.dim == 1):
+            self.mls.body_extent(particles, grid, values)
 
     @ti.func
-    def p2g_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
-                     values: ti.template(), p, copy):
+    def p2g_particle(self, particles: ti.template(), grid: ti.template(), values: ti.template(),
+                     p, copy):
         # P2G (2.2.4): M_ij = sum m_p phi_i phi_j (A.1) or M_ii = sum m_p phi_i (A.2);
         # F_i = sum phi_i (m_p (g + b_p(t)) + f_trac(t)) - sigma_p V_p dphi_i
-        base, w, dw, xi, inside = prog.stencil(particles.x[p])
-        node_values = ti.Matrix.zero(float, 3, prog.basis.support)
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
+        node_values = ti.Matrix.zero(float, 3, self.support)
         if not inside:
-            prog.fail(ErrorCode.OFF_GRID, p)
+            self.failures.fail(ErrorCode.OFF_GRID, p)
         else:
             mp = particles.m[p]
-            fp = prog.external_force(particles, values, p)
+            fp = self.loads.force(particles, values, p)
             stress_volume = particles.sigma[p] * particles.vol[p]
-            if ti.static(prog.mls):
-                if ti.static(prog.mls_study):
+            if ti.static(self.f.mls):
+                if ti.static(self.f.mls_study):
                     fp[0] -= mp * values.gravity()[0]  # gravity and mass: from the Gauss points
-                if ti.static(prog.dim == 1):
-                    prog.scatter_gauss_moments(particles, grid, values, p)
+                if ti.static(self.dim == 1):
+                    self.mls.scatter_gauss(particles, grid, values, p)
                 else:
-                    prog.scatter_gauss_moments_nd(particles, grid, values, p)
-            for r in range(prog.stencil_rows):
-                row = prog.stencil_row(w, dw, r)
-                for a in ti.static(range(prog.basis.support)):
-                    offset, phi, grad = prog.row_node(w, dw, r, row, a)
+                    self.mls_nd.scatter_gauss(particles, grid, values, p)
+            for r in range(self.stencil.rows):
+                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
                     node = base + offset
-                    if ti.static(not prog.mls):
-                        node_values = prog.deposit("node_mass", copy, node, offset, mp * phi,
-                                                    node_values)
-                        node_values = prog.deposit("node_force", copy, node, offset,
-                                                    phi * fp - stress_volume @ grad, node_values)
+                    if ti.static(not self.f.mls):
+                        node_values = self.scatter.deposit("node_mass", copy, node, offset,
+                                                           mp * phi, node_values)
+                        node_values = self.scatter.deposit("node_force", copy, node, offset,
+                                                           phi * fp - stress_volume @ grad,
+                                                           node_values)
                     else:  # MLS: the stress enters at the Gauss points (integrate_gauss)
-                        if ti.static(not prog.mls_study):
-                            prog.accumulate(grid.node_mass[node], mp * phi)
-                        prog.accumulate(grid.node_force[node], phi * fp)
+                        if ti.static(not self.f.mls_study):
+                            self.scatter.accumulate(grid.node_mass[node], mp * phi)
+                        self.scatter.accumulate(grid.node_force[node], phi * fp)
                     if ti.static(self.scatters_momentum):
-                        node_values = prog.deposit("node_momentum", copy, node, offset,
-                                                    mp * phi * particles.v[p], node_values)
-            if ti.static(prog.consistent and prog.dim == 1):
-                for a, c in ti.static(ti.ndrange(prog.basis.support, prog.basis.support)):
-                    prog.accumulate(grid.band[base[0] + a, c - a + prog.bandwidth],
-                                    mp * w[a, 0] * w[c, 0])
+                        node_values = self.scatter.deposit("node_momentum", copy, node, offset,
+                                                           mp * phi * particles.v[p],
+                                                           node_values)
+            if ti.static(self.f.consistent and self.dim == 1):
+                for a, c in ti.static(ti.ndrange(self.support, self.support)):
+                    self.scatter.accumulate(grid.band[base[0] + a, c - a + self.f.bandwidth],
+                                            mp * w[a, 0] * w[c, 0])
         return base, inside, node_values
 
     @ti.func
-    def after_p2g(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
-                  values: ti.template()):
+    def after_p2g(self, particles: ti.template(), grid: ti.template(), values: ti.template()):
         # MLS: the stress integrated at the Gauss points; the consistent mass factorised
         # (1D banded LU) or its weights kept for the conjugate gradients
-        if ti.static(prog.mls and prog.dim == 1):
-            prog.integrate_gauss(grid, values)
-        elif ti.static(prog.mls):
-            prog.integrate_gauss_nd(grid, values)
-        if ti.static(prog.consistent and prog.dim == 1):
-            prog.banded_factorise(grid, values)
-        elif ti.static(prog.consistent):
-            prog.cg_keep_weights(particles, values)
+        if ti.static(self.f.mls and self.dim == 1):
+            self.mls.integrate_gauss(grid, values)
+        elif ti.static(self.f.mls):
+            self.mls_nd.integrate_gauss(grid, values)
+        if ti.static(self.f.consistent and self.dim == 1):
+            self.banded.factorise(grid, values)
+        elif ti.static(self.f.consistent):
+            self.cg.keep_weights(particles, values)
 
     # ---- the grid: accelerations -----------------------------------------------------------
     @ti.func
-    def acceleration_node(self, prog: ti.template(), grid: ti.template(),
-                          values: ti.template(), I):
+    def acceleration_node(self, grid: ti.template(), values: ti.template(), I):
         # F_damp = -alpha sgn(v_i) |F_i| (A.4), then a = M^-1 F; at a wall
         # a = (wall(v_i + dt a) - v_i) / dt with v_i = P_i / m_i
-        if ti.static(prog.damping):
+        if ti.static(self.f.damping):
             grid.node_force[I] -= (values.damping() * ti.math.sign(grid.node_momentum[I])
                                    * ti.abs(grid.node_force[I]))
-        if ti.static(prog.has_walls and not prog.consistent):
-            a = ti.Vector.zero(float, prog.dim)  # Dirichlet and empty nodes: a = 0
-            if grid.node_mass[I] > values.mass_tol() and not prog.is_fixed(I):
+        if ti.static(self.f.has_walls and not self.f.consistent):
+            a = ti.Vector.zero(float, self.dim)  # Dirichlet and empty nodes: a = 0
+            if grid.node_mass[I] > values.mass_tol() and not self.boundary.is_fixed(I):
                 vn = grid.node_momentum[I] / grid.node_mass[I]
-                a = (prog.apply_walls(I, vn + values.dt() * grid.node_force[I]
-                                      / grid.node_mass[I]) - vn) / values.dt()
+                a = (self.boundary.apply_walls(I, vn + values.dt() * grid.node_force[I]
+                                               / grid.node_mass[I]) - vn) / values.dt()
             grid.node_acceleration[I] = a
-        elif ti.static(not prog.consistent):
-            grid.node_acceleration[I] = prog.lumped_solve(I, grid.node_force[I])  # a = F / m
-        if ti.static(prog.prescribed):
-            if prog.is_fixed(I):  # a Dirichlet node: a = (v(t_n + dt) - v(t_n)) / dt
-                grid.node_acceleration[I] = (prog.prescribed_velocity(I, True)
-                              - prog.prescribed_velocity(I, False)) / values.dt()
-        self.after_acceleration(prog, grid, values, I)
+        elif ti.static(not self.f.consistent):
+            grid.node_acceleration[I] = self.boundary.lumped_solve(I, grid.node_force[I])
+        if ti.static(self.f.has_prescribed):
+            if self.boundary.is_fixed(I):  # a Dirichlet node: a = (v(t_n + dt) - v(t_n)) / dt
+                grid.node_acceleration[I] = (self.boundary.prescribed_velocity(I, True)
+                                             - self.boundary.prescribed_velocity(I, False)
+                                             ) / values.dt()
+        self.after_acceleration(grid, values, I)
         if ti.static(self.scatters_momentum):
-            grid.node_momentum[I] = ti.Vector.zero(float, prog.dim)  # P2G scattered P_i
+            grid.node_momentum[I] = ti.Vector.zero(float, self.dim)  # P2G scattered P_i
 
     @ti.func
-    def after_acceleration(self, prog: ti.template(), grid: ti.template(),
-                           values: ti.template(), I):
+    def after_acceleration(self, grid: ti.template(), values: ti.template(), I):
         """A hook of the grid phase at node I, after a_i (nothing here)."""
         pass
 
     @ti.func
-    def acceleration_solve(self, prog: ti.template(), particles: ti.template(),
-                           grid: ti.template(), values: ti.template()):
+    def acceleration_solve(self, particles: ti.template(), grid: ti.template(),
+                           values: ti.template()):
         # F_i into a_i in place (in 1D the Model refuses walls with the consistent mass)
-        prog.solve_mass(grid.node_force, False)
+        self.nodes.solve(grid.node_force, False)
 
     # ---- G2P of the velocity, P2G of the momentum ------------------------------------------
     @ti.func
-    def velocity_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+    def velocity_particle(self, particles: ti.template(), grid: ti.template(),
                           values: ti.template(), p, copy):
         # G2P: v_p += dt sum_i phi_i(x_p) a_i; P2G: P_i = sum m_p phi_i(x_p) v_p (2.2.4)
-        base, w, dw, xi, inside = prog.stencil(particles.x[p])
-        node_values = ti.Matrix.zero(float, 3, prog.basis.support)
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
+        node_values = ti.Matrix.zero(float, 3, self.support)
         if inside:
-            acc = prog.interpolate(grid.node_acceleration, base, w, dw)
-            vp = self.new_velocity(prog, grid, values, base, w, dw,
+            acc = self.stencil.interpolate(grid.node_acceleration, base, w, dw)
+            vp = self.new_velocity(grid, values, base, w, dw,
                                    particles.v[p] + values.dt() * acc)
             particles.v[p] = vp
-            if ti.static(prog.mls_study):
-                prog.scatter_node_moments(particles, grid, values, p, vp[0])
+            if ti.static(self.f.mls_study):
+                self.mls.scatter_nodes(particles, grid, values, p, vp[0])
             else:
-                for r in range(prog.stencil_rows):
-                    row = prog.stencil_row(w, dw, r)
-                    for a in ti.static(range(prog.basis.support)):
-                        offset, phi, grad = prog.row_node(w, dw, r, row, a)
-                        node_values = prog.deposit("node_momentum", copy, base + offset, offset,
-                                                    particles.m[p] * phi * vp, node_values)
+                for r in range(self.stencil.rows):
+                    for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
+                        node_values = self.scatter.deposit("node_momentum", copy,
+                                                           base + offset, offset,
+                                                           particles.m[p] * phi * vp,
+                                                           node_values)
         return base, inside, node_values
 
     @ti.func
-    def new_velocity(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
-                     base, w, dw, flip):
+    def new_velocity(self, grid: ti.template(), values: ti.template(), base, w, dw, flip):
         """The particle's new velocity from its FLIP update v_p + dt sum phi_i a_i (a hook:
         that update itself here)."""
         return flip
 
     # ---- the grid: velocities --------------------------------------------------------------
     @ti.func
-    def velocity_node(self, prog: ti.template(), grid: ti.template(), values: ti.template(), I):
+    def velocity_node(self, grid: ti.template(), values: ti.template(), I):
         # v_i = P_i / m_i with the walls and the prescribed velocities; u_i += v_i dt (5.2)
-        prog.solve_mass_node(grid.node_momentum, True, I)  # P_i into v_i in place
-        if ti.static(prog.grid_displacement):
+        self.nodes.solve_node(grid.node_momentum, True, I)  # P_i into v_i in place
+        if ti.static(self.f.grid_displacement):
             grid.node_displacement[I] += grid.node_velocity[I] * values.dt()
 
     @ti.func
-    def velocity_solve(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+    def velocity_solve(self, particles: ti.template(), grid: ti.template(),
                        values: ti.template()):
-        if ti.static(prog.mls_study):
-            prog.mls_nodal_velocity(grid, values)
+        if ti.static(self.f.mls_study):
+            self.mls.nodal_velocity(grid, values)
         else:
-            prog.solve_mass(grid.node_momentum, True)  # P_i into v_i in place
+            self.nodes.solve(grid.node_momentum, True)  # P_i into v_i in place
 
     @ti.func
-    def displacement_node(self, prog: ti.template(), grid: ti.template(),
-                          values: ti.template(), I):
+    def displacement_node(self, grid: ti.template(), values: ti.template(), I):
         grid.node_displacement[I] += grid.node_velocity[I] * values.dt()
 
     # ---- G2P of the particle state ---------------------------------------------------------
     @ti.func
-    def gather(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
-               values: ti.template(), p, base, w, dw, xi):
+    def gather(self, particles: ti.template(), grid: ti.template(), values: ti.template(), p,
+               base, w, dw, xi):
         """v_p = sum_i phi_i v_i and grad du = sum_i v_i dt grad phi_i^T."""
-        vp = ti.Vector.zero(float, prog.dim)
-        grad_du = ti.Matrix.zero(float, prog.dim, prog.dim)
-        for r in range(prog.stencil_rows):
-            row = prog.stencil_row(w, dw, r)
-            for a in ti.static(range(prog.basis.support)):
-                offset, phi, grad = prog.row_node(w, dw, r, row, a)
+        vp = ti.Vector.zero(float, self.dim)
+        grad_du = ti.Matrix.zero(float, self.dim, self.dim)
+        for r in range(self.stencil.rows):
+            for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
                 vi = grid.node_velocity[base + offset]
                 vp += phi * vi
                 grad_du += (vi * values.dt()).outer_product(grad)
         return vp, grad_du
 
     @ti.func
-    def update_particle(self, prog: ti.template(), particles: ti.template(), grid: ti.template(),
+    def update_particle(self, particles: ti.template(), grid: ti.template(),
                         values: ti.template(), p):
-        prog.g2p_update_particle(particles, grid, values, p)
+        # G2P: the scheme's gather of v_p and grad du, then the particle's state from them
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
+        if inside and not self.failures.halted(p):
+            vp, grad_du = self.gather(particles, grid, values, p, base, w, dw, xi)
+            du = vp * values.dt()
+            self.g2p.update(particles, values, p, vp, du, grad_du)
+
+    # ---- the rates of an integrator's stage (rk4, midpoint) ---------------------------------
+    @ti.func
+    def grid_rates(self, particles: ti.template(), grid: ti.template(), values: ti.template()):
+        # P2G of the particles' state (a Runge-Kutta stage, a midpoint iterate): m_i, P_i =
+        # sum m_p phi_i v_p, F_i = sum phi_i m_p (g + b_p) - sigma_p V_p grad phi_i (at the
+        # Gauss points with the MLS projection); then a_i = M^-1 F_i and v_i = M^-1 P_i,
+        # zero at Dirichlet and empty nodes.  Roller and sticky walls are linear
+        # constraints, the same on both (the consistent mass's solve takes them as such;
+        # acceleration_node is no fit: it clears P_i at walls)
+        self.clear(particles, grid, values)
+        self.scatter.run(self.p2g, particles, grid, values)
+        if ti.static(self.f.mls or self.f.consistent):
+            self.after_p2g(particles, grid, values)
+        self.nodes.solve(grid.node_force, True)  # F_i into a_i in place
+        self.nodes.solve(grid.node_momentum, True)  # P_i into v_i in place

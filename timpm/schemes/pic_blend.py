@@ -9,6 +9,7 @@ with two of its functions changed: the grid phase stores v_i^L, the G2P velocity
 """
 import taichi as ti
 
+from ..platform.declare import Field, Param
 from .musl import MUSL
 
 __all__ = ["PICBlend"]
@@ -18,38 +19,37 @@ __all__ = ["PICBlend"]
 class PICBlend(MUSL):
     """See the module."""
 
-    #: the run-time value it reads (``Program.values.pic_fraction()``, ``Model.pic_fraction``)
-    PARAMS = {"pic_fraction": "real"}
+    #: the PIC share b (``values.pic_fraction()``)
+    PARAMS = {"pic_fraction": Param(0.0, "", "PIC share b of the velocity update (0: FLIP, "
+                                    "the study's; 1: PIC)", low=0.0, high=1.0)}
 
-    @staticmethod
-    def applies(features):
+    @classmethod
+    def applies(cls, features):
         return features.transfer == "musl" and features.pic
 
-    def __init__(self, features):
-        super().__init__(features)
+    def __init__(self, features, ops):
+        super().__init__(features, ops)
         self.scatters_momentum = True  # the grid phase reads P_i / m_i
 
     @staticmethod
-    def grid_fields(dim, real):
-        """The grid velocity after the update, v_i^L (node_new_velocity)."""
-        return {"gv": ti.Vector.field(dim, real)}
+    def grid_fields(features):
+        return {**MUSL.grid_fields(features),
+                "gv": Field("vector", doc="v_i^L = P_i / m_i + dt a_i, the updated velocity")}
 
     @ti.func
-    def after_acceleration(self, prog: ti.template(), grid: ti.template(),
-                           values: ti.template(), I):
+    def after_acceleration(self, grid: ti.template(), values: ti.template(), I):
         # v_i^L = P_i / m_i + dt a_i (a wall's a makes it the wall's velocity; zero at
         # Dirichlet and empty nodes)
-        v_new = (prog.lumped_solve(I, grid.node_momentum[I])
+        v_new = (self.boundary.lumped_solve(I, grid.node_momentum[I])
                  + values.dt() * grid.node_acceleration[I])
-        if ti.static(prog.prescribed):
-            if prog.is_fixed(I):
-                v_new = prog.prescribed_velocity(I, True)
+        if ti.static(self.f.has_prescribed):
+            if self.boundary.is_fixed(I):
+                v_new = self.boundary.prescribed_velocity(I, True)
         grid.node_new_velocity[I] = v_new
 
     @ti.func
-    def new_velocity(self, prog: ti.template(), grid: ti.template(), values: ti.template(),
-                     base, w, dw, flip):
+    def new_velocity(self, grid: ti.template(), values: ti.template(), base, w, dw, flip):
         # v_p = (1 - b) v_p^FLIP + b sum_i phi_i v_i^L
-        pic = prog.interpolate(grid.node_new_velocity, base, w, dw)
+        pic = self.stencil.interpolate(grid.node_new_velocity, base, w, dw)
         b = values.pic_fraction()
         return (1.0 - b) * flip + b * pic

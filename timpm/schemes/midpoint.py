@@ -1,8 +1,9 @@
 """The energy-conserving midpoint integrator: the MUSL step at the mid-step velocity with
 the averaged (discrete-gradient) stress, iterated to convergence within each step.
 
-Mixed into :class:`~timpm.engine.program.Program` for ``Model(integrator="midpoint")``.
-With the particles' weights at the step's start, phi_i = phi_i(x_p^n), a step solves
+For ``Model(integrator="midpoint")``: an integrator, the step of the transfer scheme it
+wraps (MUSL, APIC, MLS-MPM) replaced by one phase that iterates on one thread.  With the
+particles' weights at the step's start, phi_i = phi_i(x_p^n), a step solves
 
     vbar_p = (v_p^n + v_p^(n+1)) / 2,      vbar_i = M^-1 sum_p m_p phi_i vbar_p,
     F_p^(n+1) = (I + dt sum_i vbar_i grad phi_i^T) F_p^n,
@@ -42,9 +43,12 @@ import math
 
 import taichi as ti
 
+from ..platform.declare import Field
 from ..platform.errors import ErrorCode
+from .base import Scheme
+from .phases import Whole
 
-__all__ = ["Midpoint", "midpoint_fields", "MIDPOINT_MAX_ITERATIONS", "MIDPOINT_TOLERANCE"]
+__all__ = ["Midpoint", "MIDPOINT_MAX_ITERATIONS", "MIDPOINT_TOLERANCE"]
 
 #: iterations after which a step that has not converged stops the run
 MIDPOINT_MAX_ITERATIONS = 400
@@ -60,59 +64,78 @@ _GAUSS_3 = ((0.5 - math.sqrt(15.0) / 10.0, 5.0 / 18.0), (0.5, 8.0 / 18.0),
             (0.5 + math.sqrt(15.0) / 10.0, 5.0 / 18.0))
 
 
-def midpoint_fields(d, real, affine):
-    """Per-particle scratch of a step: F at its start; for MUSL also the velocity at its
-    start, the iterate of the velocity at its end and the position the iterate reaches (an
-    affine transfer iterates on the grid: its node velocities, new velocities and end
-    velocities)."""
-    fields = {"F_start": ti.Matrix.field(d, d, real)}
-    if not affine:
-        fields.update(v_start=ti.Vector.field(d, real), v_end=ti.Vector.field(d, real),
-                      x_end=ti.Vector.field(d, real))
-    return fields
+@ti.data_oriented
+class Midpoint(Scheme):
+    """See the module: the step of ``transfer`` (MUSL's P2G and grid solve, ``grid_rates``;
+    the affine transfers' gathers) replaced by the midpoint iteration.  Its functions
+    receive the particle fields (with the iteration's scratch: F at the step's start, and
+    for MUSL v_start, v_end and x_end), the grid fields and the run-time values."""
 
+    @classmethod
+    def applies(cls, features):
+        return features.midpoint
 
-class Midpoint:
-    """See the module.  The step's functions receive the state they read: the particle
-    fields (``particles``), the grid fields (``grid``), the iteration's scratch
-    (``iterate``: F at the step's start, and for MUSL v_start, v_end and x_end) and the
-    run-time values (``values``); through ``self`` they reach the program's operations
-    (the stencil, the grid solve, the law, the checks, the failure record)."""
+    @staticmethod
+    def particle_fields(features):
+        # F for every law; per-step scratch: F at the step's start, and for MUSL the velocity
+        # at its start, the iterate of the velocity at its end and the position it reaches
+        # (an affine transfer iterates on the grid)
+        fields = {"F": Field("matrix", initial="identity", doc="the deformation gradient"),
+                  "F_start": Field("matrix", scratch=True)}
+        if not features.affine:
+            fields.update(v_start=Field("vector", scratch=True),
+                          v_end=Field("vector", scratch=True), x_end=Field("vector", scratch=True))
+        return fields
+
+    @staticmethod
+    def grid_fields(features):
+        # the affine iteration's forces, then its v_i^(n+1) (MUSL has them)
+        return {"gf": Field("vector", doc="F_i, a_i, v_i^(n+1)")} if features.affine else {}
+
+    def __init__(self, features, ops, transfer):
+        super().__init__(features, ops)
+        self.transfer, self.dim, self.support = transfer, features.dim, features.basis.support
+
+    def phases(self):
+        if self.f.affine:
+            return (Whole("the midpoint iteration on the grid (APIC, MLS-MPM)",
+                          self.affine_iteration),)
+        return (Whole("the midpoint iteration: vbar, sbar to convergence, then the step's end",
+                      self.iteration),)
 
     @ti.func
-    def midpoint_step(self, particles: ti.template(), grid: ti.template(),
-                      iterate: ti.template(), values: ti.template()):
+    def iteration(self, particles: ti.template(), grid: ti.template(), values: ti.template()):
         # the state at t_n: v_n and F_n kept; V_p stays V_p^n through the iteration
         for p in range(values.n_particles()):
-            iterate.v_start[p] = particles.v[p]
-            iterate.F_start[p] = particles.F[p]
+            particles.v_start[p] = particles.v[p]
+            particles.F_start[p] = particles.F[p]
         converged = False
         relax = 1.0  # plain passes while the residual falls fast, then relaxed
         previous = 0.0
         for it in range(MIDPOINT_MAX_ITERATIONS):
             # grid: P2G of m_i, P_i = sum m_p phi_i vbar_p and the forces from sbar_p V_p^n;
             # a_i = M^-1 F_i, vbar_i = M^-1 P_i
-            self.grid_rates()
+            self.transfer.grid_rates(particles, grid, values)
             # converged: the residual new - iterate of vbar within tol of the largest vbar,
             # and F_end (sbar's argument) moved by less than tol of the largest increment
             change = ti.Vector.zero(float, 2)
             largest = ti.Vector.zero(float, 2)
             for p in range(values.n_particles()):
-                c, s = self._midpoint_particle(particles, grid, iterate, values, p, relax)
+                c, s = self._midpoint_particle(particles, grid, values, p, relax)
                 change = ti.max(change, c)
                 largest = ti.max(largest, s)
-            if self.failed():  # an iterate inverted or left the finite numbers
+            if self.failures.failed():  # an iterate inverted or left the finite numbers
                 break
             if it > 0 and self._midpoint_converged(change, largest, 0.0):
                 converged = True
                 break
             relax = self._midpoint_relaxation(values, it, change[0], previous, relax)
             previous = change[0]
-        if not converged and not self.failed():
-            self.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
-        if not self.failed():
+        if not converged and not self.failures.failed():
+            self.failures.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
+        if not self.failures.failed():
             for p in range(values.n_particles()):
-                self._midpoint_finish(particles, iterate, values, p)
+                self._midpoint_finish(particles, values, p)
 
     @ti.func
     def _midpoint_converged(self, change, largest, v_floor):
@@ -133,25 +156,25 @@ class Midpoint:
 
     @ti.func
     def _midpoint_particle(self, particles: ti.template(), grid: ti.template(),
-                           iterate: ti.template(), values: ti.template(), p, relax):
+                           values: ti.template(), p, relax):
         # G2P of the iterate: v_end = v_n + dt sum phi_i a_i, F_end = (I + dt grad vbar) F_n,
         # x_end = x_n + dt sum phi_i vbar_i; the next iterate's vbar_p (relaxed) and sbar_p.
         # Returns the residual of vbar_p, the change of F_end and their scales (max norms)
-        base, w, dw, xi, inside = self.stencil(particles.x[p])
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
         change = ti.Vector.zero(float, 2)
         size = ti.Vector.zero(float, 2)
         if inside:
-            v_mid, accel, grad_v = self.particle_rates(grid, base, w, dw)
-            v_end = iterate.v_start[p] + values.dt() * accel
-            F0 = iterate.F_start[p]
+            v_mid, accel, grad_v = self.g2p.rates(grid, base, w, dw)
+            v_end = particles.v_start[p] + values.dt() * accel
+            F0 = particles.F_start[p]
             F1 = (ti.Matrix.identity(float, self.dim) + values.dt() * grad_v) @ F0
-            v_bar = 0.5 * (iterate.v_start[p] + v_end)
+            v_bar = 0.5 * (particles.v_start[p] + v_end)
             self._check_iterate(p, F1, v_bar)
             change = ti.Vector([ti.abs(v_bar - particles.v[p]).max(),
                                 ti.abs(F1 - particles.F[p]).max()])
             size = ti.Vector([ti.abs(v_bar).max(), ti.abs(F1 - F0).max()])
-            iterate.v_end[p] = v_end
-            iterate.x_end[p] = particles.x[p] + values.dt() * v_mid
+            particles.v_end[p] = v_end
+            particles.x_end[p] = particles.x[p] + values.dt() * v_mid
             particles.F[p] = F1
             # the next iterate: vbar relaxed, (1 - r) old + r new; sbar that of F1
             particles.v[p] += relax * (v_bar - particles.v[p])
@@ -164,7 +187,7 @@ class Midpoint:
         # step too large for the motion, or passes that diverge): sigma(F) has no value
         state = F1.sum() + v_bar.sum()
         if not (F1.determinant() > 0.0 and ti.abs(state) < 1e300):  # NaN fails both
-            self.fail(ErrorCode.MIDPOINT, p)
+            self.failures.fail(ErrorCode.MIDPOINT, p)
 
     @ti.func
     def _averaged_stress(self, p, F0, F1):
@@ -174,43 +197,44 @@ class Midpoint:
         for q in ti.static(range(3)):
             F = F0 + ti.static(_GAUSS_3[q][0]) * (F1 - F0)
             P_mean += ti.static(_GAUSS_3[q][1]) * (
-                F.determinant() * self.stress_of_F(p, F) @ F.inverse().transpose())
+                F.determinant() * self.laws.stress(p, F) @ F.inverse().transpose())
         return P_mean @ F0.transpose() / F0.determinant()
 
     @ti.func
-    def _midpoint_finish(self, particles: ti.template(), iterate: ti.template(),
-                         values: ti.template(), p):
+    def _midpoint_finish(self, particles: ti.template(), values: ti.template(), p):
         # the step's end: x, v, F of the converged iterate, sigma(F) and V = det F V0
-        base, w, dw, xi, inside = self.stencil(particles.x[p])
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
         if inside:
-            self._midpoint_end_state(particles, p, iterate.x_end[p], iterate.v_end[p])
+            self._midpoint_end_state(particles, values, p, particles.x_end[p],
+                                     particles.v_end[p])
 
     @ti.func
-    def _midpoint_end_state(self, particles: ti.template(), p, x_new, v_new):
+    def _midpoint_end_state(self, particles: ti.template(), values: ti.template(), p, x_new,
+                            v_new):
         # x, v and F of the converged iterate (F in place), sigma(F) and V = det F V0; the
         # body force's work m_p b_p . (x_new - x_n)
-        if ti.static(self.body_force and self.record_energies):
-            self.add_external_work(particles.m[p] * particles.b[p].dot(x_new - particles.x[p]))
-        if ti.static(self.has_u):
-            self.accumulate(particles.u[p], x_new - particles.x[p])
+        if ti.static(self.f.body_force and self.f.energies):
+            self.loads.add_work(particles.m[p] * particles.b[p].dot(x_new - particles.x[p]))
+        if ti.static(self.f.has_u):
+            self.g2p.accumulate(particles.u[p], x_new - particles.x[p])
         particles.x[p] = x_new
         particles.v[p] = v_new
-        sig, vol, jac = self.set_state_of_F(p, particles.F[p])
-        self.check_particle(p, x_new, v_new, sig, vol, jac)
+        sig, vol, jac = self.g2p.set_state_of_F(particles, p, particles.F[p])
+        self.g2p.check(particles, values, p, x_new, v_new, sig, vol, jac)
 
     # ---- the affine transfers (APIC, MLS-MPM): the iteration on the grid ------------------
     @ti.func
-    def affine_midpoint_step(self, particles: ti.template(), grid: ti.template(),
-                             iterate: ti.template(), values: ti.template()):
+    def affine_iteration(self, particles: ti.template(), grid: ti.template(),
+                         values: ti.template()):
         # P2G at t_n: m_i and P_i = sum m_p phi_i (v_p + C_p (x_i - x_p)) (the linear basis:
         # m_p (phi_i v_p + B_p grad phi_i)); v_i^n = P_i / m_i with the wall conditions
         # (node_velocity), the iterate vbar_i (node_new_velocity, which the scheme's G2P
         # reads) starts there
-        self.clear_grid()
+        self.nodes.clear()
         for p in range(values.n_particles()):
-            iterate.F_start[p] = particles.F[p]
+            particles.F_start[p] = particles.F[p]
             self._affine_momentum(particles, grid, values, p)
-        self.solve_mass(grid.node_momentum, True)  # P_i into v_i^n in place
+        self.nodes.solve(grid.node_momentum, True)  # P_i into v_i^n in place
         for I in ti.grouped(ti.ndrange(*[values.nodes()[k] for k in range(self.dim)])):
             grid.node_new_velocity[I] = grid.node_velocity[I]
         converged = False
@@ -224,14 +248,14 @@ class Midpoint:
             change = ti.Vector.zero(float, 2)
             largest = ti.Vector.zero(float, 2)
             for p in range(values.n_particles()):
-                c, s = self._affine_midpoint_particle(particles, grid, iterate, values, p)
+                c, s = self._affine_midpoint_particle(particles, grid, values, p)
                 change[1] = ti.max(change[1], c)
                 largest[1] = ti.max(largest[1], s)
-            if self.failed():  # off the grid, or an iterate inverted
+            if self.failures.failed():  # off the grid, or an iterate inverted
                 break
             # grid: a_i = M^-1 F_i (walls), v_i^(n+1) = v_i^n + dt a_i kept in place of a_i
             # (node_end_velocity); the residual of vbar_i = (v_i^n + v_i^(n+1)) / 2
-            self.solve_mass(grid.node_force, True)  # F_i into a_i in place
+            self.nodes.solve(grid.node_force, True)  # F_i into a_i in place
             for I in ti.grouped(ti.ndrange(*[values.nodes()[k] for k in range(self.dim)])):
                 v_end = grid.node_velocity[I] + values.dt() * grid.node_acceleration[I]
                 grid.node_end_velocity[I] = v_end
@@ -251,9 +275,9 @@ class Midpoint:
                 grid.node_new_velocity[I] += relax * (
                     0.5 * (grid.node_velocity[I] + grid.node_end_velocity[I])
                     - grid.node_new_velocity[I])
-        if not converged and not self.failed():
-            self.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
-        if not self.failed():
+        if not converged and not self.failures.failed():
+            self.failures.fail(ErrorCode.MIDPOINT, -1)  # -1: no particle to name
+        if not self.failures.failed():
             # G2P: v_p = sum phi_i v_i^(n+1), C_p from v_i^(n+1), x_p += dt sum phi_i vbar_i
             for I in ti.grouped(ti.ndrange(*[values.nodes()[k] for k in range(self.dim)])):
                 grid.node_velocity[I] = grid.node_new_velocity[I]  # vbar_i
@@ -264,57 +288,54 @@ class Midpoint:
     @ti.func
     def _affine_momentum(self, particles: ti.template(), grid: ti.template(),
                          values: ti.template(), p):
-        base, w, dw, xi, inside = self.stencil(particles.x[p])
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
         if not inside:
-            self.fail(ErrorCode.OFF_GRID, p)
+            self.failures.fail(ErrorCode.OFF_GRID, p)
         else:
             mp = particles.m[p]
             affine = mp * particles.C[p]
-            mom = mp * particles.v[p] - affine @ self.from_first_node(xi, base)
+            mom = mp * particles.v[p] - affine @ self.stencil.from_first_node(xi, base)
             h_affine = values.h() * affine
-            for r in range(self.stencil_rows):
-                row = self.stencil_row(w, dw, r)
-                for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self.row_node(w, dw, r, row, a)
+            for r in range(self.stencil.rows):
+                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
                     node = base + offset
                     grid.node_mass[node] += mp * phi
-                    if ti.static(self.basis.support > 2 or self.mls_mpm):
-                        grid.node_momentum[node] += phi * (mom + self.times_offset(h_affine, r, a))
+                    if ti.static(self.support > 2 or self.f.mls_mpm):
+                        grid.node_momentum[node] += phi * (
+                            mom + self.stencil.times_offset(h_affine, r, a))
                     else:
                         grid.node_momentum[node] += (phi * mp * particles.v[p]
                                                      + mp * (particles.C[p] @ grad))
 
     @ti.func
     def _affine_midpoint_particle(self, particles: ti.template(), grid: ti.template(),
-                                  iterate: ti.template(), values: ti.template(), p):
+                                  values: ti.template(), p):
         # returns the change of F_end and the largest F increment
-        base, w, dw, xi, inside = self.stencil(particles.x[p])
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
         change = 0.0
         size = 0.0
         if inside:
-            _, B, grad_du = self.scheme.affine_gather(self, grid, values, base, w, dw, xi,
-                                                      not self.mls_mpm)
-            if ti.static(self.mls_mpm):
+            _, B, grad_du = self.transfer.affine_gather(grid, values, base, w, dw, xi,
+                                                        not self.f.mls_mpm)
+            if ti.static(self.f.mls_mpm):
                 grad_du = B * values.D_inv() * values.dt()
-            F0 = iterate.F_start[p]
+            F0 = particles.F_start[p]
             F1 = (ti.Matrix.identity(float, self.dim) + grad_du) @ F0
             self._check_iterate(p, F1, ti.Vector.zero(float, self.dim))
             change = ti.abs(F1 - particles.F[p]).max()
             size = ti.abs(F1 - F0).max()
             particles.F[p] = F1
             stress_volume = self._averaged_stress(p, F0, F1) * particles.vol[p]
-            fp = self.external_force(particles, values, p)
+            fp = self.loads.force(particles, values, p)
             A = stress_volume  # MLS-MPM: D^-1 sbar V
-            if ti.static(self.mls_mpm):
+            if ti.static(self.f.mls_mpm):
                 A = values.D_inv() * stress_volume
-            d = self.from_first_node(xi, base)
-            for r in range(self.stencil_rows):
-                row = self.stencil_row(w, dw, r)
-                for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self.row_node(w, dw, r, row, a)
+            d = self.stencil.from_first_node(xi, base)
+            for r in range(self.stencil.rows):
+                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
                     force = phi * fp
-                    if ti.static(self.mls_mpm):
-                        force -= phi * (values.h() * self.times_offset(A, r, a) - A @ d)
+                    if ti.static(self.f.mls_mpm):
+                        force -= phi * (values.h() * self.stencil.times_offset(A, r, a) - A @ d)
                     else:
                         force -= stress_volume @ grad
                     grid.node_force[base + offset] += force
@@ -323,14 +344,13 @@ class Midpoint:
     @ti.func
     def _affine_midpoint_finish(self, particles: ti.template(), grid: ti.template(),
                                 values: ti.template(), p):
-        base, w, dw, xi, inside = self.stencil(particles.x[p])
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
         if inside:
-            v_new, B, _ = self.scheme.affine_gather(self, grid, values, base, w, dw, xi, False)
-            particles.C[p] = self.scheme.affine_of(self, values, B, base, w, xi)
+            v_new, B, _ = self.transfer.affine_gather(grid, values, base, w, dw, xi, False)
+            particles.C[p] = self.transfer.affine_of(values, B, base, w, xi)
             dx = ti.Vector.zero(float, self.dim)
-            for r in range(self.stencil_rows):
-                row = self.stencil_row(w, dw, r)
-                for a in ti.static(range(self.basis.support)):
-                    offset, phi, grad = self.row_node(w, dw, r, row, a)
+            for r in range(self.stencil.rows):
+                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
                     dx += phi * grid.node_velocity[base + offset]  # vbar_i
-            self._midpoint_end_state(particles, p, particles.x[p] + values.dt() * dx, v_new)
+            self._midpoint_end_state(particles, values, p, particles.x[p] + values.dt() * dx,
+                                     v_new)

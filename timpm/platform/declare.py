@@ -1,0 +1,100 @@
+"""What a component declares it owns: the fields it keeps per particle or per node
+(:class:`Field`) and its parameters (:class:`Param`).
+
+A material law and a transfer scheme each declare theirs in their own file; the engine
+allocates the union of the fields a scene's components declare, the model checks the
+parameters against their declarations, and the command line, the scene files and the
+documentation list them from there.
+"""
+import math
+from dataclasses import dataclass
+
+__all__ = ["Field", "Param", "check_params"]
+
+
+@dataclass(frozen=True)
+class Field:
+    """One entry per particle (or node): ``shape`` "scalar", "vector" (dim entries),
+    "matrix" (dim x dim) or a tuple of sizes; ``dtype`` "real" (the run's precision) or
+    "int" (32 bits); ``initial`` the value a new scene starts from ("identity" for a
+    matrix's I, a number otherwise); ``scratch``: written and read within a step (not part
+    of the state that is saved, restored and checkpointed); ``doc`` what it holds."""
+
+    shape: object = "scalar"
+    dtype: str = "real"
+    initial: object = 0.0
+    doc: str = ""
+    scratch: bool = False
+
+    def entries(self, dim) -> tuple:
+        """The entry's shape in ``dim`` dimensions: () a scalar, (n,) a vector, (n, m)."""
+        if self.shape == "scalar":
+            return ()
+        if self.shape == "vector":
+            return (dim,)
+        if self.shape == "matrix":
+            return (dim, dim)
+        return tuple(self.shape)
+
+
+@dataclass(frozen=True)
+class Param:
+    """A parameter: its ``default`` (None: required), ``unit`` ("" for none), meaning
+    (``doc``) and range: ``low`` and ``high`` (None: unbounded), open or closed
+    (``low_open``, ``high_open``); ``kind`` "real" or "int" (how kernels read it)."""
+
+    default: object = None
+    unit: str = ""
+    doc: str = ""
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    high_open: bool = False
+    kind: str = "real"
+
+    def range_text(self) -> str:
+        if self.low is None and self.high is None:
+            return "a finite number"
+        lo = "(" if self.low_open or self.low is None else "["
+        hi = ")" if self.high_open or self.high is None else "]"
+        return (f"{lo}{'-inf' if self.low is None else f'{self.low:g}'}, "
+                f"{'inf' if self.high is None else f'{self.high:g}'}{hi}")
+
+    def check(self, owner: str, name: str, value) -> float:
+        """``value`` as a float, or a ValueError naming ``owner``, the parameter, its range
+        and the value given (booleans and strings are not numbers)."""
+        bad = isinstance(value, (bool, str)) or not isinstance(value, (int, float)) \
+            and not hasattr(value, "__float__")
+        number = math.nan if bad else float(value)
+        ok = math.isfinite(number)
+        if ok and self.low is not None:
+            ok = number > self.low if self.low_open else number >= self.low
+        if ok and self.high is not None:
+            ok = number < self.high if self.high_open else number <= self.high
+        if not ok:
+            unit = f" {self.unit}" if self.unit else ""
+            raise ValueError(f"{owner}: {name} must be a number in {self.range_text()}{unit}"
+                             f" ({self.doc}), got {value!r}")
+        return number
+
+
+def check_params(owner: str, declared: dict, given) -> dict:
+    """The parameters ``given`` (a dict, or None) checked against ``declared`` (name ->
+    Param), the defaults filled in: an unknown name is refused naming the known ones."""
+    given = {} if given is None else given
+    if not isinstance(given, dict):
+        raise ValueError(f"{owner}: parameters must be a dict of name to number, got "
+                         f"{given!r}")
+    unknown = [k for k in given if k not in declared]
+    if unknown:
+        known = ", ".join(declared) if declared else "none"
+        raise ValueError(f"{owner} has no parameter {unknown[0]!r} (its parameters: {known})")
+    out = {}
+    for name, param in declared.items():
+        if name in given:
+            out[name] = param.check(owner, name, given[name])
+        elif param.default is None:
+            raise ValueError(f"{owner}: parameter {name!r} is required ({param.doc})")
+        else:
+            out[name] = float(param.default)
+    return out
