@@ -104,7 +104,7 @@ def test_an_iterate_that_inverts_stops_the_step_naming_the_particle():
 
 
 @pytest.mark.parametrize("changes, message", [
-    (dict(pic_fraction=0.5), "does not take a PIC fraction"),
+    (dict(transfer_params={"pic_fraction": 0.5}), "does not take a PIC fraction"),
     (dict(damping=0.1), "does not take local damping"),
 ])
 def test_what_the_midpoint_integrator_refuses_names_the_conflict(changes, message):

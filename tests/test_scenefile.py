@@ -404,6 +404,38 @@ def test_the_pic_share_reaches_the_world_and_the_problem(tmp_path):
                          name="p2.toml"))
 
 
+def test_the_transfer_params_table_reaches_the_world_its_errors_naming_the_key(tmp_path):
+    """[simulation.transfer_params]: the transfer scheme's parameters by name, the same
+    channel as the pic_fraction key (the same Model); an unknown name or a value out of its
+    declared range is refused naming the key inside the table and its line."""
+    musl = SCENE.replace('transfer = "apic"', 'transfer = "musl"')
+    table = musl.replace("[domain]", "[simulation.transfer_params]\npic_fraction = 0.25\n\n"
+                                     "[domain]", 1)
+    by_table = load_scene(write(tmp_path, table, "t.toml")).world.model
+    by_key = load_scene(write(tmp_path, musl.replace('transfer = "musl"', 'transfer = "musl"\n'
+                                                     'pic_fraction = 0.25'), "k.toml")).world.model
+    assert by_table.transfer_params == by_key.transfer_params == {"pic_fraction": 0.25}
+    for value, message in (("alpha = 0.5", r"simulation.transfer_params.alpha: the musl "
+                                           r"transfer has no parameter 'alpha' \(its "
+                                           r"parameters: pic_fraction\)"),
+                           ("pic_fraction = 1.5", r"simulation.transfer_params.pic_fraction: "
+                                                  r"the musl transfer: pic_fraction must be a "
+                                                  r"number in \[0, 1\]"),
+                           ("pic_fraction = true", r"simulation.transfer_params.pic_fraction: "
+                                                   r".* got True")):
+        text = table.replace("pic_fraction = 0.25", value)
+        path = write(tmp_path, text, "bad.toml")
+        with pytest.raises(ValueError, match=rf"bad.toml:{line_of(text, value)}: {message}"):
+            load_scene(path)
+    # a table for a transfer whose scheme has no parameters
+    apic = SCENE.replace("[domain]", "[simulation.transfer_params]\npic_fraction = 0.1\n\n"
+                                     "[domain]", 1)
+    with pytest.raises(ValueError, match=r"simulation.transfer_params.pic_fraction: the apic "
+                                         r"transfer has no parameter 'pic_fraction' \(its "
+                                         r"parameters: none\)"):
+        load_scene(write(tmp_path, apic, "apic.toml"))
+
+
 def test_the_integrator_reaches_the_world_and_its_conflicts_name_the_key(tmp_path):
     """simulation.integrator of a world: handed to the World, and a conflict of the
     midpoint integrator (slip walls) named with the key; the colliding disks between

@@ -151,9 +151,20 @@ def test_pic_fraction_is_checked():
     from timpm.problems import get_problem
 
     prob = get_problem("vibrating-string")
-    with pytest.raises(ValueError, match=r"pic_fraction must lie in \[0, 1\] \(0: FLIP, the "
-                                         r"study's update; 1: PIC\), got 1.5"):
+    with pytest.raises(ValueError, match=r"the musl transfer: pic_fraction must be a number "
+                                         r"in \[0, 1\] \(PIC share b .*\), got 1.5"):
         prob.scene(pic_fraction=1.5)
+    with pytest.raises(ValueError, match=r"the musl transfer: pic_fraction must be a number "
+                                         r"in \[0, 1\] .*, got True"):
+        prob.scene(transfer_params={"pic_fraction": True})
+    with pytest.raises(ValueError, match=r"the musl transfer has no parameter 'alpha' \(its "
+                                         r"parameters: pic_fraction\)"):
+        prob.scene(transfer_params={"alpha": 0.5})
+    with pytest.raises(ValueError, match="pic_fraction is given twice"):
+        prob.scene(pic_fraction=0.2, transfer_params={"pic_fraction": 0.1})
+    # one channel: the keyword and the table give the same scene
+    a, b = prob.scene(pic_fraction=0.2), prob.scene(transfer_params={"pic_fraction": 0.2})
+    assert a.model.transfer_params == b.model.transfer_params == {"pic_fraction": 0.2}
     with pytest.raises(ValueError, match="pic_fraction blends PIC into the musl transfer's FLIP "
                                          "update with the lumped mass and the standard "
                                          "projection, not musl with consistent mass"):

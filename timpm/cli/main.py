@@ -17,7 +17,8 @@ from ..bases import BASES, basis_argument, get_basis
 from ..platform.checks import MAX_STEPS, step_count
 from ..engine.features import MODES
 from ..platform.files import replacing, write_json as _write_json
-from ..model.model import INTEGRATORS
+from ..model.model import INTEGRATORS, TRANSFERS
+from ..schemes import scheme_params
 from ..output.tables import run_table, scheme_line
 from ..problems import PROBLEMS, get_problem
 from ..platform.runtime import exit_process
@@ -61,9 +62,11 @@ def _add_common(p):
                         "equations, four grid solves a step; midpoint: energy-conserving, "
                         "the step iterated on one thread; rk4 and midpoint for laws with "
                         "sigma(F) (default: the problem's, euler-cromer but for mms-1d)")
-    p.add_argument("--transfer", default="musl", choices=["musl", "apic", "mls-mpm"],
+    p.add_argument("--transfer", default="musl", choices=list(TRANSFERS),
                    help="musl: the study's scheme (2.2.4); apic, mls-mpm: the affine "
-                        "transfers (linear and uniform-bsplineN bases)")
+                        "transfers (linear and uniform-bsplineN bases); the schemes' own "
+                        "parameters: --transfer-param")
+    _add_transfer_params(p)
     p.add_argument("--param", type=param, action="append", default=[], metavar="NAME=VALUE",
                    help="override a physical parameter of the problem, e.g. p0=2e4")
     p.add_argument("--allow-unstable-dt", action="store_true",
@@ -76,6 +79,14 @@ def _add_common(p):
     p.add_argument("--json", metavar="FILE", help="write the records as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="draw a plot")
     p.add_argument("--quiet", action="store_true", help="no table on stdout")
+
+
+def _add_transfer_params(p):
+    p.add_argument("--transfer-param", type=param, action="append", default=[],
+                   metavar="NAME=VALUE", dest="transfer_params",
+                   help="a parameter of the transfer scheme, repeatable: "
+                        + "; ".join(f"{name} ({', '.join(params)})" for name, params in
+                                    ((t, scheme_params(t)) for t in TRANSFERS) if params))
 
 
 def _add_allow_many_steps(p):
@@ -255,6 +266,7 @@ def _parser():
     _add_allow_many_steps(demo)
     demo.add_argument("--param", type=setting, action="append", default=[], metavar="NAME=VALUE",
                       help="override a demo parameter, e.g. aspect=1, cells=40, transfer=musl")
+    _add_transfer_params(demo)
     demo.add_argument("--mode", default="auto", choices=list(MODES))
     add_runtime_arguments(demo)
     demo.add_argument("--plot", metavar="FILE.png", help="plot the demo's diagnostic")
@@ -381,6 +393,7 @@ def _options(args):
                 allow_unstable_dt=args.allow_unstable_dt,
                 allow_many_steps=args.allow_many_steps,
                 projection=args.projection, transfer=args.transfer,
+                transfer_params=dict(args.transfer_params) or None,
                 integrator=args.integrator, mode=args.mode, params=dict(args.param))
 
 
@@ -391,6 +404,8 @@ def _demo(args):
     params = dict(args.param)
     if args.t_end is not None:
         params["t_end"] = args.t_end
+    if args.transfer_params:
+        params["transfer_params"] = dict(args.transfer_params)
     _check_output_files(args)
     movie = None
     if args.out:

@@ -364,7 +364,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     if features.volume_guard:
         values.update(volume_min=volume_range[0], volume_max=volume_range[1])
     for name in scheme_class(features).PARAMS:  # the transfer scheme's own values
-        values[name] = getattr(model, name)
+        values[name] = model.transfer_params[name]
     if features.midpoint:
         # the relaxation of vbar that balances the pass's slow and fast modes for
         # mu = |w dt| / 2 up to dt / dt_crit (1 without an estimate; engine/midpoint.py)

@@ -139,7 +139,7 @@ class State:
         """The scene's initial state as the program's host arrays: positions, velocities,
         masses, volumes, the initial values the fields declare (F = I, J = 1), material
         indices, Dirichlet nodes, elements (crossings); the rest zero.  An initial stress
-        sets sigma, F (and ezz) instead.  An initial displacement u0 places the particles
+        sets sigma and the state each law takes from it (F, ezz) instead.  An initial displacement u0 places the particles
         at X + u0 (and sets the 1D u); its deformation is applied after the upload
         (``prestrain``)."""
         model, n, d = self.model, self.layout.n_particles, self.features.dim
@@ -155,8 +155,8 @@ class State:
             x = x + model.initial_displacement
             values["u"] = model.initial_displacement
         if model.initial_stress is not None:  # the elastic state each law took from it
-            values.update(sigma=model.initial_stress[:, :d, :d], F=model.initial_F,
-                          ezz=model.initial_ezz, work=model.initial_work)
+            values.update(sigma=model.initial_stress[:, :d, :d], work=model.initial_work,
+                          **model.initial_state)
         values.update(x=x, elem=self._element_of(x))
         if self.features.multi_material:
             values["mat"] = model.material_index

@@ -181,11 +181,12 @@ class SolidMaterial(Material):
         return {"density": self.density, "mu": self.mu, "lam": self.lam,
                 "two_mu": 2.0 * self.mu}
 
-    def elastic_state(self, stress, dim):
-        """The elastic deformation gradients (m, dim, dim) and out-of-plane elastic log
-        strains (m,) (plane strain; zeros in 3D) that give the Cauchy ``stress`` (m, 3, 3)
-        in the reference configuration (V = V0): how a scene starts from an initial stress.
-        Laws with a Hencky elastic part give it; the others refuse."""
+    def initial_state(self, stress, dim) -> dict:
+        """The state this law's fields start from under the Cauchy ``stress`` (m, 3, 3) in
+        the reference configuration (V = V0): how a scene starts from an initial stress;
+        name -> array (m, ...), e.g. the elastic deformation gradients ``F`` (m, dim, dim)
+        of a Hencky law (its out-of-plane elastic log strain ``ezz`` in plane strain where
+        it keeps one).  Laws with a Hencky elastic part give it; the others refuse."""
         raise ValueError(f"{self.name}: an initial stress is set through the elastic strain "
                          "of a Hencky law (drucker-prager, mohr-coulomb); this law has none")
 

@@ -112,9 +112,10 @@ class DruckerPrager(SolidMaterial):
             return 3.0 * self.alpha * p / (math.sqrt(2.0 / 3.0) - self.alpha)
         return 2.0 * self.alpha * p / (math.sqrt(0.5) - self.alpha)
 
-    def elastic_state(self, stress, dim):
+    def initial_state(self, stress, dim):
         # the 2D law's Hencky strain is the in-plane one (its trace over x and y)
-        return self._hencky_state(stress, dim, plane_trace=True)
+        F, _ = self._hencky_state(stress, dim, plane_trace=True)
+        return {"F": F}
 
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):

@@ -131,7 +131,7 @@ class MohrCoulomb(SolidMaterial):
         c2 = 2.0 * self.cohesion * math.cos(math.radians(self.friction_angle))
         return (t[:, 2] - t[:, 0]) + (t[:, 2] + t[:, 0]) * s - c2
 
-    def elastic_state(self, stress, dim):
+    def initial_state(self, stress, dim):
         f = self.yield_function(stress)
         scale = np.abs(np.asarray(stress)).max(axis=(1, 2)) + self.cohesion
         outside = np.flatnonzero(f > 1e-9 * scale)
@@ -146,7 +146,8 @@ class MohrCoulomb(SolidMaterial):
         if len(over):
             raise ValueError(f"{self.name}: the initial stress of {len(over)} particle(s) "
                              f"exceeds the tension cut-off {tension:g} Pa")
-        return self._hencky_state(stress, dim)
+        F, ezz = self._hencky_state(stress, dim)
+        return {"F": F, "ezz": ezz} if dim == 2 else {"F": F}
 
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):

@@ -19,21 +19,25 @@ import numpy as np
 
 from ..bases import get_basis
 from ..platform.checks import check_size, positive, positive_int, vector
+from ..platform.declare import check_params
+from ..platform.errors import InputError, about
+from ..schemes import TRANSFERS as SCHEME_TRANSFERS, scheme_classes, scheme_params
 from .loads import BodyForce, field_function, time_function
 from ..materials import Material
 from .walls import SIDES, WALL_KINDS, Wall, walls_from
 
-__all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "SIDES", "WALL_KINDS",
+__all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "with_pic_fraction", "SIDES", "WALL_KINDS",
            "ND_BASES", "TRANSFERS", "MASS_KINDS", "PROJECTIONS", "INTEGRATORS",
            "CRITICAL_STEP_FACTOR"]
 
 #: bases on multi-dimensional grids (tensor products; B-splines of any degree N as
 #: bsplineN, clamped, or uniform-bsplineN, padded); every basis works in 1D
 ND_BASES = ("linear", "bspline2", "bspline3", "uniform-bspline2", "uniform-bspline3")
-#: "musl": the study's scheme (2.2.4) in any dimension; "apic": the affine transfer (Jiang
-#: et al. 2015); "mls-mpm": APIC with the force and velocity gradient from the affine
-#: moments (Hu et al. 2018), the cheapest (B-spline bases only)
-TRANSFERS = ("musl", "apic", "mls-mpm")
+#: the transfers the schemes' registry runs (timpm.schemes: "musl", the study's scheme
+#: (2.2.4) in any dimension; "apic", the affine transfer (Jiang et al. 2015); "mls-mpm",
+#: APIC with the force and velocity gradient from the affine moments (Hu et al. 2018),
+#: the cheapest (B-spline bases only); each scheme's file says what it takes)
+TRANSFERS = SCHEME_TRANSFERS
 MASS_KINDS = ("lumped", "consistent")
 #: "standard": particles are the integration points (2.2.4); "mls": nodal velocities,
 #: density and stress reconstructed by moving least squares, forces at Gauss points (4.4)
@@ -54,71 +58,90 @@ CRITICAL_STEP_FACTOR = {"euler-cromer": 1.0, "rk4": math.sqrt(2.0), "midpoint": 
 def pic_applies(transfer="musl", mass="lumped", projection="standard") -> bool:
     """Whether a PIC share (``pic_fraction``) blends into this scheme's velocity update:
     the musl transfer's FLIP update with the lumped mass and the standard projection."""
-    return transfer == "musl" and mass == "lumped" and projection == "standard"
+    return ("pic_fraction" in scheme_params(transfer) and mass == "lumped"
+            and projection == "standard")
 
 
 def check_scheme(dim, basis, transfer="musl", mass="lumped", projection="standard",
-                 damping=0.0, pic_fraction=0.0):
-    """The basis, transfer, mass matrix, projection, damping and PIC fraction of a
-    ``dim``-dimensional model go together (an error names the conflict)."""
-    basis = get_basis(basis)
-    if dim > 1 and not basis.nd:
-        raise ValueError(f"the {basis.name} basis is 1D only: 2D/3D grids take "
-                         f"{', '.join(ND_BASES)}")
-    if transfer not in TRANSFERS:
-        raise ValueError(f"unknown transfer {transfer!r}: choose one of {', '.join(TRANSFERS)}")
-    if transfer != "musl" and not basis.uniform_nodes:
-        raise ValueError(f"the {transfer} transfer takes node positions x_i spaced uniformly "
-                         f"(linear, uniform-bsplineN); the {basis.name} basis' nodes are not "
-                         "(control points at the Greville abscissae, or mid-element nodes): "
-                         "use transfer='musl'")
-    if transfer == "mls-mpm" and basis.name == "linear":
-        raise ValueError("the mls-mpm transfer needs a B-spline basis (its D_p is constant);"
-                         " use transfer='apic' with the linear basis")
+                 damping=0.0, pic_fraction=None, transfer_params=None) -> dict:
+    """The basis, transfer, mass matrix, projection and damping of a ``dim``-dimensional
+    model go together (an error names the conflict); the transfer's parameters
+    (``transfer_params``, checked against what its schemes declare, their defaults filled
+    in) are returned.  ``pic_fraction`` is the musl transfer's ``transfer_params``
+    entry of that name, given on its own."""
+    with about("basis"):
+        basis = get_basis(basis)
+        if dim > 1 and not basis.nd:
+            raise ValueError(f"the {basis.name} basis is 1D only: 2D/3D grids take "
+                             f"{', '.join(ND_BASES)}")
+    with about("transfer"):
+        if transfer not in TRANSFERS:
+            raise ValueError(f"unknown transfer {transfer!r}: choose one of "
+                             f"{', '.join(TRANSFERS)}")
+    with about("mass_matrix"):
+        _check_mass(basis, mass)
+    with about("projection"):
+        _check_projection(dim, basis, projection)
+    with about("damping"):
+        given = damping
+        try:
+            damping = float(damping)
+        except (TypeError, ValueError):
+            damping = float("nan")
+        if not (0.0 <= damping < 1.0):
+            raise ValueError(f"damping factor alpha must lie in [0, 1), got {given!r}")
+    declared = scheme_params(transfer)
+    params = with_pic_fraction(transfer, pic_fraction, transfer_params)
+    try:
+        params = check_params(f"the {transfer} transfer", declared, params)
+    except InputError as err:  # about the parameter: transfer_params.NAME
+        raise InputError(str(err), "transfer_params" + (f".{err.key}" if err.key else "")) \
+            from None
+    with about("transfer"):
+        for cls in scheme_classes(transfer):  # what each scheme of the transfer takes
+            cls.check(transfer, dim, basis, mass, projection, damping, params)
+    return params
+
+
+def with_pic_fraction(transfer, pic_fraction, transfer_params):
+    """``transfer_params`` with ``pic_fraction`` (the musl transfer's parameter of that name,
+    given on its own by a builder: a Scene, a World, a problem, a scene file's key, the
+    command line's --pic-fraction; None or 0: not given) among them, unchecked."""
+    params = dict(transfer_params or {}) if isinstance(transfer_params, (dict, type(None))) \
+        else transfer_params
+    if pic_fraction is not None and pic_fraction != 0.0 and isinstance(params, dict):
+        with about("pic_fraction"):
+            if "pic_fraction" not in scheme_params(transfer) and transfer in TRANSFERS:
+                raise ValueError(f"pic_fraction blends PIC into the musl transfer's FLIP "
+                                 f"update with the lumped mass and the standard projection, "
+                                 f"not {transfer} (apic and mls-mpm carry the velocity as PIC "
+                                 "already)")
+            if "pic_fraction" in params and params["pic_fraction"] != pic_fraction:
+                raise ValueError(f"pic_fraction is given twice: {pic_fraction!r} and "
+                                 f"transfer_params['pic_fraction'] = "
+                                 f"{params['pic_fraction']!r}")
+        params["pic_fraction"] = pic_fraction
+    return params
+
+
+def _check_mass(basis, mass):
     if mass not in MASS_KINDS:
         raise ValueError(f"unknown mass {mass!r}: choose one of {', '.join(MASS_KINDS)}")
     if mass == "lumped" and not basis.lumpable:
         raise ValueError(f"the {basis.name} basis takes negative values, so its mass matrix "
                          "cannot be lumped (study 5.1): use the consistent mass "
                          "(mass='consistent', --mass consistent)")
-    if mass == "consistent" and transfer != "musl":
-        raise ValueError("the consistent mass matrix is implemented with the musl transfer, "
-                         f"not {transfer}")
+
+
+def _check_projection(dim, basis, projection):
     if projection not in PROJECTIONS:
         raise ValueError(f"unknown projection {projection!r}: choose one of "
                          f"{', '.join(PROJECTIONS)}")
-    if projection == "mls" and transfer != "musl":
-        raise ValueError(f"the MLS projection (4.4) is implemented with the musl transfer, "
-                         f"got {transfer}")
     if projection == "mls" and dim == 3:
         raise ValueError("the MLS projection is implemented in 1D and 2D, not 3D")
     if projection == "mls" and dim == 2 and basis.support == 2:
         raise ValueError("in 2D the MLS projection reconstructs the stress only (Gauss-point "
                          f"forces): it takes a B-spline of degree 2 or more, not {basis.name}")
-    given = damping
-    try:
-        damping = float(damping)
-    except (TypeError, ValueError):
-        damping = float("nan")
-    if not (0.0 <= damping < 1.0):
-        raise ValueError(f"damping factor alpha must lie in [0, 1), got {given!r}")
-    if damping and transfer != "musl":
-        raise ValueError("local damping (A.4) acts on the grid forces of the musl transfer; "
-                         f"the {transfer} transfer folds them into the momentum: use "
-                         "transfer='musl' or damping=0")
-    given = pic_fraction
-    try:
-        pic_fraction = float(pic_fraction)
-    except (TypeError, ValueError):
-        pic_fraction = float("nan")
-    if not (0.0 <= pic_fraction <= 1.0):
-        raise ValueError(f"pic_fraction must lie in [0, 1] (0: FLIP, the study's update; 1: "
-                         f"PIC), got {given!r}")
-    if pic_fraction and not pic_applies(transfer, mass, projection):
-        raise ValueError(f"pic_fraction blends PIC into the musl transfer's FLIP update with "
-                         f"the lumped mass and the standard projection, not {transfer} with "
-                         f"{mass} mass and the {projection} projection (apic and mls-mpm "
-                         f"carry the velocity as PIC already)")
 
 
 def _index_array(name, value, n, limit):
@@ -146,9 +169,12 @@ class Model:
     ``gravity`` the acceleration per axis; ``body_force`` a :class:`~timpm.model.loads.BodyForce`
     b(X, t) per unit mass (a Python function, vectorised); ``traction`` the study's load
     on one particle (1D); ``damping`` the local damping factor alpha of A.4;
-    ``pic_fraction`` b blends the MUSL particle velocity update: v_p = (1 - b)(v_p + dt
-    sum phi_i a_i) + b sum phi_i (v_i + dt a_i) (0: FLIP, the study's; 1: PIC, which damps
-    the particle-velocity modes the grid cannot see).  ``integrator`` the time integration
+    ``transfer_params`` the parameters of the transfer's scheme, name -> number (each
+    scheme declares its own, with its range and default: ``timpm.schemes``; checked here,
+    the defaults filled in): the musl transfer's ``pic_fraction`` b (``Model.pic_fraction``)
+    blends the MUSL particle velocity update, v_p = (1 - b)(v_p + dt sum phi_i a_i) + b sum
+    phi_i (v_i + dt a_i) (0: FLIP, the study's; 1: PIC, which damps the particle-velocity
+    modes the grid cannot see); the builders take it on its own too.  ``integrator`` the time integration
     (``INTEGRATORS``; ``"rk4"`` and ``"midpoint"`` for laws whose stress is a function
     of F, with roller and sticky walls only, no damping, tractions or prescribed motion).
     ``velocity`` is an (n, dim) array or a function v0(X) of the (n, dim) positions.
@@ -161,7 +187,7 @@ class Model:
     ``particle_force_time`` (default Constant).  ``initial_stress`` an (n, 3, 3) array of
     Cauchy stresses the particles start from (2D and 3D; in 2D entry [2, 2] is the
     out-of-plane stress of plane strain): each material sets its elastic strain from it
-    (``Material.elastic_state``: Drucker-Prager and Mohr-Coulomb), e.g. the geostatic
+    (``Material.initial_state``: Drucker-Prager and Mohr-Coulomb), e.g. the geostatic
     stress of :mod:`timpm.model.geostatic`.
     """
 
@@ -182,7 +208,7 @@ class Model:
     projection: str = "standard"
     gravity: tuple | None = None
     damping: float = 0.0
-    pic_fraction: float = 0.0
+    transfer_params: dict | None = None
     integrator: str = "euler-cromer"
     walls: tuple | None = None
     wall_cells: tuple | None = None
@@ -196,31 +222,42 @@ class Model:
     name: str = "model"
 
     def __post_init__(self):
+        # each check's error names the field it is about (InputError.key)
         set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731
-        elements = tuple(positive_int("number of elements", e) for e in
-                         np.atleast_1d(np.asarray(self.elements, dtype=object)))
-        dim = len(elements)
-        if dim not in (1, 2, 3):
-            raise ValueError(f"a model has 1, 2 or 3 dimensions, got {dim}")
+        with about("elements"):
+            elements = tuple(positive_int("number of elements", e) for e in
+                             np.atleast_1d(np.asarray(self.elements, dtype=object)))
+            dim = len(elements)
+            if dim not in (1, 2, 3):
+                raise ValueError(f"a model has 1, 2 or 3 dimensions, got {dim}")
         set_("elements", elements)
-        set_("h", positive("element size h", self.h))
-        set_("origin", tuple(vector("grid origin", self.origin, dim)))
-        basis = get_basis(self.basis)
-        set_("basis", basis)
-        for k, e in enumerate(elements):
-            if e < basis.min_elements:
-                raise ValueError(f"the {basis.name} basis needs at least {basis.min_elements} "
-                                 f"elements, the grid has {e}" + (f" along axis {k}" if dim > 1
-                                                                  else ""))
-        self._check_particles(dim)
-        check_size(f"the model {self.name!r}", len(self.positions),
-                   np.prod([float(n) for n in self.nodes]), dim)
-        self._check_materials(dim)
-        self._check_initial_stress(dim)
+        with about("h"):
+            set_("h", positive("element size h", self.h))
+        with about("origin"):
+            set_("origin", tuple(vector("grid origin", self.origin, dim)))
+        with about("basis"):
+            basis = get_basis(self.basis)
+            set_("basis", basis)
+            for k, e in enumerate(elements):
+                if e < basis.min_elements:
+                    raise ValueError(f"the {basis.name} basis needs at least "
+                                     f"{basis.min_elements} elements, the grid has {e}"
+                                     + (f" along axis {k}" if dim > 1 else ""))
+        with about("positions"):
+            self._check_particles(dim)
+            check_size(f"the model {self.name!r}", len(self.positions),
+                       np.prod([float(n) for n in self.nodes]), dim)
+        with about("materials"):
+            self._check_materials(dim)
+        with about("initial_stress"):
+            self._check_initial_stress(dim)
         self._check_scheme(dim, basis)
-        self._check_boundaries(dim, basis)
-        self._check_integrator(basis)
-        set_("dt", positive("time step dt", self.dt))
+        with about("walls"):
+            self._check_boundaries(dim, basis)
+        with about("integrator"):
+            self._check_integrator(basis)
+        with about("dt"):
+            set_("dt", positive("time step dt", self.dt))
 
     # ---- checks ----------------------------------------------------------------------
     def _check_particles(self, dim):
@@ -338,12 +375,11 @@ class Model:
             set_(key, arr)
 
     def _check_initial_stress(self, dim):
-        """The initial stresses (n, 3, 3), finite and symmetric, and the elastic state each
-        material takes from them (``initial_F``, ``initial_ezz``)."""
+        """The initial stresses (n, 3, 3), finite and symmetric, and the state each law
+        takes from them (``initial_state``: its fields by name, ``Material.initial_state``)."""
         set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731
         if self.initial_stress is None:
-            set_("initial_F", None)
-            set_("initial_ezz", None)
+            set_("initial_state", None)
             set_("initial_work", None)
             return
         n = len(self.positions)
@@ -368,30 +404,37 @@ class Model:
         bad = np.flatnonzero(asym > 1e-12 * (np.abs(sig).max(axis=(1, 2)) + 1e-300))
         if len(bad):
             raise ValueError(f"initial_stress of particle {int(bad[0])} is not symmetric")
-        F = np.empty((n, dim, dim))
-        ezz = np.zeros(n)
+        state = {}  # each law's state at that stress: its fields by name (F, ezz, ...)
         for k, mat in enumerate(self.materials):
             rows = np.flatnonzero(self.material_index == k)
             if len(rows):
-                F[rows], ezz[rows] = mat.elastic_state(sig[rows], dim)
+                for name, value in mat.initial_state(sig[rows], dim).items():
+                    value = np.asarray(value, dtype=np.float64)
+                    if name not in state:
+                        state[name] = np.zeros((n,) + value.shape[1:])
+                    state[name][rows] = value
+        F = state["F"]  # a Hencky law's elastic deformation gradient
+        ezz = state.get("ezz", np.zeros(n))  # and its out-of-plane strain in plane strain
         # the energy stored in it, 1/2 sigma : eps V0 with eps = ln F_e (and zz in plane
         # strain): the strain energy the records start from
         w, Q = np.linalg.eigh(F)
         eps = np.einsum("nij,nj,nkj->nik", Q, np.log(w), Q)
         work = 0.5 * self.volume * (np.einsum("nij,nij->n", sig[:, :dim, :dim], eps)
                                     + (sig[:, 2, 2] * ezz if dim == 2 else 0.0))
-        for key, arr in (("initial_stress", sig), ("initial_F", F), ("initial_ezz", ezz),
-                         ("initial_work", work)):
+        for arr in state.values():
+            arr.setflags(write=False)
+        set_("initial_state", state)
+        for key, arr in (("initial_stress", sig), ("initial_work", work)):
             arr.setflags(write=False)
             set_(key, arr)
 
     def _check_scheme(self, dim, basis):
-        check_scheme(dim, basis, self.transfer, self.mass_matrix, self.projection,
-                     self.damping, self.pic_fraction)
+        params = check_scheme(dim, basis, self.transfer, self.mass_matrix, self.projection,
+                              self.damping, transfer_params=self.transfer_params)
+        object.__setattr__(self, "transfer_params", params)
         g = (0.0,) * dim if self.gravity is None else self.gravity
         object.__setattr__(self, "gravity", tuple(float(c) for c in vector("gravity", g, dim)))
         object.__setattr__(self, "damping", float(self.damping))
-        object.__setattr__(self, "pic_fraction", float(self.pic_fraction))
         if self.projection == "mls" and dim > 1:
             # the Gauss-point forces integrate over every cell: the body must fill the grid
             grid = float(np.prod([e * self.h for e in self.elements]))
@@ -544,6 +587,11 @@ class Model:
                                  f"({n} particles)")
 
     # ---- derived -----------------------------------------------------------------------
+    @property
+    def pic_fraction(self) -> float:
+        """The musl transfer's PIC share b (0 where the transfer has none)."""
+        return self.transfer_params.get("pic_fraction", 0.0)
+
     @property
     def prescribes_motion(self) -> bool:
         """Some fixed node has a non-zero prescribed velocity, or a wall moves."""

@@ -16,7 +16,8 @@ from ..bases import get_basis
 from ..platform.checks import check_size, finite, positive as _positive, positive_int as _positive_int
 from .loads import Constant, Ramp, Sine, Traction
 from ..materials import Hypoelastic1D
-from .model import CRITICAL_STEP_FACTOR, MASS_KINDS, PROJECTIONS, Model, walls_from
+from .model import (CRITICAL_STEP_FACTOR, MASS_KINDS, PROJECTIONS, Model, walls_from,
+                    with_pic_fraction)
 
 __all__ = [
     "Material", "Grid1D", "Traction", "Constant", "Sine", "Ramp", "Scene",
@@ -242,8 +243,8 @@ class Scene:
     coefficient, a :class:`~timpm.model.Wall`) or a dict ``{"left": ..., "right": ...}``,
     None for no wall (lumped mass, standard projection); ``gravity`` the signed
     acceleration along x (negative points down); ``damping`` the local damping factor
-    alpha of A.4; ``pic_fraction`` the PIC share of the MUSL velocity update (see
-    :class:`~timpm.model.Model`); ``projection`` the particle-to-grid projection (``PROJECTIONS``);
+    alpha of A.4; ``transfer_params`` the transfer scheme's parameters, ``pic_fraction`` the
+    PIC share of the MUSL velocity update among them (see :class:`~timpm.model.Model`); ``projection`` the particle-to-grid projection (``PROJECTIONS``);
     ``transfer`` the particle-grid transfer (the study's ``"musl"``, or the affine
     ``"apic"`` and ``"mls-mpm"`` with uniformly spaced nodes); ``displacement`` a function
     u0(X) the body starts displaced by (see :class:`~timpm.model.Model`); ``integrator``
@@ -263,6 +264,7 @@ class Scene:
     fixed_nodes: tuple = ()
     damping: float = 0.0
     pic_fraction: float = 0.0
+    transfer_params: dict | None = None
     projection: str = "standard"
     walls: object = None
     allow_unstable_dt: bool = False
@@ -294,7 +296,9 @@ class Scene:
                       materials=(self.material.law(),), dt=self.dt, transfer=self.transfer,
                       mass_matrix=self.mass, projection=self.projection,
                       gravity=(float(self.gravity),), damping=self.damping,
-                      pic_fraction=self.pic_fraction, walls=walls,
+                      transfer_params=with_pic_fraction(self.transfer, self.pic_fraction,
+                                                        self.transfer_params),
+                      walls=walls,
                       fixed_nodes=fixed_nodes, fixed_time=self.fixed_time,
                       traction=self.traction, name=self.name,
                       displacement=self.displacement, integrator=self.integrator)

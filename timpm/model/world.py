@@ -22,6 +22,7 @@ import numpy as np
 from ..bases import get_basis
 from ..platform.checks import check_size, positive as _positive, positive_int, vector as _vector
 from .geometry import Polygon, Prism
+from ..platform.errors import InputError, about
 from .geostatic import K0, GravityLoading, geostatic_stress, jaky_k0
 from .loads import field_function
 from ..materials import MATERIALS, Material, get_material
@@ -205,6 +206,13 @@ class _BodyDisplacements:
         return out
 
 
+#: a Model's keyword -> the World's that gave it (an error the Model raises names the
+#: World's argument; InputError.key)
+_WORLD_KEY_OF_MODEL = {"positions": "bodies", "materials": "bodies", "elements": "domain",
+                       "h": "cells", "origin": "domain", "mass_matrix": "transfer",
+                       "projection": "transfer", "particle_force": "tractions"}
+
+
 @dataclass(frozen=True, eq=False)
 class World:
     """A scene in 1D, 2D or 3D: ``domain`` lengths (from the origin), ``cells`` along x; a
@@ -222,6 +230,8 @@ class World:
     (the initial speed plus the free-fall speed over the domain's extent along gravity); a given ``dt``
     above the limit is refused unless ``allow_unstable_dt``.  ``integrator``: the time
     integration (``timpm.model.INTEGRATORS``; rk4 takes roller and sticky walls only).
+    ``transfer_params``: the transfer scheme's parameters (``pic_fraction`` the musl
+    transfer's, also given on its own; :class:`~timpm.model.Model`).
     ``initial_stress``: :class:`~timpm.model.geostatic.K0` (the K0 procedure: the weight of the
     bodies above each particle, sigma_h = K0 sigma_v), :class:`~timpm.model.geostatic.
     GravityLoading` (a damped run under gravity to rest, which the Solver makes first), an
@@ -241,6 +251,7 @@ class World:
     allow_unstable_dt: bool = False
     damping: float = 0.0
     pic_fraction: float = 0.0
+    transfer_params: dict | None = None
     fixed_nodes: tuple = ()
     fixed_time: object = None
     tractions: tuple = ()
@@ -250,49 +261,66 @@ class World:
     _particles: dict = field(default=None, repr=False)
 
     def __post_init__(self):
-        domain = _vector("domain", self.domain)
-        dim = len(domain)
-        if dim not in (1, 2, 3):
-            raise ValueError(f"a World is 1D, 2D or 3D, got a {dim}-dimensional domain")
-        if np.any(domain <= 0):
-            raise ValueError(f"domain lengths must be positive, got {tuple(map(float, domain))}")
-        positive_int("cells (along x)", self.cells)
+        # each check's error names the argument it is about (InputError.key)
+        with about("domain"):
+            domain = _vector("domain", self.domain)
+            dim = len(domain)
+            if dim not in (1, 2, 3):
+                raise ValueError(f"a World is 1D, 2D or 3D, got a {dim}-dimensional domain")
+            if np.any(domain <= 0):
+                raise ValueError(f"domain lengths must be positive, got "
+                                 f"{tuple(map(float, domain))}")
+        with about("cells"):
+            positive_int("cells (along x)", self.cells)
         h = domain[0] / int(self.cells)
         n = np.rint(domain / h).astype(int)
-        if np.any(np.abs(n * h - domain) > 1e-9 * domain):
-            raise ValueError(f"domain {tuple(map(float, domain))} is not a whole number of cells of size "
-                             f"h = {h:g} (domain[0] / cells) on every axis")
-        basis = get_basis(self.basis)
-        if not basis.nd:
-            raise ValueError(f"the {basis.name} basis is 1D only: a World's grid takes "
-                             f"{', '.join(ND_BASES)} (a Scene takes every basis)")
-        check_scheme(dim, basis, self.transfer, damping=self.damping,
-                     pic_fraction=self.pic_fraction)
-        g = np.zeros(dim) if self.gravity is None else _vector("gravity", self.gravity, dim)
+        with about("domain"):
+            if np.any(np.abs(n * h - domain) > 1e-9 * domain):
+                raise ValueError(f"domain {tuple(map(float, domain))} is not a whole number of "
+                                 f"cells of size h = {h:g} (domain[0] / cells) on every axis")
+        with about("basis"):
+            basis = get_basis(self.basis)
+            if not basis.nd:
+                raise ValueError(f"the {basis.name} basis is 1D only: a World's grid takes "
+                                 f"{', '.join(ND_BASES)} (a Scene takes every basis)")
+        params = check_scheme(dim, basis, self.transfer, damping=self.damping,
+                              pic_fraction=self.pic_fraction,
+                              transfer_params=self.transfer_params)
+        with about("gravity"):
+            g = np.zeros(dim) if self.gravity is None else _vector("gravity", self.gravity, dim)
         if self.gravity is None:
             g[min(1, dim - 1)] = -9.81  # down y in 2D and 3D, down x in 1D
         bodies = tuple(self.bodies) if not isinstance(self.bodies, Body) else (self.bodies,)
         if not bodies:
-            raise ValueError("a World needs at least one body")
+            raise InputError("a World needs at least one body", "bodies")
         for k, b in enumerate(bodies):
             if not isinstance(b, Body):
-                raise ValueError(f"bodies[{k}] must be a Body, got {b!r}")
+                raise InputError(f"bodies[{k}] must be a Body, got {b!r}", f"bodies[{k}]")
         object.__setattr__(self, "bodies", bodies)
         object.__setattr__(self, "domain", tuple(map(float, domain)))
         object.__setattr__(self, "gravity", tuple(g))
         object.__setattr__(self, "basis", basis)
-        object.__setattr__(self, "walls", walls_from(self.walls, dim, open_ok=True))
+        with about("walls"):
+            object.__setattr__(self, "walls", walls_from(self.walls, dim, open_ok=True))
         object.__setattr__(self, "_particles", self._fill(dim, h, domain))
         self._check_dt(h, g, domain)
-        forces, force_time = self._surface_forces(dim, h)
-        pad = self.padding
-        part = self._particles
-        model = Model(basis=basis, origin=self.origin, h=h, elements=self.grid_elements,
+        with about("tractions"):
+            forces, force_time = self._surface_forces(dim, h)
+        with about("initial_stress"):
+            initial_stress = self._initial_stress(dim, g, domain)
+        with about("model", rename=_WORLD_KEY_OF_MODEL):
+            model = self._model(basis, h, g, n, params, forces, force_time, initial_stress)
+        object.__setattr__(self, "model", model)
+        object.__setattr__(self, "fixed_nodes", model.fixed_nodes)
+
+    def _model(self, basis, h, g, n, params, forces, force_time, initial_stress):
+        pad, part = self.padding, self._particles
+        return Model(basis=basis, origin=self.origin, h=h, elements=self.grid_elements,
                       positions=part["positions"], volume=part["volume"],
                       velocity=part["velocity"], materials=part["materials"],
                       material_index=part["material_index"], body_index=part["body_index"],
                       dt=self.dt, transfer=self.transfer, gravity=tuple(g),
-                      damping=self.damping, pic_fraction=self.pic_fraction, walls=self.walls,
+                      damping=self.damping, transfer_params=params, walls=self.walls,
                       wall_cells=tuple((pad, pad + c) for c in n),
                       fixed_nodes=(dict(self.fixed_nodes) if isinstance(self.fixed_nodes, dict)
                                    else tuple(self.fixed_nodes)),
@@ -302,9 +330,7 @@ class World:
                       displacement=(_BodyDisplacements(self.bodies, part["body_index"])
                                     if any(b.displacement is not None for b in self.bodies)
                                     else None),
-                      initial_stress=self._initial_stress(dim, g, domain))
-        object.__setattr__(self, "model", model)
-        object.__setattr__(self, "fixed_nodes", model.fixed_nodes)
+                      initial_stress=initial_stress)
 
     def _initial_stress(self, dim, g, domain):
         """The particles' initial stresses: a :class:`~timpm.model.geostatic.K0` procedure's
@@ -379,11 +405,12 @@ class World:
         for k, body in enumerate(self.bodies):
             label = f"body {k}" + (f" ({body.name!r})" if body.name else "")
             if body.shape.dim != dim:
-                raise ValueError(f"{label}: a {body.shape.dim}D shape in a {dim}D domain")
+                raise InputError(f"{label}: a {body.shape.dim}D shape in a {dim}D domain",
+                                 f"bodies[{k}]")
             lo, hi = body.shape.bounds()
             if np.any(lo < -1e-12 * domain) or np.any(hi > domain * (1 + 1e-12)):
-                raise ValueError(f"{label}: {body.shape} extends outside the domain "
-                                 f"[0, {tuple(float(d) for d in domain)}]")
+                raise InputError(f"{label}: {body.shape} extends outside the domain "
+                                 f"[0, {tuple(float(d) for d in domain)}]", f"bodies[{k}]")
             if isinstance(body.shape, Points):
                 pts, vol = body.shape.positions, body.shape.volume
             else:
@@ -395,10 +422,12 @@ class World:
                 pts = pts[body.shape.contains(pts)]
                 vol = np.full(len(pts), dx ** dim)
             if len(pts) == 0:
-                raise ValueError(f"{label}: {body.shape} holds no particle at {body.ppc} per "
-                                 f"cell and axis (h = {h:g}): make it larger or raise ppc")
-            v = np.zeros(dim) if body.velocity is None else _vector(
-                f"{label} velocity", body.velocity, dim)
+                raise InputError(f"{label}: {body.shape} holds no particle at {body.ppc} per "
+                                 f"cell and axis (h = {h:g}): make it larger or raise ppc",
+                                 f"bodies[{k}]")
+            with about(f"bodies[{k}]"):
+                v = np.zeros(dim) if body.velocity is None else _vector(
+                    f"{label} velocity", body.velocity, dim)
             if body.material not in materials:
                 materials.append(body.material)
             xs.append(pts)
@@ -410,9 +439,10 @@ class World:
             for i, bi in enumerate(self.bodies):
                 for j, bj in enumerate(self.bodies):
                     if i != j and np.any(bi.shape.contains(xs[j])):
-                        raise ValueError(
+                        raise InputError(
                             f"bodies {i} and {j} overlap ({bi.shape} holds particles of "
-                            f"{bj.shape}); move them apart or pass allow_overlap=True")
+                            f"{bj.shape}); move them apart or pass allow_overlap=True",
+                            f"bodies[{max(i, j)}]")
         x = np.concatenate(xs)
         vol = np.concatenate(vols)
         mat = np.concatenate(mats)
@@ -428,8 +458,6 @@ class World:
         """The particle forces of the surface tractions ((n, dim) or None) and their one
         time function: each particle within half a particle spacing of the body's extreme
         on the loaded side carries traction * V_p / dx, dx = h / ppc."""
-        from .loads import SurfaceTraction
-
         tractions = tuple(self.tractions)
         if not tractions:
             return None, None
@@ -439,22 +467,9 @@ class World:
         x, bodies = self.positions, self.body_index
         forces = np.zeros_like(x)
         for k, load in enumerate(tractions):
-            if not isinstance(load, SurfaceTraction):
-                raise ValueError(f"tractions[{k}] must be a timpm.model.loads.SurfaceTraction, got "
-                                 f"{load!r}")
-            if not (isinstance(load.body, (int, np.integer)) and 0 <= load.body < len(self.bodies)):
-                raise ValueError(f"tractions[{k}]: body {load.body!r} does not exist "
-                                 f"({len(self.bodies)} bodies)")
-            if load.side not in SIDES[:2 * dim]:
-                raise ValueError(f"tractions[{k}]: unknown side {load.side!r}: the sides of a "
-                                 f"{dim}D body are {', '.join(SIDES[:2 * dim])}")
-            if len(load.traction) != dim:
-                raise ValueError(f"tractions[{k}]: the traction must have {dim} components, "
-                                 f"got {load.traction}")
+            with about(f"tractions[{k}]"):
+                self._check_traction(k, load, dim)
             body = self.bodies[load.body]
-            if isinstance(body.shape, Points):
-                raise ValueError(f"tractions[{k}]: body {load.body} is a point cloud, without "
-                                 "faces or a particle spacing")
             axis, upper = divmod(SIDES.index(load.side), 2)
             mine = bodies == load.body
             coord = x[:, axis]
@@ -469,6 +484,25 @@ class World:
                              f"{[t.time_function for t in tractions]}")
         return forces, tractions[0].time_function
 
+    def _check_traction(self, k, load, dim):
+        from .loads import SurfaceTraction
+
+        if not isinstance(load, SurfaceTraction):
+            raise ValueError(f"tractions[{k}] must be a timpm.model.loads.SurfaceTraction, "
+                             f"got {load!r}")
+        if not (isinstance(load.body, (int, np.integer)) and 0 <= load.body < len(self.bodies)):
+            raise ValueError(f"tractions[{k}]: body {load.body!r} does not exist "
+                             f"({len(self.bodies)} bodies)")
+        if load.side not in SIDES[:2 * dim]:
+            raise ValueError(f"tractions[{k}]: unknown side {load.side!r}: the sides of a "
+                             f"{dim}D body are {', '.join(SIDES[:2 * dim])}")
+        if len(load.traction) != dim:
+            raise ValueError(f"tractions[{k}]: the traction must have {dim} components, "
+                             f"got {load.traction}")
+        if isinstance(self.bodies[load.body].shape, Points):
+            raise ValueError(f"tractions[{k}]: body {load.body} is a point cloud, without "
+                             "faces or a particle spacing")
+
     def _check_dt(self, h, g, domain):
         c = max(m.wave_speed for m in self.materials)
         v0 = float(np.max(np.linalg.norm(self.velocity, axis=1)))
@@ -481,18 +515,20 @@ class World:
             object.__setattr__(self, "courant", 0.4)
         courant = float(self.courant)
         if not (0.0 < courant <= 1.0):
-            raise ValueError(f"courant number must lie in (0, 1], got {self.courant!r}")
+            raise InputError(f"courant number must lie in (0, 1], got {self.courant!r}",
+                             "courant")
         if self.dt is None:
             object.__setattr__(self, "dt", courant * limit)
             return
-        dt = _positive("time step dt", self.dt)
+        with about("dt"):
+            dt = _positive("time step dt", self.dt)
         object.__setattr__(self, "dt", dt)
         if dt > limit and not self.allow_unstable_dt:
-            raise ValueError(
+            raise InputError(
                 f"time step dt = {dt:g} s exceeds the CFL limit h / (c + |v|) = {limit:g} s "
                 f"(h = {h:g} m, wave speed c = {c:g} m/s of the stiffest material, |v| <= "
-                f"{v0 + v_fall:g} m/s: initial speed plus free fall over the domain height); choose a "
-                "smaller dt, leave dt=None, or pass allow_unstable_dt=True")
+                f"{v0 + v_fall:g} m/s: initial speed plus free fall over the domain height); "
+                "choose a smaller dt, leave dt=None, or pass allow_unstable_dt=True", "dt")
 
     # ---- particles ---------------------------------------------------------------------
     @property

@@ -9,6 +9,8 @@ documentation list them from there.
 import math
 from dataclasses import dataclass
 
+from .errors import InputError
+
 __all__ = ["Field", "Param", "check_params"]
 
 
@@ -73,14 +75,15 @@ class Param:
             ok = number < self.high if self.high_open else number <= self.high
         if not ok:
             unit = f" {self.unit}" if self.unit else ""
-            raise ValueError(f"{owner}: {name} must be a number in {self.range_text()}{unit}"
-                             f" ({self.doc}), got {value!r}")
+            raise InputError(f"{owner}: {name} must be a number in {self.range_text()}{unit}"
+                             f" ({self.doc}), got {value!r}", name)
         return number
 
 
 def check_params(owner: str, declared: dict, given) -> dict:
     """The parameters ``given`` (a dict, or None) checked against ``declared`` (name ->
-    Param), the defaults filled in: an unknown name is refused naming the known ones."""
+    Param), the defaults filled in: an unknown name is refused naming the known ones (an
+    :class:`~timpm.platform.errors.InputError` about the parameter's name)."""
     given = {} if given is None else given
     if not isinstance(given, dict):
         raise ValueError(f"{owner}: parameters must be a dict of name to number, got "
@@ -88,13 +91,14 @@ def check_params(owner: str, declared: dict, given) -> dict:
     unknown = [k for k in given if k not in declared]
     if unknown:
         known = ", ".join(declared) if declared else "none"
-        raise ValueError(f"{owner} has no parameter {unknown[0]!r} (its parameters: {known})")
+        raise InputError(f"{owner} has no parameter {unknown[0]!r} (its parameters: {known})",
+                         unknown[0])
     out = {}
     for name, param in declared.items():
         if name in given:
             out[name] = param.check(owner, name, given[name])
         elif param.default is None:
-            raise ValueError(f"{owner}: parameter {name!r} is required ({param.doc})")
+            raise InputError(f"{owner}: parameter {name!r} is required ({param.doc})", name)
         else:
             out[name] = float(param.default)
     return out

@@ -1,7 +1,9 @@
 """Named error codes of a run, and the exceptions timpm raises."""
+import contextlib
 import enum
 
-__all__ = ["ErrorCode", "SimulationError", "Released", "TEAM_SPIN_LIMIT"]
+__all__ = ["ErrorCode", "SimulationError", "Released", "InputError", "about",
+           "TEAM_SPIN_LIMIT"]
 
 #: spins of a team barrier (an atomic read each, tens of ns) before the step gives up
 TEAM_SPIN_LIMIT = 1 << 29
@@ -51,3 +53,31 @@ class SimulationError(RuntimeError):
 
 class Released(RuntimeError):
     """A solver or batch used after ``release()`` or after a Taichi restart freed it."""
+
+
+class InputError(ValueError):
+    """A value refused, naming the argument it is about: ``key``, the keyword of the
+    constructor or function that received it (``"dt"``, ``"transfer_params"``,
+    ``"bodies[2]"``), for the front end that read it (a scene file names its own key
+    and line from it)."""
+
+    def __init__(self, message, key=None):
+        super().__init__(message)
+        self.key = key
+
+
+@contextlib.contextmanager
+def about(key, rename=None):
+    """Inside, a ValueError becomes an :class:`InputError` about ``key``; one that names
+    its key already keeps it (``rename``: a dict that maps such keys to the caller's own,
+    the keywords of a Model to those of the World that built it)."""
+    try:
+        yield
+    except InputError as err:
+        if rename is not None and err.key in rename:
+            raise InputError(str(err), rename[err.key]) from None
+        if err.key is None:
+            raise InputError(str(err), key) from None
+        raise
+    except ValueError as err:
+        raise InputError(str(err), key) from None

@@ -109,14 +109,25 @@ class Problem:
                              f"particles per element for its quadrature, got ppc = {ppc}")
         return elements, ppc, placement, basis_cls
 
+    def transfer_choice(self, transfer, mass, projection, pic_fraction=None,
+                        transfer_params=None):
+        """``(pic_fraction, transfer_params)`` of a run: as given (the Model checks them;
+        ``pic_fraction`` is the musl transfer's parameter of that name, given on its own),
+        the problem's :attr:`pic_fraction` where neither gives one and it applies (MUSL,
+        lumped mass, standard projection)."""
+        given = transfer_params if isinstance(transfer_params, dict) else {}
+        if pic_fraction is None and "pic_fraction" not in given:
+            pic_fraction = self.pic_fraction if pic_applies(transfer, mass, projection) else 0.0
+        return (0.0 if pic_fraction is None else pic_fraction), transfer_params
+
     def scene(self, elements=None, ppc=None, basis="linear", mass=None, dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
               damping=None, projection=None, transfer="musl",
-              pic_fraction=None, integrator=None) -> Scene:
+              pic_fraction=None, integrator=None, transfer_params=None) -> Scene:
         """The problem's scene with ``elements`` elements over the body and ``ppc``
         particles per element placed by ``placement``; unset values take the defaults
-        (``pic_fraction``: the problem's :attr:`pic_fraction`; mass, projection and
-        integrator: :meth:`scheme`)."""
+        (``transfer_params`` and ``pic_fraction``: :meth:`transfer_choice`; mass,
+        projection and integrator: :meth:`scheme`)."""
         elements, ppc, placement, basis_cls = self.numerics(elements, ppc, placement, basis)
         mass, projection, integrator = self.scheme(basis_cls, mass, projection, integrator,
                                                    transfer)
@@ -127,14 +138,13 @@ class Problem:
         extras = self.conditions(x, basis_cls, grid)
         if damping is not None:
             extras["damping"] = damping
-        if pic_fraction is None:
-            # the problem's blend where it applies (MUSL, lumped mass, standard projection)
-            applies = pic_applies(transfer, mass, projection)
-            pic_fraction = self.pic_fraction if applies else 0.0
+        pic_fraction, transfer_params = self.transfer_choice(transfer, mass, projection,
+                                                             pic_fraction, transfer_params)
         return Scene(grid=grid, material=material, positions=x, volume=vol, dt=dt,
-                     basis=basis_cls.name, mass=mass, allow_unstable_dt=allow_unstable_dt,
+                     basis=basis_cls, mass=mass, allow_unstable_dt=allow_unstable_dt,
                      projection=projection, transfer=transfer, pic_fraction=pic_fraction,
-                     integrator=integrator, name=self.name, **extras)
+                     transfer_params=transfer_params, integrator=integrator, name=self.name,
+                     **extras)
 
     def conditions(self, x0, basis, grid) -> dict:
         """Initial velocity, boundary conditions and loads as Scene keyword arguments."""

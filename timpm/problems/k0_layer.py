@@ -80,8 +80,8 @@ class K0Layer(Problem):
     def scene(self, elements=None, ppc=None, basis="linear", mass=None, dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
               damping=None, projection=None, transfer="musl", pic_fraction=None,
-              integrator=None):
-        from ..model.model import Model, Wall
+              integrator=None, transfer_params=None):
+        from ..model.model import Model, Wall, with_pic_fraction
 
         if stress_update != "study":
             raise ValueError(f"{self.name} is Mohr-Coulomb soil: it takes no stress_update "
@@ -105,7 +105,8 @@ class K0Layer(Problem):
                       positions=X, volume=volume, materials=(soil,), dt=dt,
                       transfer=transfer, mass_matrix=mass, projection=projection,
                       gravity=(0.0, self.gravity), damping=0.0 if damping is None else damping,
-                      pic_fraction=0.0 if pic_fraction is None else pic_fraction,
+                      transfer_params=with_pic_fraction(transfer, pic_fraction,
+                                                        transfer_params),
                       integrator=integrator,
                       walls=(Wall("roller"), Wall("roller"), Wall("sticky"), None),
                       wall_cells=((side, side + self.width), (side, side + n + top)),

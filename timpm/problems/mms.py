@@ -29,7 +29,7 @@ import numpy as np
 
 from ..model.loads import BodyForce
 from ..materials import NeoHookean
-from ..model.model import Model, Wall
+from ..model.model import Model, Wall, with_pic_fraction
 from ..model.scene import (PLACEMENTS, Material, consistent_mass_ratio,
                            discrete_critical_time_step, equidistant_particles)
 from .base import Problem, ProblemScene, check_positive, lattice
@@ -143,7 +143,7 @@ class ManufacturedSolution(Problem):
     def scene(self, elements=None, ppc=None, basis="linear", mass=None, dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
               damping=None, projection=None, transfer="musl",
-              pic_fraction=None, integrator=None) -> "ProblemScene":
+              pic_fraction=None, integrator=None, transfer_params=None) -> "ProblemScene":
         """The model on ``elements`` cells per axis, ``ppc`` particles per cell and axis
         placed by ``placement`` (``timpm.model.scene.PLACEMENTS``), dt = 0.2 h / c unless given;
         mass, projection and integrator by :meth:`scheme` where not given."""
@@ -180,7 +180,8 @@ class ManufacturedSolution(Problem):
                       materials=(self.material_law,), dt=dt, velocity=lambda P: self.velocity(
                           P, 0.0), transfer=transfer, mass_matrix=mass, projection=projection,
                       damping=0.0 if damping is None else damping,
-                      pic_fraction=0.0 if pic_fraction is None else pic_fraction,
+                      transfer_params=with_pic_fraction(transfer, pic_fraction,
+                                                        transfer_params),
                       integrator=integrator, body_force=BodyForce(self.body_force),
                       name=self.name, **boundary)
         if self.dim == 1:

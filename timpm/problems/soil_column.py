@@ -147,9 +147,9 @@ class SoilColumn2D(SoilColumn):
     def scene(self, elements=None, ppc=None, basis="linear", mass=None, dt=None,
               placement=None, stress_update="study", allow_unstable_dt=False,
               damping=None, projection=None, transfer="musl", pic_fraction=None,
-              integrator=None):
+              integrator=None, transfer_params=None):
         from ..materials import LinearElastic
-        from ..model.model import Model, Wall
+        from ..model.model import Model, Wall, with_pic_fraction
 
         if stress_update != "study":
             raise ValueError(f"{self.name} is linear elastic (nu = 0): it takes no "
@@ -171,7 +171,8 @@ class SoilColumn2D(SoilColumn):
                       materials=(LinearElastic(self.E, 0.0, self.density),), dt=dt,
                       transfer=transfer, mass_matrix=mass, projection=projection,
                       gravity=(0.0, self.gravity), damping=0.0 if damping is None else damping,
-                      pic_fraction=0.0 if pic_fraction is None else pic_fraction,
+                      transfer_params=with_pic_fraction(transfer, pic_fraction,
+                                                        transfer_params),
                       integrator=integrator,
                       walls=(Wall("slip"), Wall("slip"), Wall("sticky"), None),
                       wall_cells=((side, side + self.width), (side, side + n + top)),

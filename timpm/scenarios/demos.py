@@ -77,6 +77,8 @@ class Demo:
     t_end: float | None = None
     transfer: str = "mls-mpm"
     basis: str = "uniform-bspline2"
+    #: the transfer scheme's parameters (timpm.schemes; None: its defaults)
+    transfer_params: dict | None = None
 
     def __post_init__(self):
         # counts (cells, particles per cell, dim) are whole numbers: 34.0 from a command
@@ -153,6 +155,7 @@ class ColumnCollapse(Demo):
         sand = DruckerPrager(E=self.E, nu=self.nu, density=self.density,
                              friction_angle=self.friction_angle)
         return World(domain=(nx * h, ny * h), cells=nx, basis=self.basis, transfer=self.transfer,
+                     transfer_params=self.transfer_params,
                      bodies=[Body(Box((0.0, 0.0), (L0, a * L0)), sand, ppc=self.ppc, name="sand")],
                      walls={"default": "slip", "bottom": Wall("friction", self.floor_friction)},
                      courant=self.courant, name=self.name)
@@ -232,7 +235,8 @@ class Disks(Demo):
         if cells is None:
             cells = self.CELLS_2D if self.dim == 2 else self.CELLS_3D
         return World(domain=(1.0,) * self.dim, cells=cells, basis=self.basis,
-                     transfer=self.transfer, gravity=(0.0,) * self.dim, walls="slip",
+                     transfer=self.transfer, transfer_params=self.transfer_params,
+                     gravity=(0.0,) * self.dim, walls="slip",
                      bodies=[Body(Ball(lo, 0.2), rubber, velocity=v, ppc=self.ppc, name="left"),
                              Body(Ball(hi, 0.2), rubber, velocity=tuple(-c for c in v),
                                   ppc=self.ppc, name="right")],
@@ -285,6 +289,7 @@ class DamBreak(Demo):
                                         viscosity=self.viscosity)
         nx, ny = 5 * self.cells_per_a, int(math.ceil(2.2 * self.cells_per_a))
         return World(domain=(nx * h, ny * h), cells=nx, basis=self.basis, transfer=self.transfer,
+                     transfer_params=self.transfer_params,
                      bodies=[Body(Box((0.0, 0.0), (a, 2 * a)), water, ppc=self.ppc, name="water")],
                      walls="slip", courant=self.courant, name=self.name)
 
@@ -364,6 +369,7 @@ class SlopeFailure(Demo):
         slope = Polygon([(0.0, 0.0), (4 * H, 0.0), (2 * H, H), (0.0, H)])
         mu = math.tan(math.radians(self.friction_angle))
         return World(domain=(nx * h, ny * h), cells=nx, basis=self.basis, transfer=self.transfer,
+                     transfer_params=self.transfer_params,
                      bodies=[Body(slope, self.soil(), ppc=self.ppc, name="slope")],
                      walls={"default": "roller", "bottom": Wall("friction", mu), "top": None,
                             "right": None},

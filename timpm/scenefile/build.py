@@ -1,7 +1,6 @@
 """The checked scene: a scene file's tables, read and checked, made into a
 :class:`timpm.model.world.World` (the world form) or the arguments of
 :func:`timpm.studies.study.run_problem` (the problem form)."""
-import re
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
@@ -220,25 +219,29 @@ def _tractions(reader, tables, bodies, dim):
     return out
 
 
-#: the key a World's error message is about, by the message's start
-_WORLD_ERRORS = ((r"bodies \d+ and (\d+) overlap", "body"), (r"body (\d+)\b", "body"),
-                 (r"tractions\[(\d+)\]", "loads.traction"), (r"the surface tractions", "loads"),
-                 (r"time step dt", "simulation.dt"), (r"courant", "simulation.courant"),
-                 (r"domain", "domain"), (r"the \S+ transfer|the mls-mpm", "simulation.transfer"),
-                 (r"damping|local damping", "simulation.damping"),
-                 (r"pic_fraction", "simulation.pic_fraction"),
-                 (r"integrator|mode='parallel'|mode='team'", "simulation.integrator"),
-                 (r"the K0 procedure|mohr-coulomb: the initial stress|\S+: an initial stress",
-                  "initial_stress"))
+#: the argument of World an error is about (InputError.key) -> the scene file's key
+_WORLD_KEYS = {"domain": "domain", "cells": "domain.cells", "walls": "domain.walls",
+               "basis": "simulation.basis", "transfer": "simulation.transfer",
+               "transfer_params": "simulation.transfer_params",
+               "damping": "simulation.damping", "pic_fraction": "simulation.pic_fraction",
+               "integrator": "simulation.integrator", "dt": "simulation.dt",
+               "courant": "simulation.courant", "gravity": "loads.gravity",
+               "bodies": "body", "tractions": "loads.traction",
+               "initial_stress": "initial_stress"}
 
 
-def _world_error_key(message):
-    """The key path a World's error ``message`` names (None: none)."""
-    for pattern, key in _WORLD_ERRORS:
-        m = re.match(pattern, message)
-        if m:
-            return parse_path(key) + tuple(int(g) for g in m.groups())
-    return None
+def _world_error_key(key):
+    """The key path of the scene file that World's argument ``key`` came from
+    (``"bodies[2]"``: ``("body", 2)``; ``"transfer_params.alpha"``: ``("simulation",
+    "transfer_params", "alpha")``), or None."""
+    if key is None:
+        return None
+    head, dot, rest = key.partition(".")  # transfer_params.alpha: a key inside the table
+    name, _, index = head.partition("[")
+    if name not in _WORLD_KEYS:
+        return None
+    path = parse_path(_WORLD_KEYS[name])
+    return path + ((int(index.rstrip("]")),) if index else ()) + ((rest,) if dot else ())
 
 
 def _world_scene(reader, data, path) -> SceneFile:
@@ -285,11 +288,12 @@ def _world_scene(reader, data, path) -> SceneFile:
                       allow_overlap=sim.get("allow_overlap", False),
                       allow_unstable_dt=sim.get("allow_unstable_dt", False),
                       damping=sim.get("damping", 0.0),
-                      pic_fraction=sim.get("pic_fraction", 0.0), tractions=tractions, name=name,
+                      pic_fraction=sim.get("pic_fraction", 0.0),
+                      transfer_params=sim.get("transfer_params"), tractions=tractions, name=name,
                       integrator=sim.get("integrator", "euler-cromer"),
                       initial_stress=initial)
     except ValueError as err:
-        key = _world_error_key(str(err))
+        key = _world_error_key(getattr(err, "key", None))
         raise (reader.error(key, str(err)) if key else ValueError(f"{path}: {err}")) from None
     return SceneFile(path=str(path), name=name, world=world, problem=None, t_end=sim["t_end"],
                      mode=sim.get("mode", "auto"), precision=sim.get("precision", "f64"),

@@ -1,5 +1,6 @@
 """The schema as documentation: the key tables of docs/scene_files.md."""
 from ..materials import MATERIALS
+from ..schemes import TRANSFERS, scheme_params
 from .schema import (BODY, DOMAIN, INITIAL_STRESS, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
                      REQUIRED, SIMULATION,
                      TRACTION, TYPES, WALL, material_schema)
@@ -32,12 +33,27 @@ def _markdown(schema, title):
     return "\n".join(rows)
 
 
+def _parameters(params, title):
+    """The table of declared parameters (``timpm.platform.declare.Param``)."""
+    rows = [f"**{title}**", "", "| key | type | default | unit | meaning |",
+            "|---|---|---|---|---|"]
+    for name, param in params.items():
+        default = "required" if param.default is None else f"{param.default:g}"
+        rows.append(f"| `{name}` | a number in {param.range_text()} | {default} | "
+                    f"{param.unit} | {param.doc.replace('|', chr(92) + '|')} |")
+    return "\n".join(rows)
+
+
 def schema_reference() -> str:
     """The key tables of docs/scene_files.md, from the schema (a test keeps them equal)."""
     parts = [_markdown(SIMULATION, "[simulation]"), _markdown(DOMAIN, "[domain]"),
              _markdown(WALL, "a wall: a string (the kind) or a table"),
              _markdown(LOADS, "[loads]"), _markdown(TRACTION, "[[loads.traction]]"),
              _markdown(BODY, "[[body]]"), _markdown(INITIAL_STRESS, "[initial_stress]")]
+    for transfer in TRANSFERS:  # each scheme's own parameters, as it declares them
+        if scheme_params(transfer):
+            parts.append(_parameters(scheme_params(transfer), "[simulation.transfer_params] "
+                                     f'with transfer = "{transfer}"'))
     parts.append(_markdown({"type": MATERIAL_TYPE}, "[material.NAME]"))
     for kind in MATERIALS:
         params = {k: v for k, v in material_schema(kind).items() if k != "type"}

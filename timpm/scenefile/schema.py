@@ -79,7 +79,10 @@ SIMULATION = {
     "transfer": Key("string", "apic", doc="particle-grid transfer", choices=TRANSFERS),
     "damping": Key("non-negative", 0.0, doc="local damping factor alpha"),
     "pic_fraction": Key("share", 0.0, doc="PIC share b of the musl velocity update "
-                        "(0: FLIP)"),
+                        "(0: FLIP; the musl transfer's parameter, given on its own)"),
+    "transfer_params": Key("table", {}, doc="the transfer scheme's parameters by name "
+                           "(each scheme declares its own: the [simulation.transfer_params] "
+                           "tables below)"),
     "integrator": Key("string", "euler-cromer", doc="time integration (rk4, midpoint: laws "
                       "with sigma(F), roller or sticky walls; midpoint conserves the energy, "
                       "on one thread)", choices=INTEGRATORS),
@@ -188,6 +191,8 @@ PROBLEM = {
     "integrator": Key("string", "the problem's", doc="euler-cromer, rk4 or midpoint "
                       "(euler-cromer but for mms-1d)", choices=INTEGRATORS),
     "transfer": Key("string", "musl", doc="particle-grid transfer", choices=TRANSFERS),
+    "transfer_params": Key("table", {}, doc="the transfer scheme's parameters by name (as "
+                           "[simulation.transfer_params])"),
     "allow_unstable_dt": Key("boolean", False, doc="run a dt above the critical time step"),
     "mode": Key("string", "auto", doc="how the steps run", choices=MODES),
     "params": Key("table", {}, doc="physical parameters of the problem by name (timpm run's "

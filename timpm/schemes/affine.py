@@ -23,6 +23,27 @@ class Affine(Scheme):
 
     transfers = ("apic", "mls-mpm")
 
+    @classmethod
+    def check(cls, transfer, dim, basis, mass, projection, damping, params):
+        if not basis.uniform_nodes:
+            raise ValueError(f"the {transfer} transfer takes node positions x_i spaced "
+                             f"uniformly (linear, uniform-bsplineN); the {basis.name} basis' "
+                             "nodes are not (control points at the Greville abscissae, or "
+                             "mid-element nodes): use transfer='musl'")
+        if transfer == "mls-mpm" and basis.name == "linear":
+            raise ValueError("the mls-mpm transfer needs a B-spline basis (its D_p is "
+                             "constant); use transfer='apic' with the linear basis")
+        if mass == "consistent":
+            raise ValueError("the consistent mass matrix is implemented with the musl "
+                             f"transfer, not {transfer}")
+        if projection == "mls":
+            raise ValueError(f"the MLS projection (4.4) is implemented with the musl "
+                             f"transfer, got {transfer}")
+        if damping:
+            raise ValueError("local damping (A.4) acts on the grid forces of the musl "
+                             f"transfer; the {transfer} transfer folds them into the momentum:"
+                             " use transfer='musl' or damping=0")
+
     @staticmethod
     def particle_fields(features):
         return {"C": Field("matrix", doc="the affine velocity C_p (B_p = C_p D_p for the "

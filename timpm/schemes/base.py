@@ -15,7 +15,8 @@ A scheme class declares, beside its step (``phases``):
   particle and per node, name -> :class:`~timpm.platform.declare.Field` (grid fields by
   their storage name, ``engine/grid.py``'s ``NODE_NAMES``); the engine allocates the union
   of the scheme's, the laws' and its own;
-- ``check(model)``: what else the Model must satisfy for it (a basis, a mass matrix).
+- ``check(transfer, dim, basis, mass, projection, damping, params)``: what else a model
+  must satisfy for it (a basis, a mass matrix), checked with the Model.
 
 The engine builds it with the feature set and the operations its phases call (``ops``):
 the stencil, the scatter, the boundary conditions (``boundary``), the grid's clearing and
@@ -47,9 +48,10 @@ class Scheme:
         return features.transfer in cls.transfers
 
     @classmethod
-    def check(cls, model) -> None:
-        """Refuse (ValueError) what this scheme does not take of ``model`` beyond the
-        checks every scheme shares."""
+    def check(cls, transfer, dim, basis, mass, projection, damping, params) -> None:
+        """Refuse (ValueError, naming the conflict) what this scheme does not take: the
+        ``transfer`` it runs under in ``dim`` dimensions with the ``basis`` class, the mass
+        matrix, the projection, the local damping and its checked ``params``."""
 
     @staticmethod
     def particle_fields(features) -> dict:

@@ -27,6 +27,13 @@ class PICBlend(MUSL):
     def applies(cls, features):
         return features.transfer == "musl" and features.pic
 
+    @classmethod
+    def check(cls, transfer, dim, basis, mass, projection, damping, params):
+        if params["pic_fraction"] and (mass != "lumped" or projection != "standard"):
+            raise ValueError(f"pic_fraction blends PIC into the musl transfer's FLIP update "
+                             f"with the lumped mass and the standard projection, not "
+                             f"{transfer} with {mass} mass and the {projection} projection")
+
     def __init__(self, features, ops):
         super().__init__(features, ops)
         self.scatters_momentum = True  # the grid phase reads P_i / m_i

@@ -54,6 +54,7 @@ def gravity_loading(world, spec=None, progress=None):
     t_max = spec.t_max if spec.t_max is not None else 40.0 * height / wave
     start = world.initial_stress if not isinstance(world.initial_stress, GravityLoading) else None
     loading = replace(world, transfer="musl", damping=spec.damping, pic_fraction=0.0,
+                      transfer_params=None,
                       integrator="euler-cromer", initial_stress=start)
     weight = float(np.sum(loading.model.mass_per_particle)) * abs(world.gravity[1]) * height
     s = Solver(loading, energies=True)

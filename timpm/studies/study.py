@@ -37,7 +37,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                 damping=None, allow_unstable_dt=False, mode="auto", record_every=None,
                 progress=None, params=None, energies=True, projection=None,
                 series=True, reuse=True, transfer="musl", pic_fraction=None,
-                integrator=None, fields=None,
+                transfer_params=None, integrator=None, fields=None,
                 frames=20, checkpoint=None, checkpoint_every=None,
                 interrupted_to=None, resume=None, allow_many_steps=False) -> RunResult:
     """Build the problem's scene, run it to ``t_end`` and compare with the exact solution.
@@ -52,8 +52,9 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
     ``compile_seconds``) and grid_crossings.  ``series=False`` records no time series of
     the monitored particle (the study's figures need it, its tables do not);
     ``transfer`` is the particle-grid transfer (``"musl"``, ``"apic"``, ``"mls-mpm"``);
-    ``pic_fraction`` the PIC share of the MUSL velocity update (None: the problem's, 0
-    for all but the oedometer; see :class:`timpm.model.Model`); ``reuse=True`` keeps the
+    ``transfer_params`` the transfer scheme's parameters and ``pic_fraction`` the PIC share
+    of the MUSL velocity update among them (None: the problem's, 0 for all but the
+    oedometer; see :class:`timpm.model.Model`); ``reuse=True`` keeps the
     scene for a later run with the same arguments (see :func:`clear_solvers`).  Solvers of
     one feature set share their compiled program, so a run after the first of its kind
     compiles nothing.  ``fields`` (a
@@ -96,6 +97,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                            record_every=run.every, params=dict(params or {}),
                            energies=bool(energies), projection=model.projection,
                            series=bool(series), transfer=transfer, pic_fraction=pic_fraction,
+                           transfer_params=dict(transfer_params or {}),
                            integrator=model.integrator)
     steps = step_count(run.t_end, run.scene.dt, allow_many_steps)  # before any is built
     t_build = time.perf_counter()
@@ -175,7 +177,8 @@ def resume_problem(path, t_end, saved=None, **options) -> RunResult:
 #: (one :class:`_Run` each)
 RUN_OPTIONS = ("elements", "ppc", "basis", "mass", "dt", "t_end", "placement", "stress_update",
                "damping", "allow_unstable_dt", "record_every", "params", "energies",
-               "projection", "series", "transfer", "pic_fraction", "integrator")
+               "projection", "series", "transfer", "pic_fraction", "transfer_params",
+               "integrator")
 
 
 def _run_options(elements, options) -> dict:
@@ -213,7 +216,7 @@ class _Run:
 
     def __init__(self, problem, *, elements, ppc, basis, mass, dt, t_end, placement,
                  stress_update, damping, allow_unstable_dt, record_every, params, energies,
-                 projection, series, transfer, pic_fraction, integrator):
+                 projection, series, transfer, pic_fraction, transfer_params, integrator):
         self.prob = prob = get_problem(problem, **(params or {}))
         self.elements = prob.elements if elements is None else elements
         self.ppc = prob.ppc if ppc is None else ppc
@@ -227,7 +230,8 @@ class _Run:
                                 dt=dt, placement=placement, stress_update=stress_update,
                                 allow_unstable_dt=allow_unstable_dt, damping=damping,
                                 projection=projection, transfer=transfer,
-                                pic_fraction=pic_fraction, integrator=integrator)
+                                pic_fraction=pic_fraction, transfer_params=transfer_params,
+                                integrator=integrator)
         self.projection = self.scene.model.projection
         self.x0 = self.scene.positions.copy()
         self.monitor = prob.monitored_particle(self.x0)
