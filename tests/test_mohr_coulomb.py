@@ -104,12 +104,17 @@ def test_the_return_lands_on_the_surface_or_stays_elastic(phi, psi, c, tension):
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    (dict(friction_angle=90.0), r"friction_angle must lie in \[0, 90\)"),
+    (dict(friction_angle=90.0), r"mohr-coulomb: friction_angle must be a number in \[0, 90\) "
+                                r"degrees \(friction angle phi\), got 90.0"),
     (dict(friction_angle=30.0, dilation_angle=35.0), "must not exceed the friction_angle"),
-    (dict(friction_angle=30.0, cohesion=-1.0), "cohesion must be >= 0"),
+    (dict(friction_angle=30.0, cohesion=-1.0), r"cohesion must be a number in \[0, inf\) Pa"),
     (dict(friction_angle=0.0, cohesion=0.0), "neither friction nor cohesion"),
     (dict(friction_angle=30.0, cohesion=10.0, tensile_strength=100.0), "the apex"),
-    (dict(friction_angle="steep"), "friction_angle must be a number of degrees"),
+    (dict(friction_angle="steep"), "friction_angle must be a number in .* got 'steep'"),
+    # what a scene file refuses, Python refuses alike: no boolean or string for a number
+    (dict(friction_angle=True), "friction_angle must be a number in .* got True"),
+    (dict(friction_angle="30"), "friction_angle must be a number in .* got '30'"),
+    (dict(friction_angle=30.0, cohesion=float("nan")), "cohesion must be a number in .* got nan"),
 ])
 def test_bad_parameters_are_refused_by_name(kwargs, message):
     with pytest.raises(ValueError, match=message):
@@ -181,8 +186,9 @@ def test_drucker_prager_peaks_at_its_cone(test, phi, c, psi):
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    (dict(cohesion=-1.0), "cohesion must be >= 0"),
+    (dict(cohesion=-1.0), r"drucker-prager: cohesion must be a number in \[0, inf\) Pa"),
     (dict(dilation_angle=40.0), r"dilation_angle must lie in \[0, friction_angle"),
+    (dict(cohesion=True), "cohesion must be a number in .* got True"),
     (dict(cohesion=10.0, tensile_strength=1e6), "the apex of the surface"),
 ])
 def test_drucker_prager_refuses_bad_strength(kwargs, message):

@@ -241,9 +241,9 @@ def test_a_bad_material_value_names_the_material(tmp_path):
     path = write(tmp_path, SCENE.replace("nu = 0.3", "nu = 0.7"))
     with pytest.raises(ValueError) as err:
         load_scene(path)
-    assert str(err.value) == (f"{path}:{line_of(SCENE, '[material.jelly]')}: material.jelly: "
-                              "neo-hookean: Poisson's ratio must lie in (-1, 0.5), got 0.7 "
-                              "(0.5 is incompressible: use a fluid or a smaller ratio)")
+    assert str(err.value) == (f"{path}:{line_of(SCENE, 'nu = 0.3')}: material.jelly.nu: "
+                              "neo-hookean: nu must be a number in (-1, 0.5) (Poisson's ratio; "
+                              "0.5 is incompressible: use a fluid or a smaller ratio), got 0.7")
 
 
 def test_a_missing_required_key_names_its_table(tmp_path):

@@ -10,7 +10,6 @@ from ..platform.errors import ErrorCode
 __all__ = ["BandedMass"]
 
 
-@ti.data_oriented
 class BandedMass:
     """See the module: the bandwidth and dimension of the feature set, the boundary (its
     Dirichlet nodes) and the failure record; its functions receive the grid fields (the

@@ -35,7 +35,6 @@ def cg_particle_fields(dim, support, real):
             "cg_phi": ti.Vector.field(support ** dim, real)}
 
 
-@ti.data_oriented
 class CGMass:
     """See the module: the feature set, the stencil, the boundary (Dirichlet nodes, walls,
     the lumped solve that preconditions), the failure record, the particles' masses, the

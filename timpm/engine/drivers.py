@@ -20,7 +20,6 @@ from ..platform.errors import TEAM_SPIN_LIMIT, ErrorCode
 __all__ = ["Drivers", "c_order_index"]
 
 
-@ti.data_oriented
 class Drivers:
     """See the module: the feature set, the scheme's ``phases``, the state they receive
     (``particles``, ``grid``, ``values``), the scatter (its strategy runs the scattering

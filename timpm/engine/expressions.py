@@ -15,7 +15,7 @@ import types
 
 from taichi.lang import impl
 
-__all__ = ["at", "expression"]
+__all__ = ["at", "expression", "variable"]
 
 
 def expression(fn):
@@ -30,3 +30,12 @@ def at(value, *index):
     """``value[index]`` of a Taichi vector, matrix or field in a helper (what Taichi makes
     of the subscript in a kernel)."""
     return impl.subscript(None, value, *index)
+
+
+def variable(value):
+    """What ``x = value`` in a kernel makes of ``value``, for a helper to return: a local
+    variable.  Taichi's transformer initialises the value twice (a Python-side vector or
+    matrix becomes a matrix expression, that expression a variable); one initialisation
+    leaves a vector an expression, rebuilt wherever it is read (three times the
+    statements of a 3D stencil's rows, 538 -> 1,468 in a probe)."""
+    return impl.expr_init(impl.expr_init(value))

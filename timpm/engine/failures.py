@@ -12,7 +12,6 @@ from .consistent_mass_cg import CG_MAX_ITERATIONS
 __all__ = ["Failures", "recorded_failure", "energy_balance"]
 
 
-@ti.data_oriented
 class Failures:
     """The error record written by the kernels: the run fields ``err``, ``err_count``,
     ``err_step``, ``err_where``, ``neg_pivots`` and ``step_count`` (``run``), a team's

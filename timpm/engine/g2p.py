@@ -14,7 +14,6 @@ from ..platform.errors import ErrorCode
 __all__ = ["G2P"]
 
 
-@ti.data_oriented
 class G2P:
     """See the module: the feature set, the stencil, the laws, the loads, the failure
     record, the run fields (the grid crossings) and the add of the mode."""

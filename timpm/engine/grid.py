@@ -21,7 +21,6 @@ NODE_NAMES = {"node_mass": "gm", "node_momentum": "gp", "node_velocity": "gp",
               "node_old_velocity": "gv0"}
 
 
-@ti.data_oriented
 class Boundary:
     """The boundary conditions and the lumped solve at one node (see the module): the
     feature set's walls and Dirichlet nodes, the grid (``fixed``, ``fixed_v``,
@@ -101,7 +100,6 @@ class Boundary:
         return not (self.is_fixed(I) or self.grid.node_mass[I] <= self.values.mass_tol())
 
 
-@ti.data_oriented
 class GridSolve:
     """Clearing the grid and the mass solve over it (see the module): the grid, the
     run-time values, the boundary, the solves of the consistent mass (``banded``: 1D,

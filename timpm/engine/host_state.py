@@ -19,7 +19,6 @@ from .recorder import NUMPY_DTYPES, components, entry_size
 __all__ = ["HostState"]
 
 
-@ti.data_oriented
 class HostState:
     """See the module: a program's fields by group (``particle``, ``grid``, ``copies``,
     ``scratch``, ``run``: dicts of name to field), its run-time values (``params``, the

@@ -10,7 +10,6 @@ import taichi as ti
 __all__ = ["Laws"]
 
 
-@ti.data_oriented
 class Laws:
     """The compiled ``units`` of the scene's materials, in material-index order; the
     particle state they read and write (``state``, with the material index ``mat`` where

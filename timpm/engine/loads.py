@@ -7,7 +7,6 @@ import taichi as ti
 __all__ = ["Loads"]
 
 
-@ti.data_oriented
 class Loads:
     """See the module: the feature set (which loads act, their time functions), the run
     fields (the time, the external work's sum ``ext_work``) and the add of the mode."""

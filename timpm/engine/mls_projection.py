@@ -68,7 +68,6 @@ def _mls_value_quadratic(mom, b):
     return value
 
 
-@ti.data_oriented
 class MLSProjection:
     """See the module: the feature set (the basis, the study's case, the order of the
     stress fit), the add of the mode (``accumulate``) and the boundary (Dirichlet nodes).

@@ -30,7 +30,6 @@ def mls_nd_fields(dim, order, real):
     return {"q_mom": ti.Matrix.field(n, n, real), "q_sig": ti.Matrix.field(n, dim * dim, real)}
 
 
-@ti.data_oriented
 class MLSStressND:
     """See the module: the feature set (dimension, order of the fit), the stencil and the
     add of the mode (``accumulate``).  Its functions receive the particle fields, the grid

@@ -26,7 +26,6 @@ def entry_size(fld) -> int:
     return fld.n * fld.m if isinstance(fld, ti.MatrixField) else 1
 
 
-@ti.data_oriented
 class Recorder:
     """See the module: the feature set, the particle fields, the history buffer (its
     fields ``history``, the count of records ``rec_count`` and the tracked particles'

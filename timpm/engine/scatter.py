@@ -26,7 +26,6 @@ def accumulate_in(mode):
     return _Adds(mode).accumulate
 
 
-@ti.data_oriented
 class _Adds:
     def __init__(self, mode):
         self.mode = mode
@@ -44,7 +43,6 @@ class _Adds:
             ref += value
 
 
-@ti.data_oriented
 class Scatter:
     """See the module: the feature set's strategy, the grid (its fields by kernel name),
     the private copies, the run-time values, the failure record (a particle of a failed

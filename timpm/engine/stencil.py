@@ -20,14 +20,12 @@ weights of the last axis in registers and the column adds of ``times_offset``; 1
 are unrolled whole (docs/performance.md, "Time to the first step").
 """
 import taichi as ti
-from taichi.lang import impl
 
-from .expressions import at, expression
+from .expressions import at, expression, variable
 
 __all__ = ["Stencil"]
 
 
-@ti.data_oriented
 class Stencil:
     """See the module: ``features`` (the dimension and basis) and the run-time ``values``."""
 
@@ -140,15 +138,16 @@ class Stencil:
     def row(self, w, dw, r):
         """The nodes of stencil row r, for a ``ti.static`` loop in the loop over the rows:
         per node a (a Python integer) its offset o, basis value phi and gradient grad.  The
-        row's products are one variable, each node's offset, value and gradient one each
-        (what an assignment in the kernel would make of them)."""
-        products = impl.expr_init(self._row_products(w, dw, r))
-        nodes = []
-        for a in range(self.support):
+        row's products are one variable, made here; each node's offset, value and gradient
+        one each, made as the static loop reaches the node (a lazy ``map``: the variables
+        stand where an assignment at the top of the node's body would make them)."""
+        products = variable(self._row_products(w, dw, r))
+
+        def node(a):
             offset, phi, grad = self._row_node(w, dw, r, products, a)
-            nodes.append((a, impl.expr_init(offset), impl.expr_init(phi),
-                          impl.expr_init(grad)))
-        return nodes
+            return a, variable(offset), variable(phi), variable(grad)
+
+        return map(node, range(self.support))
 
     @ti.func
     def interpolate(self, node_field: ti.template(), base, w, dw):

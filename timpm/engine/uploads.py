@@ -11,7 +11,6 @@ from ..schemes.rk4 import STAGE_TIMES
 __all__ = ["Uploads"]
 
 
-@ti.data_oriented
 class Uploads:
     """``set_body_force(values)`` and ``prestrain(grads)``, kernels over the particle
     fields: the feature set, the particles, the laws, the shared G2P (the jacobian), the

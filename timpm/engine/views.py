@@ -12,7 +12,6 @@ import taichi as ti
 __all__ = ["FieldView", "MaterialState"]
 
 
-@ti.data_oriented  # (ti.static takes it)
 class FieldView:
     """Fields by attribute (``view.x`` is the field named "x"); ``names`` lists them,
     ``fields`` maps them; ``storage`` names the fields behind them (the grid's storage

@@ -39,8 +39,7 @@ import math
 
 import taichi as ti
 
-from ..platform.checks import positive
-from ..platform.declare import Field
+from ..platform.declare import Field, Param
 
 __all__ = ["Material", "SolidMaterial"]
 
@@ -51,6 +50,9 @@ class Material:
     state it keeps (``particle_fields``)."""
 
     name = ""
+    #: its parameters (the constructor's arguments): unit, meaning, range; the defaults are
+    #: the constructor's.  Python and the scene files check a value against them alike
+    PARAMS = {"density": Param(unit="kg/m^3", doc="mass density", low=0.0, low_open=True)}
     #: names of the run-time constants the update reads
     CONSTANTS = ("density",)
     #: wave speed (m/s) that bounds the time step, set by each material
@@ -69,7 +71,12 @@ class Material:
     stress_from_F = False
 
     def __init__(self, density):
-        self.density = positive(f"{self.name}: density", density)
+        self.density = self.checked("density", density)
+
+    @classmethod
+    def checked(cls, name: str, value):
+        """``value`` of parameter ``name`` checked against its declaration (``PARAMS``)."""
+        return cls.PARAMS[name].check(cls.name, name, value)
 
     def __repr__(self):
         params = ", ".join(f"{k}={v:g}" for k, v in self.parameters().items())
@@ -153,17 +160,16 @@ class SolidMaterial(Material):
 
     CONSTANTS = ("density", "mu", "lam", "two_mu")
 
+    PARAMS = {**Material.PARAMS,
+              "E": Param(unit="Pa", doc="Young's modulus", low=0.0, low_open=True),
+              "nu": Param(doc="Poisson's ratio; 0.5 is incompressible: use a fluid or a "
+                              "smaller ratio", low=-1.0, high=0.5, low_open=True,
+                          high_open=True)}
+
     def __init__(self, E, nu, density):
         super().__init__(density)
-        self.E = positive(f"{self.name}: Young's modulus E", E)
-        try:
-            nu = float(nu)
-        except (TypeError, ValueError):
-            raise ValueError(f"{self.name}: Poisson's ratio must be a number, got {nu!r}") from None
-        if not (-1.0 < nu < 0.5):
-            raise ValueError(f"{self.name}: Poisson's ratio must lie in (-1, 0.5), got {nu!r} "
-                             "(0.5 is incompressible: use a fluid or a smaller ratio)")
-        self.nu = nu
+        self.E = self.checked("E", E)
+        self.nu = nu = self.checked("nu", nu)
         self.mu = self.E / (2.0 * (1.0 + nu))
         self.lam = self.E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
         # P-wave speed sqrt((lambda + 2 mu) / rho)

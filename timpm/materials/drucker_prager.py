@@ -4,7 +4,7 @@ import math
 
 import taichi as ti
 
-from ..platform.declare import Field
+from ..platform.declare import Field, Param
 from .base import SolidMaterial
 
 __all__ = ["DruckerPrager"]
@@ -39,33 +39,30 @@ class DruckerPrager(SolidMaterial):
                                            "apex_2d", "apex_3d", "cut_2d", "cut_3d")
     dims = (2, 3)  # the return mapping of principal strains: 2D spectral form, 3D SVD
 
+    PARAMS = {**SolidMaterial.PARAMS,
+              "friction_angle": Param(unit="degrees", doc="friction angle phi", low=0.0,
+                                      high=90.0, low_open=True, high_open=True),
+              "cohesion": Param(unit="Pa", doc="cohesion c", low=0.0),
+              "dilation_angle": Param(unit="degrees", doc="dilation angle psi, at most phi",
+                                      low=0.0, high=90.0, high_open=True),
+              "tensile_strength": Param(unit="Pa", doc="tension cut-off (none: the apex, c "
+                                        "cot phi)", low=0.0, optional=True)}
+
     def __init__(self, E, nu, density, friction_angle, cohesion=0.0, dilation_angle=0.0,
                  tensile_strength=None):
         super().__init__(E, nu, density)
-        try:
-            phi = float(friction_angle)
-        except (TypeError, ValueError):
-            raise ValueError(f"{self.name}: friction angle must be a number of degrees, got "
-                             f"{friction_angle!r}") from None
-        if not (0.0 < phi < 90.0):
-            raise ValueError(f"{self.name}: friction angle must lie in (0, 90) degrees, got "
-                             f"{friction_angle!r}")
-        try:
-            psi, c = float(dilation_angle), float(cohesion)
-        except (TypeError, ValueError):
-            raise ValueError(f"{self.name}: dilation_angle (degrees) and cohesion (Pa) must be "
-                             f"numbers, got {dilation_angle!r} and {cohesion!r}") from None
-        if not (0.0 <= psi <= phi):
+        phi = self.checked("friction_angle", friction_angle)
+        psi = self.checked("dilation_angle", dilation_angle)
+        c = self.checked("cohesion", cohesion)
+        if psi > phi:
             raise ValueError(f"{self.name}: dilation_angle must lie in [0, friction_angle = "
                              f"{phi:g}] degrees, got {dilation_angle!r}")
-        if not (0.0 <= c < math.inf):
-            raise ValueError(f"{self.name}: cohesion must be >= 0 and finite (Pa), got "
-                             f"{cohesion!r}")
         self.friction_angle, self.dilation_angle, self.cohesion = phi, psi, c
         self.alpha = _cone(phi)
         # the apex: the hydrostatic tension c cot(phi)
         self.apex = c / math.tan(math.radians(phi))
-        self.tensile_strength = self._tensile_strength(tensile_strength, self.apex)
+        self.tensile_strength = self._tensile_strength(
+            self.checked("tensile_strength", tensile_strength), self.apex)
         # Klar et al.'s law exactly (compiled as before) unless one of these is given
         self.general = bool(c > 0.0 or psi > 0.0 or tensile_strength is not None)
 

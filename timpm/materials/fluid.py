@@ -3,7 +3,8 @@ import math
 
 import taichi as ti
 
-from .base import Material, positive
+from ..platform.declare import Param
+from .base import Material
 
 __all__ = ["WeaklyCompressibleFluid"]
 
@@ -19,19 +20,18 @@ class WeaklyCompressibleFluid(Material):
     name = "fluid"
     CONSTANTS = ("density", "k_over_gamma", "minus_gamma", "viscosity_over_dt")
 
+    PARAMS = {**Material.PARAMS,
+              "bulk_modulus": Param(unit="Pa", doc="bulk modulus", low=0.0, low_open=True),
+              "gamma": Param(doc="Tait exponent", low=0.0, low_open=True),
+              "viscosity": Param(unit="Pa s", doc="dynamic viscosity", low=0.0),
+              "tension": Param(kind="bool", doc="the fluid carries tension")}
+
     def __init__(self, bulk_modulus, density, gamma=7.0, viscosity=0.0, tension=False):
         super().__init__(density)
-        self.bulk_modulus = positive(f"{self.name}: bulk modulus", bulk_modulus)
-        self.gamma = positive(f"{self.name}: Tait exponent gamma", gamma)
-        try:
-            viscosity = float(viscosity)
-        except (TypeError, ValueError):
-            viscosity = float("nan")
-        if not (math.isfinite(viscosity) and viscosity >= 0.0):
-            raise ValueError(f"{self.name}: viscosity must be a finite number >= 0, got "
-                             f"{viscosity!r}")
-        self.viscosity = viscosity
-        self.tension = bool(tension)
+        self.bulk_modulus = self.checked("bulk_modulus", bulk_modulus)
+        self.gamma = self.checked("gamma", gamma)
+        self.viscosity = self.checked("viscosity", viscosity)
+        self.tension = self.checked("tension", tension)
         self.wave_speed = math.sqrt(self.bulk_modulus / self.density)
 
     def parameters(self) -> dict:

@@ -3,8 +3,7 @@ import math
 
 import taichi as ti
 
-from ..platform.checks import positive
-from ..platform.declare import Field
+from ..platform.declare import Field, Param
 from .base import Material
 
 __all__ = ["Hypoelastic1D"]
@@ -31,10 +30,15 @@ class Hypoelastic1D(Material):
     CONSTANTS = ("E", "density")
     dims = (1,)
 
+    PARAMS = {**Material.PARAMS,
+              "E": Param(unit="Pa", doc="Young's modulus", low=0.0, low_open=True),
+              "study": Param(kind="bool", doc="the study's stress update"),
+              "exact": Param(kind="bool", doc="integrated exactly over a step")}
+
     def __init__(self, E, density, study: bool = True, exact: bool = False):
         super().__init__(density)
-        self.E, self.study = positive(f"{self.name}: Young's modulus E", E), bool(study)
-        self.exact = bool(exact)
+        self.E, self.study = self.checked("E", E), self.checked("study", study)
+        self.exact = self.checked("exact", exact)
         self.stress_from_F = self.exact  # exactly integrated: sigma(F), F = V / V0
         self.wave_speed = math.sqrt(self.E / self.density)
 

@@ -3,8 +3,8 @@ import math
 
 import taichi as ti
 
-from ..platform.declare import Field
-from .base import Material, positive
+from ..platform.declare import Field, Param
+from .base import Material
 
 __all__ = ["JFluid"]
 
@@ -21,9 +21,12 @@ class JFluid(Material):
     free_expansion = True  # no tension: a particle expands stress-free
     CONSTANTS = ("density", "bulk_modulus")
 
+    PARAMS = {**Material.PARAMS,
+              "bulk_modulus": Param(unit="Pa", doc="bulk modulus", low=0.0, low_open=True)}
+
     def __init__(self, bulk_modulus, density):
         super().__init__(density)
-        self.bulk_modulus = positive(f"{self.name}: bulk modulus", bulk_modulus)
+        self.bulk_modulus = self.checked("bulk_modulus", bulk_modulus)
         self.wave_speed = math.sqrt(self.bulk_modulus / self.density)
 
     @classmethod

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import taichi as ti
 
-from ..platform.declare import Field
+from ..platform.declare import Field, Param
 from .base import SolidMaterial
 
 __all__ = ["MohrCoulomb", "principal_return"]
@@ -12,17 +12,6 @@ __all__ = ["MohrCoulomb", "principal_return"]
 #: where the strength has no apex (phi = 0: Tresca) or no tension cut-off: a stress no
 #: soil reaches
 UNBOUNDED = 1e300
-
-
-def _angle(name, value, low, high, low_open=False):
-    try:
-        angle = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"mohr-coulomb: {name} must be a number of degrees, got {value!r}") from None
-    if not ((low < angle if low_open else low <= angle) and angle < high):
-        raise ValueError(f"mohr-coulomb: {name} must lie in {'(' if low_open else '['}{low:g}, "
-                         f"{high:g}) degrees, got {value!r}")
-    return angle
 
 
 class MohrCoulomb(SolidMaterial):
@@ -52,22 +41,24 @@ class MohrCoulomb(SolidMaterial):
     dims = (2, 3)
     free_expansion = True  # beyond the tension cut-off a particle expands stress-free
 
+    PARAMS = {**SolidMaterial.PARAMS,
+              "friction_angle": Param(unit="degrees", doc="friction angle phi", low=0.0,
+                                      high=90.0, high_open=True),
+              "cohesion": Param(unit="Pa", doc="cohesion c", low=0.0),
+              "dilation_angle": Param(unit="degrees", doc="dilation angle psi, at most phi",
+                                      low=0.0, high=90.0, high_open=True),
+              "tensile_strength": Param(unit="Pa", doc="tension cut-off (none: the apex, c "
+                                        "cot phi)", low=0.0, optional=True)}
+
     def __init__(self, E, nu, density, friction_angle, cohesion=0.0, dilation_angle=0.0,
                  tensile_strength=None):
         super().__init__(E, nu, density)
-        phi = _angle("friction_angle", friction_angle, 0.0, 90.0)
-        psi = _angle("dilation_angle", dilation_angle, 0.0, 90.0)
+        phi = self.checked("friction_angle", friction_angle)
+        psi = self.checked("dilation_angle", dilation_angle)
         if psi > phi:
             raise ValueError(f"mohr-coulomb: dilation_angle {psi:g} must not exceed the "
                              f"friction_angle {phi:g} (a soil dilates at most as it rubs)")
-        try:
-            c = float(cohesion)
-        except (TypeError, ValueError):
-            raise ValueError(f"mohr-coulomb: cohesion must be a number (Pa), got "
-                             f"{cohesion!r}") from None
-        if not (0.0 <= c < math.inf):
-            raise ValueError(f"mohr-coulomb: cohesion must be >= 0 and finite (Pa), got "
-                             f"{cohesion!r}")
+        c = self.checked("cohesion", cohesion)
         if phi == 0.0 and c == 0.0:
             raise ValueError("mohr-coulomb: a soil with neither friction nor cohesion has no "
                              "strength: give friction_angle > 0 or cohesion > 0")
@@ -75,7 +66,8 @@ class MohrCoulomb(SolidMaterial):
         sin_phi = math.sin(math.radians(phi))
         # the apex of the surface, t1 = t2 = t3 = c cot(phi): the most tension it carries
         self.apex = c * math.cos(math.radians(phi)) / sin_phi if phi > 0.0 else UNBOUNDED
-        self.tensile_strength = self._tensile_strength(tensile_strength, self.apex)
+        self.tensile_strength = self._tensile_strength(
+            self.checked("tensile_strength", tensile_strength), self.apex)
 
     @classmethod
     def particle_fields(cls, dim):
@@ -93,11 +85,16 @@ class MohrCoulomb(SolidMaterial):
             out["tensile_strength"] = self.tensile_strength
         return out
 
+    @property
+    def two_c_cos_phi(self) -> float:
+        """2 c cos(phi): the surface's intercept, (t1 - t3) + (t1 + t3) sin(phi) at yield."""
+        return 2.0 * self.cohesion * math.cos(math.radians(self.friction_angle))
+
     def constants(self, dt: float) -> dict:
         phi, psi = math.radians(self.friction_angle), math.radians(self.dilation_angle)
         tension = self.apex if self.tensile_strength is None else self.tensile_strength
         return {**super().constants(dt), "sin_phi": math.sin(phi), "sin_psi": math.sin(psi),
-                "two_c_cos_phi": 2.0 * self.cohesion * math.cos(phi), "apex": self.apex,
+                "two_c_cos_phi": self.two_c_cos_phi, "apex": self.apex,
                 "tension": tension, "bulk3": 3.0 * self.lam + 2.0 * self.mu}
 
     def reduced(self, F: float) -> "MohrCoulomb":
@@ -121,15 +118,13 @@ class MohrCoulomb(SolidMaterial):
         (2 c cos(phi) + 2 p sin(phi)) / (1 - sin(phi)).  Biaxial (plane strain, sigma_zz
         the intermediate stress) and triaxial compression alike."""
         s = math.sin(math.radians(self.friction_angle))
-        return (2.0 * self.cohesion * math.cos(math.radians(self.friction_angle))
-                + 2.0 * confinement * s) / (1.0 - s)
+        return (self.two_c_cos_phi + 2.0 * confinement * s) / (1.0 - s)
 
     def yield_function(self, stress):
         """f of the Cauchy stresses (m, 3, 3) (<= 0: inside the surface), in Pa."""
         t = np.linalg.eigvalsh(np.asarray(stress, dtype=np.float64))  # ascending
         s = math.sin(math.radians(self.friction_angle))
-        c2 = 2.0 * self.cohesion * math.cos(math.radians(self.friction_angle))
-        return (t[:, 2] - t[:, 0]) + (t[:, 2] + t[:, 0]) * s - c2
+        return (t[:, 2] - t[:, 0]) + (t[:, 2] + t[:, 0]) * s - self.two_c_cos_phi
 
     def initial_state(self, stress, dim):
         f = self.yield_function(stress)

@@ -9,6 +9,8 @@ documentation list them from there.
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from .errors import InputError
 
 __all__ = ["Field", "Param", "check_params"]
@@ -41,9 +43,11 @@ class Field:
 
 @dataclass(frozen=True)
 class Param:
-    """A parameter: its ``default`` (None: required), ``unit`` ("" for none), meaning
-    (``doc``) and range: ``low`` and ``high`` (None: unbounded), open or closed
-    (``low_open``, ``high_open``); ``kind`` "real" or "int" (how kernels read it)."""
+    """A parameter: its ``default`` (None: required, where the declaration gives the
+    default: a scheme's; a law's defaults are its constructor's), ``unit`` ("" for none),
+    meaning (``doc``) and range: ``low`` and ``high`` (None: unbounded), open or closed
+    (``low_open``, ``high_open``); ``kind`` "real" or "int" (how kernels read it) or
+    "bool" (true or false); ``optional``: None is a value (none given)."""
 
     default: object = None
     unit: str = ""
@@ -53,6 +57,7 @@ class Param:
     low_open: bool = False
     high_open: bool = False
     kind: str = "real"
+    optional: bool = False
 
     def range_text(self) -> str:
         if self.low is None and self.high is None:
@@ -62,10 +67,18 @@ class Param:
         return (f"{lo}{'-inf' if self.low is None else f'{self.low:g}'}, "
                 f"{'inf' if self.high is None else f'{self.high:g}'}{hi}")
 
-    def check(self, owner: str, name: str, value) -> float:
-        """``value`` as a float, or a ValueError naming ``owner``, the parameter, its range
-        and the value given (booleans and strings are not numbers)."""
-        bad = isinstance(value, (bool, str)) or not isinstance(value, (int, float)) \
+    def check(self, owner: str, name: str, value):
+        """``value`` as a float (a bool for a "bool" parameter; None where it is optional
+        and none is given), or an InputError naming ``owner``, the parameter, its range and
+        the value given (booleans and strings are not numbers, numbers not booleans)."""
+        if self.optional and value is None:
+            return None
+        if self.kind == "bool":
+            if not isinstance(value, (bool, np.bool_)):
+                raise InputError(f"{owner}: {name} must be true or false ({self.doc}), got "
+                                 f"{value!r}", name)
+            return bool(value)
+        bad = isinstance(value, (bool, str, np.bool_)) or not isinstance(value, (int, float)) \
             and not hasattr(value, "__float__")
         number = math.nan if bad else float(value)
         ok = math.isfinite(number)

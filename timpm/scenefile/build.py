@@ -151,8 +151,9 @@ def _materials(reader, data):
         params.pop("type")
         try:
             out[name] = get_material(kind, **params)
-        except ValueError as err:
-            raise reader.error(where, str(err)) from None
+        except ValueError as err:  # a parameter's error names it (InputError.key)
+            key = getattr(err, "key", None)
+            raise reader.error(where + ((key,) if key in params else ()), str(err)) from None
     return out
 
 

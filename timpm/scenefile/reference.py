@@ -44,6 +44,23 @@ def _parameters(params, title):
     return "\n".join(rows)
 
 
+def _law_parameters(kind, title):
+    """The table of a law's parameters: the keys of ``material_schema(kind)`` with the
+    ranges the law declares (``Material.PARAMS``)."""
+    declared = MATERIALS[kind].PARAMS
+    rows = [f"**{title}**", "", "| key | type | default | unit | meaning |",
+            "|---|---|---|---|---|"]
+    for name, key in material_schema(kind).items():
+        if name == "type":
+            continue
+        param = declared[name]
+        kind_text = ("true or false" if param.kind == "bool"
+                     else f"a number in {param.range_text()}")
+        rows.append(f"| `{name}` | {kind_text} | {_default_text(key)} | {param.unit} | "
+                    f"{param.doc.replace('|', chr(92) + '|')} |")
+    return "\n".join(rows)
+
+
 def schema_reference() -> str:
     """The key tables of docs/scene_files.md, from the schema (a test keeps them equal)."""
     parts = [_markdown(SIMULATION, "[simulation]"), _markdown(DOMAIN, "[domain]"),
@@ -55,8 +72,7 @@ def schema_reference() -> str:
             parts.append(_parameters(scheme_params(transfer), "[simulation.transfer_params] "
                                      f'with transfer = "{transfer}"'))
     parts.append(_markdown({"type": MATERIAL_TYPE}, "[material.NAME]"))
-    for kind in MATERIALS:
-        params = {k: v for k, v in material_schema(kind).items() if k != "type"}
-        parts.append(_markdown(params, f'[material.NAME] with type = "{kind}"'))
+    for kind in MATERIALS:  # each law's parameters, as its file declares them
+        parts.append(_law_parameters(kind, f'[material.NAME] with type = "{kind}"'))
     parts += [_markdown(OUTPUT, "[output]"), _markdown(PROBLEM, "[problem]")]
     return "\n\n".join(parts) + "\n"

@@ -204,30 +204,20 @@ WORLD_TABLES = ("simulation", "domain", "material", "body", "loads", "initial_st
                 "output")
 PROBLEM_TABLES = ("problem", "output")
 
-#: units and meanings of the materials' parameters (their classes' arguments)
-MATERIAL_PARAMETERS = {
-    "E": ("Pa", "Young's modulus"), "nu": ("", "Poisson's ratio"),
-    "density": ("kg/m^3", "mass density"), "friction_angle": ("degrees", "friction angle"),
-    "cohesion": ("Pa", "cohesion c"), "dilation_angle": ("degrees", "dilation angle psi"),
-    "tensile_strength": ("Pa", "tension cut-off (default: the apex, c cot phi)"),
-    "bulk_modulus": ("Pa", "bulk modulus"), "gamma": ("", "Tait exponent"),
-    "viscosity": ("Pa s", "dynamic viscosity"), "tension": ("", "the fluid carries tension"),
-    "study": ("", "the study's stress update"), "exact": ("", "integrated exactly over a step"),
-}
-
-
 MATERIAL_TYPE = Key("string", doc="the material law", choices=tuple(MATERIALS))
 
 
 def material_schema(kind) -> dict:
     """The keys of a ``[material.NAME]`` table of ``type = kind``: the arguments of the
-    material's class (a boolean default makes a boolean key)."""
+    law's class with the unit and meaning its file declares (``Material.PARAMS``; the
+    default its constructor's); the law checks the values as it does from Python."""
+    cls = MATERIALS[kind]
     schema = {"type": MATERIAL_TYPE}
-    for p in inspect.signature(MATERIALS[kind].__init__).parameters.values():
+    for p in inspect.signature(cls.__init__).parameters.values():
         if p.name == "self":
             continue
-        unit, doc = MATERIAL_PARAMETERS.get(p.name, ("", ""))
+        param = cls.PARAMS[p.name]
         default = REQUIRED if p.default is p.empty else p.default
-        schema[p.name] = Key("boolean" if isinstance(default, bool) else "number", default,
-                             unit, doc)
+        schema[p.name] = Key("boolean" if param.kind == "bool" else "number", default,
+                             param.unit, param.doc)
     return schema

@@ -17,7 +17,6 @@ from .phases import Nodes, Particles, Scatter, Whole
 __all__ = ["Affine"]
 
 
-@ti.data_oriented
 class Affine(Scheme):
     """See the module."""
 

@@ -64,7 +64,6 @@ _GAUSS_3 = ((0.5 - math.sqrt(15.0) / 10.0, 5.0 / 18.0), (0.5, 8.0 / 18.0),
             (0.5 + math.sqrt(15.0) / 10.0, 5.0 / 18.0))
 
 
-@ti.data_oriented
 class Midpoint(Scheme):
     """See the module: the step of ``transfer`` (MUSL's P2G and grid solve, ``grid_rates``;
     the affine transfers' gathers) replaced by the midpoint iteration.  Its functions

@@ -18,7 +18,6 @@ from .phases import Nodes, Particles, Scatter, Whole
 __all__ = ["MUSL"]
 
 
-@ti.data_oriented
 class MUSL(Scheme):
     """See the module."""
 

@@ -15,7 +15,6 @@ from .musl import MUSL
 __all__ = ["PICBlend"]
 
 
-@ti.data_oriented
 class PICBlend(MUSL):
     """See the module."""
 

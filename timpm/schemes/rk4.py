@@ -33,7 +33,6 @@ __all__ = ["RungeKutta", "STAGE_TIMES"]
 STAGE_TIMES = (0.0, 0.5, 1.0)
 
 
-@ti.data_oriented
 class RungeKutta(Scheme):
     """See the module: the step of ``transfer`` (whose P2G and grid solve give the rates,
     ``grid_rates``) integrated by the classical Runge-Kutta method.  Its phases receive
