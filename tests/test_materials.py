@@ -34,7 +34,7 @@ def _unit(material):
     fb = ti.FieldsBuilder()
     block = ParamBlock({"m": {name: "real" for name in type(material).CONSTANTS}}, float, fb)
     fb.finalize()
-    block.set("m", material.constants(dt=1.0))
+    block.set("m", material.constants(dt=1.0, h=1.0))
     block.upload()
     return type(material).unit(material.flags(), block.groups["m"])
 

@@ -71,7 +71,7 @@ def test_the_return_lands_on_the_surface_or_stays_elastic(phi, psi, c, tension):
     deviatoric direction in the pi-plane is fixed by psi)."""
     m = MohrCoulomb(E=1e5, nu=0.3, density=2000.0, friction_angle=phi, cohesion=c,
                     dilation_angle=psi, tensile_strength=tension)
-    k = m.constants(1.0)
+    k = m.constants(1.0, 1.0)
     rng = np.random.default_rng(7)
     eps = rng.normal(scale=3e-3, size=(4000, 3)) - rng.uniform(0, 3e-3, size=(4000, 1))
     out = np.zeros_like(eps)

@@ -82,9 +82,9 @@ class FeatureSet:
     # ---- derived choices ---------------------------------------------------------------
     @property
     def affine(self) -> bool:
-        """The affine transfers: APIC, and MLS-MPM (Hu et al. 2018), which also takes the
-        force and the velocity gradient from the affine moments."""
-        return self.transfer in ("apic", "mls-mpm")
+        """An affine transfer (its scheme says so: APIC, MLS-MPM and their variants carry an
+        affine velocity C_p and fold the forces into the momentum)."""
+        return scheme_class(self).affine
 
     @property
     def mls_mpm(self) -> bool:
@@ -394,6 +394,6 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     layout = Layout(n_particles=n, elements=tuple(elements), nodes=nodes, room=room,
                     n_tracked=len(track), history=int(history_chunk), h=h,
                     origin=tuple(origin), values=values, materials=materials,
-                    material_values=[m.constants(model.dt) for m in materials],
+                    material_values=[m.constants(model.dt, model.h) for m in materials],
                     fixed_nodes=fixed_nodes, fixed_velocity=model.fixed_velocity)
     return features, layout

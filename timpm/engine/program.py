@@ -186,10 +186,13 @@ class Program:
         # (the force then the acceleration, a new velocity ...); Dirichlet nodes, their
         # prescribed velocities, the nodal displacements (1D)
         grid = {"gm": ti.field(real), "gp": ti.Vector.field(d, real)}
+        scattered = []  # the scheme's own grid fields that P2G adds to
         integrator = INTEGRATORS[f.integrator]
         for owner in (self.scheme_class,) + (() if integrator is None else (integrator,)):
             for name, fld in owner.grid_fields(f).items():
                 grid.setdefault(name, _taichi_field(fld, d, real))
+                if fld.scatter:
+                    scattered.append(name)
         if f.fixed:
             grid["fixed"] = ti.field(ti.i32)
         if f.prescribed is not None:
@@ -204,7 +207,9 @@ class Program:
         # copy axis: no branch on the thread per add), summed into the grid afterwards
         self.copies = {}
         if f.private_scatter:
-            for name in ["node_mass", "node_momentum"] + ([] if f.affine else ["node_force"]):
+            kernel_name = {key: name for name, key in reversed(NODE_NAMES.items())}
+            for name in (["node_mass", "node_momentum"] + ([] if f.affine else ["node_force"])
+                         + [kernel_name[key] for key in scattered]):
                 self.copies[name] = (ti.field(real) if name == "node_mass"
                                      else ti.Vector.field(d, real))
             fb.dense(ti.axes(*range(d + 1)), (f.n_copies, *cap.nodes)).place(

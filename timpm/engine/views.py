@@ -7,8 +7,6 @@ a material's law receives the particle fields with the little else it needs
 (:class:`MaterialState`).  The views hold the program's own fields, so a phase compiles to
 the same kernel as one reading them from the program."""
 
-import taichi as ti
-
 __all__ = ["FieldView", "MaterialState"]
 
 

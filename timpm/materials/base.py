@@ -10,8 +10,9 @@ value says what the engine compiles and with which numbers:
   field: they must declare it alike), each field from its ``initial`` value, or from the
   law's ``initial_state`` where the scene starts from a stress;
 - ``flags()``: the compile-time choices of the law (part of the feature set);
-- ``constants(dt)``: the run-time numbers its update reads, by name (``CONSTANTS``), every
-  derived constant computed here once, in double precision; ``density`` among them (the
+- ``constants(dt, h)``: the run-time numbers its update reads, by name (``CONSTANTS``),
+  for a run with time step dt on a grid of spacing h, every derived constant computed here
+  once, in double precision; ``density`` among them (the
   volume guard reads V0 = m_p / density);
 - ``free_expansion``: the law lets a particle expand without bound (a tension cut-off);
 - ``energy_function``: the law has a stored energy W(F) (hyperelastic); its unit then
@@ -100,8 +101,9 @@ class Material:
         """Compile-time choices (hashable); the feature set holds (class, flags)."""
         return ()
 
-    def constants(self, dt: float) -> dict:
-        """Run-time constants by name (``CONSTANTS``) for a run with time step ``dt``."""
+    def constants(self, dt: float, h: float) -> dict:
+        """Run-time constants by name (``CONSTANTS``) for a run with time step ``dt`` on a
+        grid of spacing ``h`` (a law regularised by the cell size reads it)."""
         return {"density": self.density}
 
     @classmethod
@@ -183,7 +185,7 @@ class SolidMaterial(Material):
         return {"F": Field("matrix", initial="identity",
                            doc="the (elastic) deformation gradient")}
 
-    def constants(self, dt: float) -> dict:
+    def constants(self, dt: float, h: float) -> dict:
         return {"density": self.density, "mu": self.mu, "lam": self.lam,
                 "two_mu": 2.0 * self.mu}
 

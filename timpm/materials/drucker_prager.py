@@ -85,10 +85,10 @@ class DruckerPrager(SolidMaterial):
     def set_flags(self, flags: tuple):
         self.general = "general" in flags
 
-    def constants(self, dt: float) -> dict:
+    def constants(self, dt: float, h: float) -> dict:
         # (d lambda + 2 mu) / (2 mu): the trace's share of the return to the cone in d dims;
         # the apex and the cut-off as traces of the elastic log strain in d dims
-        out = {**super().constants(dt), "alpha": self.alpha,
+        out = {**super().constants(dt, h), "alpha": self.alpha,
                "cone_2d": (2.0 * self.lam + 2.0 * self.mu) / (2.0 * self.mu),
                "cone_3d": (3 * self.lam + 2.0 * self.mu) / (2.0 * self.mu),
                "alpha_psi": _cone(self.dilation_angle) if self.dilation_angle > 0 else 0.0}

@@ -52,7 +52,7 @@ class WeaklyCompressibleFluid(Material):
         self.tension, self.viscous, self.whole_gamma = flags
         self.compiled_gamma = self.whole_gamma is not None
 
-    def constants(self, dt: float) -> dict:
+    def constants(self, dt: float, h: float) -> dict:
         return {"density": self.density, "k_over_gamma": self.bulk_modulus / self.gamma,
                 "minus_gamma": -self.gamma, "viscosity_over_dt": self.viscosity / dt}
 

@@ -59,7 +59,7 @@ class Hypoelastic1D(Material):
     def has_energy_function(cls, flags: tuple) -> bool:
         return bool(flags[1])  # exactly integrated: sigma is a function of F
 
-    def constants(self, dt: float) -> dict:
+    def constants(self, dt: float, h: float) -> dict:
         return {"E": self.E, "density": self.density}
 
     @ti.func

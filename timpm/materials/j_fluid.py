@@ -36,7 +36,7 @@ class JFluid(Material):
     def parameters(self) -> dict:
         return {"bulk_modulus": self.bulk_modulus, "density": self.density}
 
-    def constants(self, dt: float) -> dict:
+    def constants(self, dt: float, h: float) -> dict:
         return {"density": self.density, "bulk_modulus": self.bulk_modulus}
 
     @ti.func

@@ -90,10 +90,10 @@ class MohrCoulomb(SolidMaterial):
         """2 c cos(phi): the surface's intercept, (t1 - t3) + (t1 + t3) sin(phi) at yield."""
         return 2.0 * self.cohesion * math.cos(math.radians(self.friction_angle))
 
-    def constants(self, dt: float) -> dict:
+    def constants(self, dt: float, h: float) -> dict:
         phi, psi = math.radians(self.friction_angle), math.radians(self.dilation_angle)
         tension = self.apex if self.tensile_strength is None else self.tensile_strength
-        return {**super().constants(dt), "sin_phi": math.sin(phi), "sin_psi": math.sin(psi),
+        return {**super().constants(dt, h), "sin_phi": math.sin(phi), "sin_psi": math.sin(psi),
                 "two_c_cos_phi": self.two_c_cos_phi, "apex": self.apex,
                 "tension": tension, "bulk3": 3.0 * self.lam + 2.0 * self.mu}
 

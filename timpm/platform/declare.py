@@ -22,13 +22,15 @@ class Field:
     "matrix" (dim x dim) or a tuple of sizes; ``dtype`` "real" (the run's precision) or
     "int" (32 bits); ``initial`` the value a new scene starts from ("identity" for a
     matrix's I, a number otherwise); ``scratch``: written and read within a step (not part
-    of the state that is saved, restored and checkpointed); ``doc`` what it holds."""
+    of the state that is saved, restored and checkpointed); ``scatter``: a grid field P2G
+    adds to (the private scatter keeps a copy of it per thread); ``doc`` what it holds."""
 
     shape: object = "scalar"
     dtype: str = "real"
     initial: object = 0.0
     doc: str = ""
     scratch: bool = False
+    scatter: bool = False
 
     def entries(self, dim) -> tuple:
         """The entry's shape in ``dim`` dimensions: () a scalar, (n,) a vector, (n, m)."""

@@ -13,7 +13,8 @@ from ..model.geostatic import K0, GravityLoading
 from ..model.world import PRESETS, Ball, Body, Box, Polygon, Prism, Wall, World
 from .keypaths import key_lines, parse_path
 from .reader import Reader, apply_overrides, describe, read_toml, suggest
-from .schema import (BODY, DOMAIN, INITIAL_STRESS, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
+from ..studies.landslide import Landslide
+from .schema import (BODY, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
                      PROBLEM_OUTPUT, PROBLEM_TABLES, SHAPE_KEYS, SIMULATION, TRACTION, WALL,
                      WORLD_TABLES, material_schema)
 
@@ -66,10 +67,19 @@ def _top_level(reader, data, tables, form):
 
 def _output(reader, data, keys):
     schema = {k: OUTPUT[k] for k in keys}
-    out = reader.table(("output",), data.get("output", {}), schema)
+    out = reader.table(("output",), data.get("output", {}), schema, skip=("landslide",))
     if out.get("vtk") is not None and out.get("npz") is not None:
         raise reader.error(("output", "npz"), "give vtk or npz, not both: one field format")
-    return {**{k: OUTPUT[k].default for k in keys}, **out}
+    out = {**{k: OUTPUT[k].default for k in keys}, **out}
+    spec = data.get("output", {}).get("landslide")
+    if spec is not None:  # (a world's: a problem's schema has no such key)
+        where = ("output", "landslide")
+        t = reader.table(where, spec, LANDSLIDE)
+        try:
+            out["landslide"] = Landslide(toe=t["toe"], height=t["height"])
+        except ValueError as err:
+            raise reader.error(where, str(err)) from None
+    return out
 
 
 def _problem_scene(reader, data, path) -> SceneFile:
@@ -280,6 +290,9 @@ def _world_scene(reader, data, path) -> SceneFile:
             raise reader.error(("initial_stress",), str(err)) from None
     if output["gif"] is not None and dim == 1:
         raise reader.error(("output", "gif"), "a 1D world draws no GIF")
+    if output.get("landslide") is not None and dim != 2:
+        raise reader.error(("output", "landslide"), f"a landslide is measured in 2D (a slope "
+                           f"facing +x), the domain is {dim}D")
     name = sim.get("name", path.stem)
     try:
         world = World(domain=domain["size"], cells=domain["cells"], bodies=bodies,

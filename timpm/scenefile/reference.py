@@ -1,7 +1,7 @@
 """The schema as documentation: the key tables of docs/scene_files.md."""
 from ..materials import MATERIALS
 from ..schemes import TRANSFERS, scheme_params
-from .schema import (BODY, DOMAIN, INITIAL_STRESS, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
+from .schema import (BODY, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
                      REQUIRED, SIMULATION,
                      TRACTION, TYPES, WALL, material_schema)
 
@@ -74,5 +74,6 @@ def schema_reference() -> str:
     parts.append(_markdown({"type": MATERIAL_TYPE}, "[material.NAME]"))
     for kind in MATERIALS:  # each law's parameters, as its file declares them
         parts.append(_law_parameters(kind, f'[material.NAME] with type = "{kind}"'))
-    parts += [_markdown(OUTPUT, "[output]"), _markdown(PROBLEM, "[problem]")]
+    parts += [_markdown(OUTPUT, "[output]"), _markdown(LANDSLIDE, "[output.landslide]"),
+              _markdown(PROBLEM, "[problem]")]
     return "\n\n".join(parts) + "\n"

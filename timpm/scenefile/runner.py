@@ -30,6 +30,8 @@ class SceneResult:
     record: dict | None = None
     series: dict = field(default_factory=dict)
     interrupted: bool = False
+    #: what the run measured (``landslide``: its run-out and retrogressions)
+    summary: dict = field(default_factory=dict)
 
     def report(self) -> str:
         rate = self.particles * self.steps / max(self.simulation_seconds, 1e-12) / 1e6
@@ -41,6 +43,11 @@ class SceneResult:
         if self.record is not None and self.record.get("rms_error") is not None:
             lines.append(f"  e_RMS = {self.record['rms_error']:.4e} ({self.record['elements']} "
                          f"elements, {self.record['ppc']} PPC, {self.record['basis']})")
+        slide = self.summary.get("landslide")
+        if slide is not None:
+            lines.append(f"  landslide: run-out {slide['runout']:.3g} m beyond the toe "
+                         f"({slide['runout_over_H']:.3g} H), scarp {slide['scarp_retreat']:.3g}"
+                         f" m back, {slide['retrogressions']} retrogression(s)")
         if self.files:
             lines.append(f"  wrote {', '.join(self.files)}")
         return "\n".join(lines)
@@ -54,6 +61,7 @@ class SceneResult:
             doc["record"] = self.record
         if self.interrupted:
             doc["interrupted"] = True
+        doc.update(self.summary)
         doc["series"] = {k: np.asarray(v).tolist() for k, v in self.series.items()}
         return doc
 
@@ -260,8 +268,16 @@ def _frames_saved(scene, solver, run, checkpoint, movie, t_end, frames, **option
     exception.  Returns the :class:`SceneResult`."""
     from ..scenarios.demos import run_frames
 
+    slide, measured = scene.output.get("landslide"), {}
+    if slide is not None:  # the frames' front and scarp (timpm.studies.landslide)
+        x0 = scene.world.model.positions
+
+        def observe(s, t):
+            return slide.observe(x0, s.positions(), s.h)
+
+        options["observe"] = observe
     try:
-        run_frames(solver, t_end, frames, movie=movie, **options)
+        measured = run_frames(solver, t_end, frames, movie=movie, **options)
     except RunInterrupted as stop:  # Ctrl-C: keep the state, the frames so far
         if movie is not None:
             movie.close()
@@ -271,13 +287,18 @@ def _frames_saved(scene, solver, run, checkpoint, movie, t_end, frames, **option
         raise
     if movie is not None:
         movie.close()
+    result = _world_result(scene, solver, movie)
+    if slide is not None:
+        result.summary["landslide"] = slide.summary(measured, solver.h)
+        result.series.update(landslide_t=measured["t"], front=measured["front"],
+                             scarp=measured["scarp"])
     if checkpoint:
         try:
             save_checkpoint(checkpoint, solver, run)
         except OSError as err:  # the run's record is not lost with its checkpoint
-            err.result = _world_result(scene, solver, movie)
+            err.result = result
             raise
-    return _world_result(scene, solver, movie)
+    return result
 
 
 def resume_scene(saved, t_end, mode=None, fields=None, frames=20, checkpoint=None,

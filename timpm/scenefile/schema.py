@@ -166,6 +166,17 @@ OUTPUT = {
                        "rho g H or rho c v0, plastic strain to 1)"),
     "fps": Key("count", 20, doc="GIF frames per second"),
     "width": Key("count", 640, unit="px", doc="GIF width (320 to 8192)"),
+    "landslide": Key("table", None, doc="a slope that fails (2D, facing +x, ground from y = "
+                     "0): {toe = the x of its toe, height = its height H} (m); the JSON gets "
+                     "the run-out beyond the toe, the scarp's retreat and the retrogressions "
+                     "(timpm.studies.landslide)"),
+}
+#: the keys of [output.landslide]
+LANDSLIDE = {
+    "toe": Key("number", unit="m", doc="x of the slope's toe (the run-out is measured from "
+               "it)"),
+    "height": Key("positive", unit="m", doc="the slope's height H (the thresholds are "
+                  "shares of it)"),
 }
 #: the output keys a problem run writes
 PROBLEM_OUTPUT = ("frames", "vtk", "npz", "json")

@@ -21,6 +21,10 @@ class Affine(Scheme):
     """See the module."""
 
     transfers = ("apic", "mls-mpm")
+    affine = True
+    #: a variant's own P2G at each stencil node (``p2g_node``) and grid update at each node
+    #: (``after_velocity``): compiled in only where a variant sets this
+    extended = False
 
     @classmethod
     def check(cls, transfer, dim, basis, mass, projection, damping, params):
@@ -120,7 +124,16 @@ class Affine(Scheme):
                         self.scatter.add("node_mass", copy, node, mp * phi)
                         self.scatter.add("node_momentum", copy, node,
                                          momentum - values.dt() * (stress_volume @ grad))
+                        if ti.static(self.extended):
+                            self.p2g_node(values, copy, node, phi, momentum, fp)
         return base, inside, node_values
+
+    @ti.func
+    def p2g_node(self, values: ti.template(), copy, node, phi, momentum, fp):
+        """A variant's own P2G at a stencil node (``extended``): ``momentum`` is APIC's
+        phi_i (m_p v_p + m_p C_p (x_i - x_p) + dt f_p), ``fp`` the particle's external force
+        (nothing here)."""
+        pass
 
     @ti.func
     def velocity_node(self, grid: ti.template(), values: ti.template(), I):
@@ -139,12 +152,21 @@ class Affine(Scheme):
                 if self.boundary.is_fixed(I):
                     v = self.boundary.prescribed_velocity(I, True)
             grid.node_new_velocity[I] = v
+            if ti.static(self.extended):
+                self.after_velocity(grid, values, I, m)
             if ti.static(self.f.strain_remap):
                 grid.node_mass[I] = m  # P cleared for the remap
                 grid.node_momentum[I] = ti.Vector.zero(float, self.dim)
             elif ti.static(not self.f.private_scatter):
                 grid.node_mass[I] = 0.0
                 grid.node_momentum[I] = ti.Vector.zero(float, self.dim)
+
+    @ti.func
+    def after_velocity(self, grid: ti.template(), values: ti.template(), I, m):
+        """A variant's own grid update at node I (``extended``) after v_i, with the node's
+        mass m (the private copies summed); before m_i and P_i are cleared (nothing
+        here)."""
+        pass
 
     @ti.func
     def remap_particle(self, particles: ti.template(), grid: ti.template(),

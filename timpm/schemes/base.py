@@ -39,6 +39,8 @@ class Scheme:
 
     #: the names of ``Model.transfer`` this scheme runs
     transfers = ()
+    #: an affine transfer (an affine velocity C_p, the forces folded into the momentum)
+    affine = False
     #: its parameters: name -> Param
     PARAMS = {}
 

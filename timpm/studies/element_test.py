@@ -31,78 +31,80 @@ DEFAULTS = dict(E=1e5, nu=0.3, density=2000.0, friction_angle=30.0, cohesion=10.
                 dilation_angle=0.0, confinement=100.0, axial_strain=0.03, increments=600)
 
 
-@ti.data_oriented
 class ElementTest:
-    """A material point of one law in ``dim`` dimensions (the particle state the law's
-    ``update`` reads: ``F``, ``plastic``, ``ezz``, ``m``, ``vol``), driven by velocity
-    gradients.  ``trial(grad)`` applies one increment to the committed state and returns
-    sigma_xx; ``commit()`` keeps it and returns the state."""
+    """A material point of one law in ``dim`` dimensions, driven by velocity gradients: the
+    particle state the law's ``update`` reads (the mass, the volume and the state the law
+    declares it keeps, ``Material.particle_fields``: ``F``, ``plastic``, a hardening
+    variable ...) beside the total deformation gradient and the stress.  ``trial(grad)``
+    applies one increment to the committed state and returns sigma_xx; ``commit()`` keeps
+    it and returns the state."""
 
     def __init__(self, material, dim):
         from ..engine.params import ParamBlock
+        from ..engine.scatter import accumulate_in
+        from ..engine.views import MaterialState
 
         if dim not in material.dims:
             raise ValueError(f"{material.name} is written for {material.dims}-D, not {dim}-D")
         self.material, self.dim = material, dim
-        self.update_volume = True
         d, real = dim, float
         fb = ti.FieldsBuilder()
         block = ParamBlock({"m0": {name: "real" for name in material.CONSTANTS}}, real, fb)
         self._block = block
         unit = type(material).unit(material.flags(), block.groups["m0"])
         # entry 0: the committed state; entry 1: an increment tried from it
-        self.F, self.F_total = ti.Matrix.field(d, d, real), ti.Matrix.field(d, d, real)
-        self.sigma = ti.Matrix.field(d, d, real)
-        self.m, self.vol, self.plastic = ti.field(real), ti.field(real), ti.field(real)
-        self.ezz = ti.field(real)
-        fb.dense(ti.i, 2).place(self.F, self.F_total, self.sigma, self.m, self.vol,
-                                self.plastic, self.ezz)
-        # the committed state packed for one read: sigma, F_total, F (d x d each), plastic,
-        # ezz, V / V0
+        self.declared = type(material).particle_fields(dim)
+        law = {name: _field(fld, d, real) for name, fld in self.declared.items()}
+        self.fields = {"F_total": ti.Matrix.field(d, d, real),
+                       "sigma": ti.Matrix.field(d, d, real), "m": ti.field(real),
+                       "vol": ti.field(real), **law}
+        fb.dense(ti.i, 2).place(*self.fields.values())
+        # the committed state packed for one read: each field's entries in turn, then V / V0
+        self.columns, size = {}, 0
+        for name, fld in self.fields.items():
+            n = fld.n * fld.m if isinstance(fld, ti.MatrixField) else 1
+            self.columns[name] = (size, n)
+            size += n
         self.pack = ti.field(real)
-        fb.dense(ti.i, 3 * d * d + 3).place(self.pack)
+        fb.dense(ti.i, size + 1).place(self.pack)
         self._tree = fb.finalize()
         self.set_material(material)
-        self.needs = material.needs
-        s = self
+        state = self.state = MaterialState(self.fields, dim, True, accumulate_in("serial"))
+        F_total, sigma, vol, m = (self.fields[k] for k in ("F_total", "sigma", "vol", "m"))
+        names, columns, pack = tuple(law), self.columns, self.pack
 
         @ti.kernel
         def trial(grad: ti.types.matrix(d, d, real)) -> real:
             # the increment from the committed state; returns sigma_xx
             sxx = 0.0
             for _ in range(1):
-                s.F[1] = s.F[0]
-                s.plastic[1] = s.plastic[0]
-                s.ezz[1] = s.ezz[0]
-                s.F_total[1] = (ti.Matrix.identity(real, d) + grad) @ s.F_total[0]
-                s.vol[1] = s.m[1] / unit.c.density() * s.F_total[1].determinant()
-                s.sigma[1] = unit.update(s, 1, grad, s.sigma[0])
-                sxx = s.sigma[1][0, 0]
+                for name in ti.static(names):
+                    ti.static(law[name])[1] = ti.static(law[name])[0]
+                F_total[1] = (ti.Matrix.identity(real, d) + grad) @ F_total[0]
+                vol[1] = m[1] / unit.c.density() * F_total[1].determinant()
+                sigma[1] = unit.update(state, 1, grad, sigma[0])
+                sxx = sigma[1][0, 0]
             return sxx
 
         @ti.kernel
         def commit():
             # the tried increment kept, and packed for one read
             for _ in range(1):
-                s.F[0] = s.F[1]
-                s.F_total[0] = s.F_total[1]
-                s.plastic[0] = s.plastic[1]
-                s.ezz[0] = s.ezz[1]
-                s.vol[0] = s.vol[1]
-                s.sigma[0] = s.sigma[1]
-                for i, j in ti.static(ti.ndrange(d, d)):
-                    s.pack[i * d + j] = s.sigma[0][i, j]
-                    s.pack[d * d + i * d + j] = s.F_total[0][i, j]
-                    s.pack[2 * d * d + i * d + j] = s.F[0][i, j]
-                s.pack[3 * d * d] = s.plastic[0]
-                s.pack[3 * d * d + 1] = s.ezz[0]
-                s.pack[3 * d * d + 2] = s.vol[0] * unit.c.density() / s.m[0]
+                for name in ti.static(tuple(self.fields)):
+                    fld = ti.static(self.fields[name])
+                    fld[0] = fld[1]
+                    col, n = ti.static(columns[name])
+                    if ti.static(n == 1):
+                        pack[col] = fld[0]
+                    elif ti.static(fld.m > 1):  # a matrix, row by row
+                        for k in ti.static(range(n)):
+                            pack[col + k] = fld[0][k // d, k % d]
+                    else:
+                        for k in ti.static(range(n)):
+                            pack[col + k] = fld[0][k]
+                pack[size] = vol[0] * unit.c.density() / m[0]
 
         self._trial, self._commit = trial, commit
-
-    @ti.func
-    def accumulate(self, ref: ti.template(), value):
-        ref += value
 
     #: the points built in this process, by (law, its compile-time flags, dimension): a
     #: law's constants are run-time values, so one compiled point serves every sample
@@ -122,45 +124,70 @@ class ElementTest:
     def set_material(self, material):
         """This point's law takes ``material``'s constants (same law and flags)."""
         self.material = material
-        self._block.set("m0", material.constants(1.0))
+        self._block.set("m0", material.constants(1.0, 1.0))  # (one point: h = 1)
         self._block.upload()
         self.generation = _generation()  # the Taichi start its fields belong to
 
     def start(self, confinement):
         """The sample under the pressure ``confinement`` all round, the reference
-        configuration (F_total = I, V = V0): the elastic strain -p / (3 lambda + 2 mu) along
-        every axis (out of plane too)."""
+        configuration (F_total = I, V = V0): the state the law takes from that stress
+        (``Material.initial_state``: a Hencky law's elastic strain -p / (3 lambda + 2 mu)
+        along every axis, out of plane too), its other fields at their initial values."""
         mat, d = self.material, self.dim
-        e = -confinement / (3.0 * mat.lam + 2.0 * mat.mu)
-        self.F.from_numpy(np.broadcast_to(np.eye(d) * math.exp(e), (2, d, d)).copy())
-        self.F_total.from_numpy(np.broadcast_to(np.eye(d), (2, d, d)).copy())
-        self.sigma.from_numpy(np.broadcast_to(-confinement * np.eye(d), (2, d, d)).copy())
-        self.m.from_numpy(np.full(2, mat.density))
-        self.vol.from_numpy(np.ones(2))
-        self.plastic.from_numpy(np.zeros(2))
-        self.ezz.from_numpy(np.full(2, e))
+        stress = -confinement * np.eye(3)[None]
+        start = mat.initial_state(stress, d)
+        values = {"F_total": np.eye(d), "sigma": -confinement * np.eye(d),
+                  "m": mat.density, "vol": 1.0}
+        for name, fld in self.declared.items():
+            if name in start:
+                values[name] = np.asarray(start[name])[0]
+            elif fld.initial == "identity":
+                values[name] = np.eye(d)
+            else:
+                values[name] = np.full(fld.entries(d), float(fld.initial))
+        for name, fld in self.fields.items():
+            value = np.asarray(values[name], dtype=float)
+            fld.from_numpy(np.broadcast_to(value, (2,) + value.shape).copy())
 
     def trial(self, grad) -> float:
         """sigma_xx after the increment ``grad`` from the committed state."""
         return float(self._trial(np.asarray(grad, dtype=float)))
 
     def commit(self) -> dict:
-        """Keep the tried increment; returns the committed state (one read)."""
+        """Keep the tried increment; returns the committed state (one read): every field by
+        name, scalars as floats."""
         self._commit()
         a, d = self.pack.to_numpy(), self.dim
-        return {"sigma": a[:d * d].reshape(d, d), "F_total": a[d * d:2 * d * d].reshape(d, d),
-                "F": a[2 * d * d:3 * d * d].reshape(d, d), "plastic": float(a[3 * d * d]),
-                "ezz": float(a[3 * d * d + 1])}
+        out = {}
+        for name, (col, n) in self.columns.items():
+            entry = a[col:col + n]
+            out[name] = float(entry[0]) if n == 1 else entry.reshape((d, d) if n == d * d
+                                                                      else (n,))
+        return out
 
 
-#: the laws an element test takes (their classes take the DEFAULTS' material names)
-LAWS = ("mohr-coulomb", "drucker-prager")
+def _soil_laws():
+    """The laws an element test takes: the registry's soil laws (a friction angle and a
+    cohesion, a closed-form peak deviator), in its order."""
+    from ..materials import MATERIALS
+
+    return tuple(name for name, cls in MATERIALS.items()
+                 if {"friction_angle", "cohesion"} <= set(cls.PARAMS)
+                 and hasattr(cls, "peak_deviator"))
+
+
+#: the laws an element test takes
+LAWS = _soil_laws()
 
 
 def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **params):
     """Run an element test (``ELEMENT_TESTS``) of a sample of ``law`` (``LAWS``), ``params``
-    overriding ``DEFAULTS``; returns the record (numbers and the stress path)."""
-    from ..materials import DruckerPrager, MohrCoulomb
+    overriding ``DEFAULTS`` (and setting the law's own parameters, ``Material.PARAMS``);
+    returns the record (numbers, the stress path and the series of the scalar state the
+    law keeps: ``plastic``, a hardening variable)."""
+    import inspect
+
+    from ..materials import MATERIALS
 
     if law not in LAWS:
         raise ValueError(f"unknown law {law!r}: an element test takes {', '.join(LAWS)}")
@@ -168,10 +195,12 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
     if test not in ELEMENT_TESTS:
         raise ValueError(f"unknown element test {test!r}: choose one of "
                          f"{', '.join(ELEMENT_TESTS)}")
-    unknown = set(params) - set(DEFAULTS)
+    cls = MATERIALS[law]
+    known = list(DEFAULTS) + [k for k in cls.PARAMS if k not in DEFAULTS]
+    unknown = set(params) - set(known)
     if unknown:
         raise ValueError(f"{test} has no parameter {', '.join(sorted(unknown))}; its "
-                         f"parameters are {', '.join(DEFAULTS)}")
+                         f"parameters are {', '.join(known)}")
     p = {**DEFAULTS, **params}
     confinement, axial, n = float(p["confinement"]), float(p["axial_strain"]), p["increments"]
     if not (confinement >= 0.0 and math.isfinite(confinement)):
@@ -182,10 +211,8 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
         n = int(n)
     if isinstance(n, bool) or not isinstance(n, int) or not (10 <= n <= 1_000_000):
         raise ValueError(f"{test}: increments must be a whole number in [10, 1e6], got {n!r}")
-    cls = MohrCoulomb if law == "mohr-coulomb" else DruckerPrager
-    material = cls(E=p["E"], nu=p["nu"], density=p["density"],
-                   friction_angle=p["friction_angle"], cohesion=p["cohesion"],
-                   dilation_angle=p["dilation_angle"])
+    takes = inspect.signature(cls.__init__).parameters
+    material = cls(**{k: v for k, v in p.items() if k in takes})
     dim = ELEMENT_TESTS[test]
     t0 = time.perf_counter()
     point = ElementTest.of(material, dim)
@@ -197,8 +224,10 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
     eps_a, q, mean, vol, plastic = [0.0], [0.0], [confinement], [0.0], [0.0]
     # the plastic parts of the axial shortening and of ln J: the total less the change of
     # the elastic log strains (coaxial: F_e stays diagonal)
-    e0 = _elastic_log_strains(point.dim, {"F": point.F.to_numpy()[0],
-                                          "ezz": float(point.ezz.to_numpy()[0])})
+    first = point.commit()  # (the committed start, unchanged)
+    e0 = _elastic_log_strains(point.dim, first)
+    kept = [name for name, fld in point.declared.items() if fld.shape == "scalar"]
+    state_series = {name: [first[name]] for name in kept}
     plastic_axial, plastic_volume = [0.0], [0.0]
     tol = 1e-10 * max(confinement, material.cohesion, 1.0)
     for k in range(n):
@@ -223,7 +252,9 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
             total += float((material.lam * e.sum() + 2.0 * material.mu * e[2]) / J)
         mean.append(-total / 3.0)
         vol.append(math.log(J))
-        plastic.append(state["plastic"])
+        plastic.append(state.get("plastic", 0.0))
+        for name in kept:
+            state_series[name].append(state[name])
         if progress is not None and (k + 1) % max(1, n // 10) == 0:
             progress(k + 1, n)
     q_arr = np.array(q)
@@ -240,7 +271,8 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
         "series": {"axial_strain": eps_a, "deviator": q, "mean_stress": mean,
                    "volumetric_strain": vol, "plastic_strain": plastic,
                    "plastic_axial_strain": plastic_axial,
-                   "plastic_volumetric_strain": plastic_volume},
+                   "plastic_volumetric_strain": plastic_volume,
+                   "state": state_series},
     }
 
 
@@ -292,12 +324,23 @@ def _increment(dim, axial, lateral, x):
 
 def _elastic_log_strains(dim, state):
     """The elastic log strains along x, y, z of a committed state (coaxial loading: F_e
-    diagonal; in 2D the out-of-plane one from ``ezz``)."""
+    diagonal; in 2D the out-of-plane one from ``ezz``, zero for a law that keeps none)."""
     F = state["F"]
     e = [math.log(F[k, k]) for k in range(dim)]
     if dim == 2:
-        e.append(state["ezz"])
+        e.append(state.get("ezz", 0.0))
     return np.array(e)
+
+
+def _field(fld, d, real):
+    """The Taichi field of a declaration (``timpm.platform.declare.Field``)."""
+    entries = fld.entries(d)
+    dtype = ti.i32 if fld.dtype == "int" else real
+    if not entries:
+        return ti.field(dtype)
+    if len(entries) == 1:
+        return ti.Vector.field(entries[0], dtype)
+    return ti.Matrix.field(entries[0], entries[1], dtype)
 
 
 def plot_element_test(record, path):
