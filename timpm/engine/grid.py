@@ -13,12 +13,11 @@ __all__ = ["Boundary", "GridSolve", "NODE_NAMES"]
 #: names Solver.read and the checkpoints take): the mass m_i; the momentum P_i that P2G
 #: scatters, turned into the velocity v_i in place by the mass solve; the force F_i, turned
 #: into the acceleration a_i in place (the affine midpoint iteration keeps its v_i^(n+1)
-#: there); the displacement u_i; a scheme's new velocity v_i^(n+1), the midpoint's iterate;
-#: a scheme's grid velocity before the forces (ASFLIP's v_i^n)
+#: there); the displacement u_i; a scheme's new velocity v_i^(n+1), the midpoint's iterate
+#: (a scheme names a grid field of its own in its declaration: Field.names)
 NODE_NAMES = {"node_mass": "gm", "node_momentum": "gp", "node_velocity": "gp",
               "node_force": "gf", "node_acceleration": "gf", "node_end_velocity": "gf",
-              "node_displacement": "gu", "node_new_velocity": "gv",
-              "node_old_velocity": "gv0"}
+              "node_displacement": "gu", "node_new_velocity": "gv"}
 
 
 class Boundary:

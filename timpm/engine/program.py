@@ -186,13 +186,17 @@ class Program:
         # (the force then the acceleration, a new velocity ...); Dirichlet nodes, their
         # prescribed velocities, the nodal displacements (1D)
         grid = {"gm": ti.field(real), "gp": ti.Vector.field(d, real)}
-        scattered = []  # the scheme's own grid fields that P2G adds to
+        # the grid as the kernels name it: the engine's names, and those the scheme's own
+        # fields declare; the fields P2G adds to (a copy each for the private scatter)
+        names, scattered = dict(NODE_NAMES), []
         integrator = INTEGRATORS[f.integrator]
         for owner in (self.scheme_class,) + (() if integrator is None else (integrator,)):
             for name, fld in owner.grid_fields(f).items():
                 grid.setdefault(name, _taichi_field(fld, d, real))
+                names.update({alias: name for alias in fld.names})
                 if fld.scatter:
-                    scattered.append(name)
+                    scattered.append(fld.names[0] if fld.names else
+                                     next(k for k, v in NODE_NAMES.items() if v == name))
         if f.fixed:
             grid["fixed"] = ti.field(ti.i32)
         if f.prescribed is not None:
@@ -207,9 +211,8 @@ class Program:
         # copy axis: no branch on the thread per add), summed into the grid afterwards
         self.copies = {}
         if f.private_scatter:
-            kernel_name = {key: name for name, key in reversed(NODE_NAMES.items())}
             for name in (["node_mass", "node_momentum"] + ([] if f.affine else ["node_force"])
-                         + [kernel_name[key] for key in scattered]):
+                         + scattered):
                 self.copies[name] = (ti.field(real) if name == "node_mass"
                                      else ti.Vector.field(d, real))
             fb.dense(ti.axes(*range(d + 1)), (f.n_copies, *cap.nodes)).place(
@@ -286,7 +289,7 @@ class Program:
         for group in (particle, grid, scratch, run):
             for name, fld in group.items():
                 setattr(self, name, fld)
-        for name, key in NODE_NAMES.items():  # the grid as the kernels name it (grid.py)
+        for name, key in names.items():  # the grid as the kernels name it (grid.py)
             if key in grid:
                 setattr(self, name, grid[key])
         # the state the units and the scheme's phases receive (views.py): the particles
@@ -294,7 +297,7 @@ class Program:
         # mass's and the MLS projections' scratch
         self.particles = FieldView("particle", {**particle, **stages})
         self.grid = FieldView("grid", {
-            **{name: grid[key] for name, key in NODE_NAMES.items() if key in grid},
+            **{name: grid[key] for name, key in names.items() if key in grid},
             **{name: grid[name] for name in ("fixed", "fixed_v") if name in grid},
             **{name: scratch[name] for name in GRID_SCRATCH if name in scratch}},
             storage=grid)

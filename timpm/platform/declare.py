@@ -23,7 +23,9 @@ class Field:
     "int" (32 bits); ``initial`` the value a new scene starts from ("identity" for a
     matrix's I, a number otherwise); ``scratch``: written and read within a step (not part
     of the state that is saved, restored and checkpointed); ``scatter``: a grid field P2G
-    adds to (the private scatter keeps a copy of it per thread); ``doc`` what it holds."""
+    adds to (the private scatter keeps a copy of it per thread); ``names``: the names the
+    kernels read a grid field by (``grid.node_old_velocity``), where it is not one of the
+    engine's (``engine/grid.py``'s ``NODE_NAMES``); ``doc`` what it holds."""
 
     shape: object = "scalar"
     dtype: str = "real"
@@ -31,6 +33,7 @@ class Field:
     doc: str = ""
     scratch: bool = False
     scatter: bool = False
+    names: tuple = ()
 
     def entries(self, dim) -> tuple:
         """The entry's shape in ``dim`` dimensions: () a scalar, (n,) a vector, (n, m)."""
