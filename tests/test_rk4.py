@@ -71,8 +71,8 @@ def _mms_model(**changes):
 @pytest.mark.parametrize("changes, message", [
     (dict(integrator="rk2"), "unknown integrator 'rk2'"),
     (dict(damping=0.1), "local damping"),
-    (dict(transfer="apic", basis="uniform-bspline3", mass_matrix="lumped",
-          projection="standard"), "the apic transfer"),
+    (dict(transfer="apic", transfer_params=None, basis="uniform-bspline3",
+          mass_matrix="lumped", projection="standard"), r"the apic transfer \(it takes musl\)"),
     (dict(mass_matrix="lumped", projection="standard", fixed_nodes=(),
           walls=(Wall("slip"), Wall("roller"))), "slip, friction or driven walls"),
 ])

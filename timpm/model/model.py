@@ -55,6 +55,11 @@ INTEGRATORS = ("euler-cromer", "rk4", "midpoint")
 CRITICAL_STEP_FACTOR = {"euler-cromer": 1.0, "rk4": math.sqrt(2.0), "midpoint": 1.0}
 
 
+def _integrators(transfer):
+    """The integrators every scheme of ``transfer`` lets replace its step."""
+    return set.intersection(*(set(cls.integrators) for cls in scheme_classes(transfer)))
+
+
 def pic_applies(transfer="musl", mass="lumped", projection="standard") -> bool:
     """Whether a PIC share (``pic_fraction``) blends into this scheme's velocity update:
     the musl transfer's FLIP update with the lumped mass and the standard projection."""
@@ -453,9 +458,10 @@ class Model:
         # rk4 and midpoint integrate the particles' equations of motion: every force a
         # function of the state and time, the grid velocity the mass-weighted projection
         midpoint = self.integrator == "midpoint"
+        takes = [t for t in SCHEME_TRANSFERS if self.integrator in _integrators(t)]
         conflicts = [what for what, present in (
-            (f"the {self.transfer} transfer (use musl or the midpoint integrator)",
-             not midpoint and self.transfer != "musl"),
+            (f"the {self.transfer} transfer (it takes {', '.join(takes)})",
+             self.integrator not in _integrators(self.transfer)),
             ("the study's MLS projection (linear basis, lumped mass: its nodal velocities)",
              self.projection == "mls" and basis.support == 2 and self.mass_matrix == "lumped"),
             ("local damping", self.damping > 0.0), ("a PIC fraction", self.pic_fraction > 0.0),

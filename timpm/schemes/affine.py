@@ -22,6 +22,7 @@ class Affine(Scheme):
 
     transfers = ("apic", "mls-mpm")
     affine = True
+    integrators = ("euler-cromer", "midpoint")  # the midpoint iteration on the grid
     #: a variant's own P2G at each stencil node (``p2g_node``) and grid update at each node
     #: (``after_velocity``): compiled in only where a variant sets this
     extended = False

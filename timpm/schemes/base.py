@@ -43,6 +43,10 @@ class Scheme:
     affine = False
     #: its parameters: name -> Param
     PARAMS = {}
+    #: the integrators (``Model.integrator``) that may replace its step: an integrator
+    #: calls the scheme's P2G and gathers and makes its own G2P, so a scheme whose update
+    #: is its own (a new one, until an integrator is taught it) takes only its own step
+    integrators = ("euler-cromer",)
 
     @classmethod
     def applies(cls, features) -> bool:

@@ -22,6 +22,7 @@ class MUSL(Scheme):
     """See the module."""
 
     transfers = ("musl",)
+    integrators = ("euler-cromer", "rk4", "midpoint")
 
     @staticmethod
     def grid_fields(features):
