@@ -10,6 +10,7 @@ from PIL import Image
 from timpm.platform import runtime
 from timpm.cli.main import main
 from timpm.scenarios.demos import get_demo
+from timpm.schemes import TRANSFERS
 from timpm.scenefile import OUTPUT, key_lines, load_scene, run_scene, schema_reference
 from timpm.studies.study import run_problem
 
@@ -224,8 +225,8 @@ def test_the_base_scene_loads(tmp_path):
      "unknown value 'neo-hooke' (did you mean 'neo-hookean'?)"),
     ("nu = 0.3", "poisson = 0.3", "material.jelly.poisson", "unknown key: material.jelly "
      "takes type, E, nu, density"),
-    ('transfer = "apic"', 'transfer = "flip"', "simulation.transfer",
-     "unknown value 'flip': choose one of musl, apic, mls-mpm"),
+    ('transfer = "apic"', 'transfer = "gimp"', "simulation.transfer",
+     f"unknown value 'gimp': choose one of {', '.join(TRANSFERS)}"),
 ])
 def test_a_bad_key_is_named_with_its_line(tmp_path, old, new, key, message):
     text = SCENE.replace(old, new, 1)

@@ -8,7 +8,9 @@ owns (its parameters, its particle and grid fields) it declares in its own file
 - :mod:`.musl`: the study's Modified Lagrangian step (2.2.4, Euler-Cromer);
 - :mod:`.pic_blend`: MUSL with a PIC share b of the velocity update (two MUSL functions
   changed);
-- :mod:`.affine`: APIC (Jiang et al. 2015) and MLS-MPM (Hu et al. 2018).
+- :mod:`.affine`: APIC (Jiang et al. 2015) and MLS-MPM (Hu et al. 2018);
+- :mod:`.asflip`: APIC with FLIP shares of the velocity and position updates (Fei et al.
+  2021).
 
 An integrator replaces a scheme's step by its own phases, calling the scheme's P2G and
 gathers: :mod:`.rk4` (the classical Runge-Kutta method on the particles' equations) and
@@ -20,6 +22,7 @@ feature set is used: a variant before the scheme it changes); its ``transfers`` 
 names that the Model, the scene files and the command line accept (:data:`TRANSFERS`).
 """
 from .affine import Affine
+from .asflip import ASFLIP
 from .base import OPERATIONS, Scheme
 from .midpoint import Midpoint
 from .musl import MUSL
@@ -27,12 +30,12 @@ from .phases import Nodes, Particles, Repeat, Scatter, Whole
 from .pic_blend import PICBlend
 from .rk4 import RungeKutta
 
-__all__ = ["Scheme", "Scatter", "Particles", "Nodes", "Whole", "Repeat", "REGISTRY",
+__all__ = ["ASFLIP", "Scheme", "Scatter", "Particles", "Nodes", "Whole", "Repeat", "REGISTRY",
            "INTEGRATORS", "TRANSFERS", "OPERATIONS", "scheme_class", "scheme_classes",
            "scheme_params", "scheme_for"]
 
 #: the transfer schemes, a variant before the scheme it changes
-REGISTRY = (PICBlend, MUSL, Affine)
+REGISTRY = (PICBlend, MUSL, Affine, ASFLIP)
 #: the integrators that replace a scheme's step, by ``Model.integrator`` (None: the scheme's
 #: own Euler-Cromer step)
 INTEGRATORS = {"euler-cromer": None, "rk4": RungeKutta, "midpoint": Midpoint}
