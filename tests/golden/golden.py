@@ -65,6 +65,17 @@ def _disks(transfer, basis, steps, dim=2, cells=32, **solver_kw):
     return build
 
 
+def _slope(steps, **solver_kw):
+    def build():
+        get_demo = _demos().get_demo
+
+        # the slope demo's Mohr-Coulomb soil from its K0 stress, its strength divided by 1.6:
+        # it fails, the return mapping at work
+        world = get_demo("slope", cells_per_H=6, strength_factor=1.6).world()
+        return world, None, steps, solver_kw
+    return build
+
+
 def _dam(transfer, steps, **solver_kw):
     def build():
         get_demo = _demos().get_demo
@@ -207,6 +218,8 @@ CASES = {
     "box3d-mlsmpm-private": _box3d("mls-mpm", 20, **P, scatter="private"),
     "mpm88-serial": _mpm88(100, **S, energies=False),
     "mpm88-private": _mpm88(100, **P, scatter="private", energies=False),
+    "slope-mc-serial": _slope(300, **S),
+    "slope-mc-private": _slope(300, **P, scatter="private"),
     # added 2026-11-28 (recorded from the engine of that day, which gave these final states
     # bit for bit with the commit before it): the integrators, the PIC blend, 2D MLS
     # stress and the 2D consistent mass, which the cases above do not reach

@@ -145,18 +145,33 @@ class MohrCoulomb(SolidMaterial):
         return {"F": F, "ezz": ezz} if dim == 2 else {"F": F}
 
     @ti.func
+    def strength(self, s: ti.template(), p):
+        """The surface particle ``p`` returns to this step: (sin phi, sin psi, 2 c cos phi,
+        the apex c cot phi, the tension cut-off), here the constants; a law whose strength
+        follows a state of its own (softening) gives it from that state."""
+        return (self.c.sin_phi(), self.c.sin_psi(), self.c.two_c_cos_phi(), self.c.apex(),
+                self.c.tension())
+
+    @ti.func
+    def after_return(self, s: ti.template(), p, plastic):
+        """Advance a state of the law's own from the step's principal plastic log strains
+        ``plastic`` (any order); perfect plasticity keeps none."""
+        pass
+
+    @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         d = ti.static(s.dim)
         # principal elastic log strains; [2]: zz in 2D
         U, eps, V = self._principal_log_strains(s, self._trial_F(s, p, grad_du), 3)
         if ti.static(d == 2):
             eps[2] = s.ezz[p]
+        sin_phi, sin_psi, two_c_cos_phi, apex, tension = self.strength(s, p)
         eps_new = principal_return(eps, self.c.lam(), self.c.two_mu(), self.c.bulk3(),
-                                   self.c.sin_phi(), self.c.sin_psi(),
-                                   self.c.two_c_cos_phi(), self.c.apex(), self.c.tension())
+                                   sin_phi, sin_psi, two_c_cos_phi, apex, tension)
         plastic = eps - eps_new
         dev = plastic - plastic.sum() / 3.0
         s.accumulate(s.plastic[p], dev.norm())
+        self.after_return(s, p, plastic)
         if ti.static(d == 2):
             s.ezz[p] = eps_new[2]
         return self._hencky_stress(s, p, U, V, eps_new, eps_new.sum())
