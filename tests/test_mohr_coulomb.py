@@ -196,3 +196,18 @@ def test_drucker_prager_refuses_bad_strength(kwargs, message):
 
     with pytest.raises(ValueError, match=message):
         DruckerPrager(E=1e5, nu=0.3, density=2000.0, friction_angle=30.0, **kwargs)
+
+
+def test_an_element_test_starts_taichi_itself():
+    # from a fresh interpreter, nothing started: a Taichi assertion (prog != nullptr)
+    # before; now timpm's defaults, as a Solver does
+    import subprocess
+    import sys
+
+    code = ("from timpm.studies.element_test import run_element_test\n"
+            "r = run_element_test('biaxial-mc', increments=20)\n"
+            "print(r['peak_deviator'] / r['exact_peak_deviator'])\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert abs(float(out.stdout.split()[-1]) - 1.0) < KIRCHHOFF_CAUCHY

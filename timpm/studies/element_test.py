@@ -112,7 +112,11 @@ class ElementTest:
 
     @classmethod
     def of(cls, material, dim):
-        """A point of ``material`` in ``dim`` dimensions, compiled once per law and flags."""
+        """A point of ``material`` in ``dim`` dimensions, compiled once per law and flags
+        (Taichi started with timpm's defaults if nothing started it)."""
+        from ..platform.runtime import ensure_init
+
+        ensure_init()
         key = (type(material), material.flags(), dim)
         point = cls._BUILT.get(key)
         if point is None or point.generation != _generation():
