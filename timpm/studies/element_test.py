@@ -216,6 +216,12 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
     if isinstance(n, bool) or not isinstance(n, int) or not (10 <= n <= 1_000_000):
         raise ValueError(f"{test}: increments must be a whole number in [10, 1e6], got {n!r}")
     takes = inspect.signature(cls.__init__).parameters
+    missing = [k for k, a in takes.items() if k != "self" and a.default is a.empty
+               and k not in p]
+    if missing:
+        raise ValueError(f"{test}: the {law} law has no default for {', '.join(missing)}: "
+                         f"give {missing[0]}=VALUE (on the command line --param "
+                         f"{missing[0]}=VALUE)")
     material = cls(**{k: v for k, v in p.items() if k in takes})
     dim = ELEMENT_TESTS[test]
     t0 = time.perf_counter()
