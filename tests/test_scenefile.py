@@ -27,6 +27,7 @@ TINY = {
     "cube_drop_3d.toml": {"domain.cells": 8, "simulation.t_end": 0.02},
     "vibrating_string.toml": {"problem.t_end": 0.002},
     "slope_griffiths_lane.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
+    "retrogressive_clay_slope.toml": {"domain.cells": 50, "simulation.t_end": 0.05},
 }
 
 
