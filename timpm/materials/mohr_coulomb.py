@@ -153,6 +153,15 @@ class MohrCoulomb(SolidMaterial):
                 self.c.tension())
 
     @ti.func
+    def returned(self, s: ti.template(), p, eps):
+        """The principal elastic log strains after the return of the trial ones ``eps`` to
+        the surface of particle ``p`` (:meth:`strength`); a law whose surface moves with
+        the plastic strain of the step (softening) returns to the surface it ends on."""
+        sin_phi, sin_psi, two_c_cos_phi, apex, tension = self.strength(s, p)
+        return principal_return(eps, self.c.lam(), self.c.two_mu(), self.c.bulk3(), sin_phi,
+                                sin_psi, two_c_cos_phi, apex, tension)
+
+    @ti.func
     def after_return(self, s: ti.template(), p, plastic):
         """Advance a state of the law's own from the step's principal plastic log strains
         ``plastic`` (any order); perfect plasticity keeps none."""
@@ -165,9 +174,7 @@ class MohrCoulomb(SolidMaterial):
         U, eps, V = self._principal_log_strains(s, self._trial_F(s, p, grad_du), 3)
         if ti.static(d == 2):
             eps[2] = s.ezz[p]
-        sin_phi, sin_psi, two_c_cos_phi, apex, tension = self.strength(s, p)
-        eps_new = principal_return(eps, self.c.lam(), self.c.two_mu(), self.c.bulk3(),
-                                   sin_phi, sin_psi, two_c_cos_phi, apex, tension)
+        eps_new = self.returned(s, p, eps)
         plastic = eps - eps_new
         dev = plastic - plastic.sum() / 3.0
         s.accumulate(s.plastic[p], dev.norm())
