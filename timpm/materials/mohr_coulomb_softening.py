@@ -6,7 +6,7 @@ import math
 import taichi as ti
 
 from ..platform.declare import Field, Param
-from .mohr_coulomb import UNBOUNDED, MohrCoulomb
+from .mohr_coulomb import UNBOUNDED, MohrCoulomb, principal_return
 
 __all__ = ["MohrCoulombSoftening"]
 
@@ -28,10 +28,12 @@ class MohrCoulombSoftening(MohrCoulomb):
     grid of spacing h (the band's dissipation then does not depend on h; Wang, Vardon and
     Hicks 2016 regularised the retrogressive failures of sensitive clay slopes alike).
 
-    The return of each step goes to the surface of kappa at the step's start (explicit in
-    kappa: the strength lags one step, d kappa of a step small beside kappa_r); a tension
-    cut-off (``tensile_strength``) stays at most the apex c cot(phi) of the softened
-    surface.  ``kappa`` is the law's own particle field, beside the elastic F, ``ezz``
+    The return of each step goes to the surface of the kappa it ends at (backward Euler in
+    kappa: the stress lies on the surface of its own kappa, whatever the step), found by
+    secant steps on kappa; a tension cut-off (``tensile_strength``) stays at most the apex
+    c cot(phi) of the softened surface.  Where the softening is steeper than the elastic
+    unloading (kappa_r below about (c_p - c_r) / mu: a brittle point on a fine grid) the
+    return has no unique answer and the iteration stops after MAX_ITERATIONS returns.  ``kappa`` is the law's own particle field, beside the elastic F, ``ezz``
     (plane strain) and ``plastic`` of :class:`MohrCoulomb`.
     """
 
@@ -135,11 +137,12 @@ class MohrCoulombSoftening(MohrCoulomb):
 
     # ---- the compiled law ---------------------------------------------------------------
     @ti.func
-    def strength(self, s: ti.template(), p):
-        # the surface of kappa at the step's start: c, phi, psi from peak to residual
-        # linearly in zeta = max(0, 1 - kappa / kappa_r); the apex c cot(phi) and the
-        # tension cut-off below it follow
-        zeta = ti.max(0.0, 1.0 - s.kappa[p] / self.c.kappa_r())
+    def surface(self, kappa):
+        """The softened surface at plastic shear strain ``kappa``: (sin phi, sin psi,
+        2 c cos phi, the apex c cot phi, the tension cut-off)."""
+        # c, phi, psi from peak to residual linearly in zeta = max(0, 1 - kappa / kappa_r);
+        # the apex c cot(phi) and the tension cut-off below it follow
+        zeta = ti.max(0.0, 1.0 - kappa / self.c.kappa_r())
         c = self.c.residual_cohesion() + zeta * (self.c.cohesion() - self.c.residual_cohesion())
         phi = self.c.residual_phi() + zeta * (self.c.phi() - self.c.residual_phi())
         sin_phi = ti.sin(phi)
@@ -150,7 +153,48 @@ class MohrCoulombSoftening(MohrCoulomb):
                 ti.min(self.c.tension_cap(), apex))
 
     @ti.func
+    def strength(self, s: ti.template(), p):
+        return self.surface(s.kappa[p])
+
+    @ti.func
+    def returned(self, s: ti.template(), p, eps):
+        # the return to the surface of the kappa the step ends at (backward Euler in kappa):
+        # g(k) = kappa_n + d_kappa(return to the surface of k) - k = 0, from k = kappa_n (g
+        # = the explicit step's d_kappa >= 0; 0: elastic, one return), then a fixed-point
+        # step and secant steps; d_kappa = d eps1_p - d eps3_p of the return
+        k0 = s.kappa[p]
+        k, k_prev, g_prev = k0, k0, 0.0
+        tol = self.c.kappa_r() * ti.static(_tolerance())
+        eps_new = eps
+        for it in range(MAX_ITERATIONS):
+            sin_phi, sin_psi, two_c_cos_phi, apex, tension = self.surface(k)
+            eps_new = principal_return(eps, self.c.lam(), self.c.two_mu(), self.c.bulk3(),
+                                       sin_phi, sin_psi, two_c_cos_phi, apex, tension)
+            plastic = eps - eps_new
+            g = k0 + plastic.max() - plastic.min() - k
+            if ti.abs(g) <= tol:
+                break
+            k_next = k + g
+            if it > 0 and g != g_prev:
+                k_next = k - g * (k - k_prev) / (g - g_prev)
+            k_prev, g_prev = k, g
+            k = ti.max(k_next, k0)
+        return eps_new
+
+    @ti.func
     def after_return(self, s: ti.template(), p, plastic):
-        # d kappa = d eps1_p - d eps3_p: the largest less the smallest principal plastic
-        # log strain of the step
+        # kappa += d eps1_p - d eps3_p: the largest less the smallest principal plastic log
+        # strain of the step (the return's: kappa ends where its surface is)
         s.accumulate(s.kappa[p], plastic.max() - plastic.min())
+
+
+#: the most returns a step of one particle takes to find the kappa it ends at (the secant
+#: converges in a few where the softening is less steep than the elastic unloading)
+MAX_ITERATIONS = 12
+
+
+def _tolerance():
+    """g(k) = 0 to this share of kappa_r: the precision's round-off, well above it."""
+    from ..platform import runtime
+
+    return 1e-12 if runtime.precision() == "f64" else 1e-5
