@@ -51,7 +51,7 @@ class ElementTest:
         fb = ti.FieldsBuilder()
         block = ParamBlock({"m0": {name: "real" for name in material.CONSTANTS}}, real, fb)
         self._block = block
-        unit = type(material).unit(material.flags(), block.groups["m0"])
+        unit = self.unit = type(material).unit(material.flags(), block.groups["m0"])
         # entry 0: the committed state; entry 1: an increment tried from it
         self.declared = type(material).particle_fields(dim)
         law = {name: _field(fld, d, real) for name, fld in self.declared.items()}
@@ -62,9 +62,10 @@ class ElementTest:
         # the committed state packed for one read: each field's entries in turn, then V / V0
         self.columns, size = {}, 0
         for name, fld in self.fields.items():
-            n = fld.n * fld.m if isinstance(fld, ti.MatrixField) else 1
-            self.columns[name] = (size, n)
-            size += n
+            shape = ((fld.n, fld.m) if isinstance(fld, ti.MatrixField) and fld.ndim == 2 else
+                     (fld.n,) if isinstance(fld, ti.MatrixField) else ())
+            self.columns[name] = (size, shape)
+            size += int(np.prod(shape))
         self.pack = ti.field(real)
         fb.dense(ti.i, size + 1).place(self.pack)
         self._tree = fb.finalize()
@@ -93,14 +94,14 @@ class ElementTest:
                 for name in ti.static(tuple(self.fields)):
                     fld = ti.static(self.fields[name])
                     fld[0] = fld[1]
-                    col, n = ti.static(columns[name])
-                    if ti.static(n == 1):
+                    col, shape = ti.static(columns[name])
+                    if ti.static(len(shape) == 0):
                         pack[col] = fld[0]
-                    elif ti.static(fld.m > 1):  # a matrix, row by row
-                        for k in ti.static(range(n)):
-                            pack[col + k] = fld[0][k // d, k % d]
+                    elif ti.static(len(shape) == 2):  # a matrix, row by row
+                        for k in ti.static(range(shape[0] * shape[1])):
+                            pack[col + k] = fld[0][k // shape[1], k % shape[1]]
                     else:
-                        for k in ti.static(range(n)):
+                        for k in ti.static(range(shape[0])):
                             pack[col + k] = fld[0][k]
                 pack[size] = vol[0] * unit.c.density() / m[0]
 
@@ -136,10 +137,11 @@ class ElementTest:
         """The sample under the pressure ``confinement`` all round, the reference
         configuration (F_total = I, V = V0): the state the law takes from that stress
         (``Material.initial_state``: a Hencky law's elastic strain -p / (3 lambda + 2 mu)
-        along every axis, out of plane too), its other fields at their initial values."""
+        along every axis, out of plane too), its other fields at their initial values.
+        ``confinement = 0``: every field at its initial value (any law: unstressed)."""
         mat, d = self.material, self.dim
         stress = -confinement * np.eye(3)[None]
-        start = mat.initial_state(stress, d)
+        start = mat.initial_state(stress, d) if confinement != 0.0 else {}
         values = {"F_total": np.eye(d), "sigma": -confinement * np.eye(d),
                   "m": mat.density, "vol": 1.0}
         for name, fld in self.declared.items():
@@ -161,12 +163,11 @@ class ElementTest:
         """Keep the tried increment; returns the committed state (one read): every field by
         name, scalars as floats."""
         self._commit()
-        a, d = self.pack.to_numpy(), self.dim
+        a = self.pack.to_numpy()
         out = {}
-        for name, (col, n) in self.columns.items():
-            entry = a[col:col + n]
-            out[name] = float(entry[0]) if n == 1 else entry.reshape((d, d) if n == d * d
-                                                                      else (n,))
+        for name, (col, shape) in self.columns.items():
+            entry = a[col:col + int(np.prod(shape))]
+            out[name] = float(entry[0]) if not shape else entry.reshape(shape)
         return out
 
 
