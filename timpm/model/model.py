@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..bases import get_basis
+from ..bases import Basis, get_basis
 from ..platform.checks import check_size, positive, positive_int, vector
 from ..platform.declare import check_params
 from ..platform.errors import InputError, about
@@ -196,7 +196,7 @@ class Model:
     stress of :mod:`timpm.model.geostatic`.
     """
 
-    basis: str
+    basis: "str | type[Basis]"  # a name or a Basis class; the class once checked
     origin: tuple
     h: float
     elements: tuple

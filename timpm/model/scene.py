@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..bases import get_basis
+from ..bases import Basis, get_basis
 from ..platform.checks import check_size, finite, positive as _positive, positive_int as _positive_int
 from .loads import Constant, Ramp, Sine, Traction
 from ..materials import Hypoelastic1D
@@ -257,7 +257,7 @@ class Scene:
     volume: np.ndarray
     dt: float
     velocity: np.ndarray | None = None
-    basis: str = "linear"
+    basis: "str | type[Basis]" = "linear"  # a name or a Basis class; the class once checked
     mass: str = "lumped"
     gravity: float = 0.0
     traction: Traction | None = None

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..bases import get_basis
+from ..bases import Basis, get_basis
 from ..platform.checks import check_size, positive as _positive, positive_int, vector as _vector
 from .geometry import Polygon, Prism
 from ..platform.errors import InputError, about
@@ -241,7 +241,7 @@ class World:
     domain: tuple
     cells: int
     bodies: tuple
-    basis: str = "uniform-bspline2"
+    basis: "str | type[Basis]" = "uniform-bspline2"  # the class once checked
     transfer: str = "apic"
     gravity: tuple | None = None
     walls: object = "slip"
