@@ -528,3 +528,19 @@ def test_a_field_the_program_lacks_is_named():
     state = MaterialState({"F": 3}, 2, True, print)
     assert (state.F, state.dim, state.update_volume, state.accumulate) == (3, 2, True, print)
     assert not hasattr(state, "J")
+
+
+def test_no_module_imports_the_package_root():
+    # timpm/__init__.py re-exports the layers' names: a module below that imports it runs
+    # back up the house (the version lives in timpm.platform.version)
+    bad = [m for m, edges in GRAPH.items() if m not in EXEMPT and "timpm" in edges]
+    assert not bad, f"modules importing the package root: {', '.join(bad)}"
+
+
+def test_the_version_is_the_projects():
+    import tomllib
+
+    from timpm.platform.version import __version__
+
+    project = tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())["project"]
+    assert project["version"] == __version__

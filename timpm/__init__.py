@@ -22,7 +22,7 @@ from .model.geostatic import K0, GravityLoading
 from .simulation.loading import gravity_loading
 from .model.model import Model
 
-__version__ = "0.1.0"
+from .platform.version import __version__
 
 __all__ = [
     "taichi_backend", "BASES", "Basis", "Linear", "get_basis", "init", "Constant", "Grid1D",

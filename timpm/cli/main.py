@@ -9,7 +9,7 @@ import sys
 
 import numpy as np
 
-from .. import __version__
+from ..platform.version import __version__
 from ..platform import interrupt
 from ..platform.argtypes import (add_runtime_arguments, numbers_as_values, param, positive_float,
                                  positive_int, setting)

@@ -31,7 +31,7 @@ HEADER_KEYS = ("step", "t", "fingerprint", "columns", "energy_input", "run_secon
 def save_checkpoint(path, solver, run=None) -> str:
     """Write ``solver``'s state (and ``run``, a JSON-able description of how to rebuild its
     scene) to ``path``; returns the path."""
-    from .. import __version__
+    from ..platform.version import __version__
 
     snap = solver.snapshot()
     header = {"format": FORMAT, "version": VERSION, "timpm": __version__,

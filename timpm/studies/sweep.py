@@ -134,7 +134,7 @@ def map_runs(task, calls, *, workers=None, dask=None, on_result=None, cost=None,
     except Exception as exc:
         raise ValueError(f"the runs cannot be sent to worker processes (their arguments "
                          f"must be plain, picklable data): {exc}") from None
-    from .. import __version__
+    from ..platform.version import __version__
     from ..platform import runtime
 
     job = _Job(task, runtime.settings(), __version__, own_thread=dask is not None)
@@ -165,7 +165,7 @@ class _Job:
     def _run(self, args):
         import socket
 
-        from .. import __version__
+        from ..platform.version import __version__
         from ..platform import runtime
 
         if __version__ != self.version:
