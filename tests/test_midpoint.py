@@ -1,4 +1,4 @@
-"""The midpoint integrator (engine/midpoint.py): kinetic + stored (+ gravity's potential)
+"""The midpoint integrator (schemes/midpoint.py): kinetic + stored (+ gravity's potential)
 energy conserved to its iteration's tolerance whatever the particles' motion through the
 grid (the affine transfers: never gained), second order in time, and what it refuses."""
 import dataclasses

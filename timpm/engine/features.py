@@ -367,7 +367,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         values[name] = model.transfer_params[name]
     if features.midpoint:
         # the relaxation of vbar that balances the pass's slow and fast modes for
-        # mu = |w dt| / 2 up to dt / dt_crit (1 without an estimate; engine/midpoint.py)
+        # mu = |w dt| / 2 up to dt / dt_crit (1 without an estimate; schemes/midpoint.py)
         critical = getattr(scene, "critical_dt", None)
         mu = model.dt / critical if critical else 1.0
         values.update(midpoint_relaxation=((math.sqrt(mu * mu + 4.0) - mu) / 2.0) ** 2)

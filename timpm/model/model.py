@@ -47,7 +47,7 @@ PROJECTIONS = ("standard", "mls")
 #: semi-discrete equations dx_p/dt = sum phi_i v_i, dv_p/dt = sum phi_i a_i, dF_p/dt =
 #: (sum v_i grad phi_i^T) F_p (four grid solves a step), for laws whose stress is sigma(F);
 #: "midpoint": the energy-conserving MUSL step at the mid-step velocity and averaged stress
-#: (engine/midpoint.py), iterated within each step, for the same laws
+#: (schemes/midpoint.py), iterated within each step, for the same laws
 INTEGRATORS = ("euler-cromer", "rk4", "midpoint")
 #: each integrator's critical time step relative to Euler-Cromer's 2 / w_max: the
 #: stability limit of |w dt| on the imaginary axis, 2 for Euler-Cromer, 2 sqrt(2) for RK4;
