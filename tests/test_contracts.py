@@ -196,28 +196,41 @@ def _scheme_examples():
     from timpm.schemes.asflip import ASFLIP
     from timpm.schemes.musl import MUSL
     from timpm.schemes.pic_blend import PICBlend
+    from timpm.schemes.two_phase import TwoPhase
 
     return [(MUSL, "musl", None), (PICBlend, "musl", {"pic_fraction": 0.3}),
-            (Affine, "apic", None), (Affine, "mls-mpm", None), (ASFLIP, "asflip", None)]
+            (Affine, "apic", None), (Affine, "mls-mpm", None), (ASFLIP, "asflip", None),
+            (TwoPhase, "musl", "coupled water")]
 
 
 SCHEMES[:] = _scheme_examples()
 OMEGA = 2.0  # rad/s: the disk's spin
 
 
+#: the pore water of the two-phase scheme's disk (a stiff, permeable soil: the water
+#: flows against the skeleton, n = 0.3)
+DISK_WATER = dict(porosity=0.3, conductivity=1e-2, bulk_modulus=2e5)
+
+
 def _spinning_disk(transfer, params):
     """An elastic disk flying free (no gravity, no wall reached) with a translation and a
     spin v = v0 + omega x (x - c), its affine velocity C = omega's skew matrix where the
-    scheme keeps one."""
+    scheme keeps one; ``params`` the scheme's parameters, or "coupled water": the disk
+    saturated (``DISK_WATER``), its water spinning with it."""
+    water = params == "coupled water"
     disk = timpm.Body(timpm.Ball((0.5, 0.5), 0.2),
-                      timpm.NeoHookean(E=1e4, nu=0.3, density=1000.0), ppc=2)
+                      timpm.NeoHookean(E=1e4, nu=0.3, density=1000.0), ppc=2,
+                      water=timpm.PoreWater(**DISK_WATER) if water else None)
     world = timpm.World(domain=(1.0, 1.0), cells=24, bodies=[disk], transfer=transfer,
-                        transfer_params=params, walls="slip", gravity=(0.0, 0.0),
-                        courant=0.3)
+                        transfer_params=None if water else params, walls="slip",
+                        gravity=(0.0, 0.0), courant=0.3,
+                        water=timpm.Water("coupled") if water else None)
     solver = timpm.Solver(world, mode="serial")
     x = solver.positions()
     W = np.array([[0.0, -OMEGA], [OMEGA, 0.0]])
     solver.write("v", np.array([0.05, -0.02]) + (x - 0.5) @ W.T)
+    if water:  # the water spins at another rate: the drag pulls the phases together
+        solver.write("w", np.array([0.05, -0.02]) + 0.5 * (x - 0.5) @ W.T)
     if solver.features.affine:
         solver.set_affine(W)
     return solver
@@ -239,9 +252,19 @@ def test_a_free_body_keeps_its_mass_and_momentum(cls, transfer, params):
     solver = _spinning_disk(transfer, params)
     assert solver.program().scheme_class is cls
     m = solver.scene.mass_per_particle
-    p0 = (m[:, None] * solver.velocities()).sum(0)
+
+    def momentum():
+        """sum m_p v_p; with pore water the skeleton's and the water's, sum (m_p - mbar_p)
+        v_p + mbar_p w_p, mbar_p = n rho_w V0_p (the two-phase step's mixture)."""
+        if params != "coupled water":
+            return (m[:, None] * solver.velocities()).sum(0)
+        mbar = DISK_WATER["porosity"] * 1000.0 * solver.scene.volume
+        return (((m - mbar)[:, None] * solver.velocities())
+                + mbar[:, None] * solver.read("w")).sum(0)
+
+    p0 = momentum()
     solver.run(n_steps=200)
-    p1 = (m[:, None] * solver.velocities()).sum(0)
+    p1 = momentum()
     scale = float(np.sum(m * np.linalg.norm(solver.velocities(), axis=1)))
     assert np.abs(p1 - p0).max() <= 1e-12 * scale
     # the grid carries what the particles do: the mass P2G gave the nodes is theirs

@@ -13,14 +13,15 @@ from .platform.runtime import init
 from .bases import BASES, Basis, Linear, get_basis
 from .model.scene import (Constant, Grid1D, Material, Ramp, Scene, Sine, Traction,
                           critical_time_step, equidistant_particles)
-from .materials import (DruckerPrager, LinearElastic, MohrCoulomb, NeoHookean,
-                        WeaklyCompressibleFluid, get_material)
+from .materials import (DruckerPrager, LinearElastic, MohrCoulomb, MohrCoulombSoftening,
+                        NeoHookean, PoreWater, WeaklyCompressibleFluid, get_material)
 from .simulation.solver import SimulationError, Solver
 from .simulation.batch import Batch
 from .model.world import Ball, Body, Box, Points, Polygon, Prism, Wall, World
 from .model.geostatic import K0, GravityLoading
 from .simulation.loading import gravity_loading
 from .model.model import Model
+from .model.water import Water
 
 from .platform.version import __version__
 
@@ -30,5 +31,5 @@ __all__ = [
     "equidistant_particles",
     "SimulationError", "Solver", "Batch", "__version__", "World", "Body", "Box", "Ball", "Wall",
     "Points", "Polygon", "Prism", "K0", "GravityLoading", "gravity_loading", "Model", "LinearElastic", "NeoHookean", "DruckerPrager", "MohrCoulomb",
-    "WeaklyCompressibleFluid", "get_material",
+    "MohrCoulombSoftening", "WeaklyCompressibleFluid", "get_material", "PoreWater", "Water",
 ]

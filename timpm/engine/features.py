@@ -78,6 +78,19 @@ class FeatureSet:
     integrator: str              # "euler-cromer" (the study's), "rk4" or "midpoint"
     precision: str
     arch: str
+    water: str | None = None     # the pore water's analysis (model/water.py): "drained",
+                                 # "undrained", "coupled"; None: a dry scene
+    water_level: bool = False    # a still-water level: buoyancy below it
+
+    @property
+    def pore_pressure(self) -> bool:
+        """The particles keep an excess pore pressure (undrained and coupled analyses)."""
+        return self.water in ("undrained", "coupled")
+
+    @property
+    def coupled(self) -> bool:
+        """The single-point two-phase step (schemes/two_phase.py)."""
+        return self.water == "coupled"
 
     # ---- derived choices ---------------------------------------------------------------
     @property
@@ -345,7 +358,9 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         n_copies=n_copies, team=team_ok and requested in ("team", "auto"),
         volume_guard=volume_range is not None and not all(m.initial_volume for m in materials),
         integrator=model.integrator,
-        precision=runtime.precision(), arch=runtime.arch())
+        precision=runtime.precision(), arch=runtime.arch(),
+        water=None if model.water is None else model.water.analysis,
+        water_level=model.water is not None and model.water.level is not None)
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
         per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))
@@ -371,6 +386,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         critical = getattr(scene, "critical_dt", None)
         mu = model.dt / critical if critical else 1.0
         values.update(midpoint_relaxation=((math.sqrt(mu * mu + 4.0) - mu) / 2.0) ** 2)
+    if features.water_level:
+        values.update(water_level=model.water.level)
     if features.mls_mpm:
         D_inv = 1.0 / (basis.inertia * h ** 2)
         values.update(D_inv=D_inv, dt_D_inv=model.dt * D_inv)

@@ -18,10 +18,11 @@ class G2P:
     """See the module: the feature set, the stencil, the laws, the loads, the failure
     record, the run fields (the grid crossings) and the add of the mode."""
 
-    def __init__(self, features, stencil, laws, loads, failures, run, accumulate):
+    def __init__(self, features, stencil, laws, loads, failures, run, accumulate, pores):
         f = self.f = features
         self.dim = f.dim
         self.stencil, self.laws, self.loads, self.failures = stencil, laws, loads, failures
+        self.pores = pores
         self.run, self.accumulate = run, accumulate
         # the strain energy: W(F) V0 of a hyperelastic law, else the work sigma : d_eps V
         # integrated along the path (a field only where some material needs it)
@@ -29,8 +30,16 @@ class G2P:
 
     @ti.func
     def update(self, particles: ti.template(), values: ti.template(), p, vp, du, grad_du):
+        """The particle's state from the gathered v_p, du and grad du (below); an excess pore
+        pressure follows the skeleton's volumetric strain tr(grad du) (undrained)."""
+        self.update_with_pores(particles, values, p, vp, du, grad_du, grad_du.trace())
+
+    @ti.func
+    def update_with_pores(self, particles: ti.template(), values: ti.template(), p, vp, du,
+                          grad_du, d_eps_pores):
         # the state from the gathered v_p, du and grad du = sum_i v_i dt grad phi_i^T:
-        # V_p *= det(I + grad du), sigma_p from the law, x_p += du
+        # V_p *= det(I + grad du), sigma_p from the law on the effective stress sigma' =
+        # sigma + p_e I, then p_e -= (K_w / n) d_eps_pores, sigma = sigma' - p_e I; x_p += du
         deps = 0.5 * (grad_du + grad_du.transpose())
         vol_old = particles.vol[p]
         sig_old = particles.sigma[p]
@@ -40,7 +49,9 @@ class G2P:
             jac = self.jacobian(grad_du)
             vol_new = vol_old * jac
             particles.vol[p] = vol_new  # the materials read the new volume
-        sig_new = self.laws.update(p, grad_du, sig_old)
+        sig_new = self.laws.update(p, grad_du, self.pores.effective(particles, p, sig_old))
+        if ti.static(self.f.pore_pressure):
+            sig_new = self.pores.seen(particles, p, sig_new, d_eps_pores)
         particles.sigma[p] = sig_new
         if ti.static(self.path_work):
             # strain energy: trapezoidal path integral of sigma : d_eps V

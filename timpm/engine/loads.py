@@ -1,7 +1,8 @@
 """The external forces on a particle and the work they do: gravity, the body force
-b(X, t), the study's particle traction (1D) and surface tractions spread over a face's
-particles, each time function compiled in (the feature set), its parameter a run-time
-value."""
+b(X, t), the study's particle traction (1D), surface tractions spread over a face's
+particles and the buoyancy of the saturated particles below a still-water level
+(engine/water.py), each time function compiled in (the feature set), its parameter a
+run-time value."""
 import taichi as ti
 
 __all__ = ["Loads"]
@@ -11,11 +12,12 @@ class Loads:
     """See the module: the feature set (which loads act, their time functions), the run
     fields (the time, the external work's sum ``ext_work``) and the add of the mode."""
 
-    def __init__(self, features, run, accumulate):
+    def __init__(self, features, run, accumulate, pores):
         f = self.f = features
         self.dim = f.dim
         self.traction_fn, self.surface_fn = f.traction, f.surface_force
         self.run, self.accumulate = run, accumulate
+        self.pores = pores  # the buoyancy below a still-water level
 
     @ti.func
     def force(self, particles: ti.template(), values: ti.template(), p):
@@ -34,6 +36,8 @@ class Loads:
         if ti.static(self.f.has_surface_force):
             fp += particles.f_ext[p] * self.surface_fn.at(self.run.time[None],
                                                           values.surface_param())
+        if ti.static(self.f.water_level):
+            fp += self.pores.buoyancy(particles, p)
         return fp
 
     @ti.func
@@ -50,6 +54,8 @@ class Loads:
         if ti.static(self.f.has_surface_force):
             f_t = self.surface_fn.at(self.run.time[None], values.surface_param())
             self.add_work(f_t * particles.f_ext[p].dot(du))
+        if ti.static(self.f.water_level):
+            self.add_work(self.pores.buoyancy(particles, p).dot(du))
 
     @ti.func
     def add_work(self, work):

@@ -40,6 +40,7 @@ from .scatter import Scatter, accumulate_in
 from .stencil import Stencil
 from .uploads import Uploads
 from .views import FieldView, MaterialState
+from .water import Pores
 
 __all__ = ["Program", "declared_fields"]
 
@@ -55,6 +56,8 @@ def _param_spec(features, scheme_cls):
         spec.update(D_inv="real", dt_D_inv="real")
     if features.volume_guard:
         spec.update(volume_min="real", volume_max="real")
+    if features.water_level:
+        spec.update(water_level="real")
     spec.update({name: param.kind for name, param in scheme_cls.PARAMS.items()})
     if features.midpoint:
         spec.update(midpoint_relaxation="real")
@@ -100,6 +103,8 @@ def declared_fields(features):
 
     for cls, _ in features.materials:
         add(f"the {cls.name} law", cls.particle_fields(features.dim))
+    if features.water is not None:
+        add("the pore water", Pores.particle_fields(features))
     add("the transfer scheme", scheme_class(features).particle_fields(features))
     integrator = INTEGRATORS[features.integrator]
     if integrator is not None:
@@ -188,15 +193,15 @@ class Program:
         grid = {"gm": ti.field(real), "gp": ti.Vector.field(d, real)}
         # the grid as the kernels name it: the engine's names, and those the scheme's own
         # fields declare; the fields P2G adds to (a copy each for the private scatter)
-        names, scattered = dict(NODE_NAMES), []
+        names, scattered = dict(NODE_NAMES), {}
         integrator = INTEGRATORS[f.integrator]
         for owner in (self.scheme_class,) + (() if integrator is None else (integrator,)):
             for name, fld in owner.grid_fields(f).items():
                 grid.setdefault(name, _taichi_field(fld, d, real))
                 names.update({alias: name for alias in fld.names})
                 if fld.scatter:
-                    scattered.append(fld.names[0] if fld.names else
-                                     next(k for k, v in NODE_NAMES.items() if v == name))
+                    scattered[fld.names[0] if fld.names else
+                              next(k for k, v in NODE_NAMES.items() if v == name)] = fld
         if f.fixed:
             grid["fixed"] = ti.field(ti.i32)
         if f.prescribed is not None:
@@ -211,10 +216,11 @@ class Program:
         # copy axis: no branch on the thread per add), summed into the grid afterwards
         self.copies = {}
         if f.private_scatter:
-            for name in (["node_mass", "node_momentum"] + ([] if f.affine else ["node_force"])
-                         + scattered):
+            for name in ["node_mass", "node_momentum"] + ([] if f.affine else ["node_force"]):
                 self.copies[name] = (ti.field(real) if name == "node_mass"
                                      else ti.Vector.field(d, real))
+            for name, fld in scattered.items():  # the scheme's own, as it declares them
+                self.copies.setdefault(name, _taichi_field(fld, d, real))
             fb.dense(ti.axes(*range(d + 1)), (f.n_copies, *cap.nodes)).place(
                 *self.copies.values())
         scratch = dict(stages)
@@ -252,7 +258,7 @@ class Program:
                "err_count": ti.field(ti.i32), "err_step": ti.field(ti.i64),
                "err_where": ti.field(ti.i32), "neg_pivots": ti.field(ti.i64)}
         if f.energies and (f.traction is not None or f.body_force
-                           or f.surface_force is not None):
+                           or f.surface_force is not None or f.water_level):
             run["ext_work"] = ti.field(real)
         fb.place(*run.values())
         self.run_fields = run
@@ -340,13 +346,14 @@ class Program:
         mls = MLSProjection(f, accumulate, boundary) if f.mls and f.dim == 1 else None
         mls_nd = MLSStressND(f, stencil, accumulate) if f.mls and f.dim > 1 else None
         nodes = GridSolve(f, grid, values, boundary, stencil, accumulate, banded, cg, mls_nd)
-        loads = Loads(f, run, accumulate)
+        pores = Pores(f, values)
+        loads = Loads(f, run, accumulate, pores)
         # the compiled unit of each material, reading its constants from its group
         units = [cls.unit(flags, self.params.groups[f"m{k}"])
                  for k, (cls, flags) in enumerate(f.materials)]
         state = MaterialState(self.particles.fields, f.dim, f.update_volume, accumulate)
         laws = Laws(units, state, values)
-        g2p = G2P(f, stencil, laws, loads, failures, run, accumulate)
+        g2p = G2P(f, stencil, laws, loads, failures, run, accumulate, pores)
         self.ops = SimpleNamespace(stencil=stencil, scatter=scatter, boundary=boundary,
                                    nodes=nodes, banded=banded, cg=cg, mls=mls, mls_nd=mls_nd,
                                    loads=loads, g2p=g2p, laws=laws, failures=failures)

@@ -37,7 +37,7 @@ class Recorder:
         self.particles, self.history, self.buffer = particles, history, buffer
         self.run, self.laws, self.accumulate, self.values = run, laws, accumulate, values
         self.external_work = (features.traction is not None or features.body_force
-                              or features.surface_force is not None)
+                              or features.surface_force is not None or features.water_level)
         self.read_history = self._history_reader()
 
     @ti.func

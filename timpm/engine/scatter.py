@@ -54,6 +54,9 @@ class Scatter:
         self.grid, self.copies, self.values, self.failures = grid, copies, values, failures
         self.capacity = capacity
         self.accumulate = accumulate_in(f.mode)
+        # the copies of scalar grid fields (node_mass, a scheme's masses): cleared as 0.0
+        self.scalar_copies = frozenset(name for name, fld in copies.items()
+                                       if not hasattr(fld, "n"))
 
     @ti.func
     def one_task(self, body: ti.template()):
@@ -99,7 +102,7 @@ class Scatter:
                     total = fld[at]
                 else:
                     total += fld[at]
-                if ti.static(name == "node_mass"):
+                if ti.static(name in self.scalar_copies):
                     fld[at] = 0.0
                 else:
                     fld[at] = ti.Vector.zero(float, self.dim)

@@ -97,7 +97,10 @@ class State:
             "precision": f.precision, "tracked": self.track, "record_every": record_every,
             "material_parameters": [m.parameters() for m in lay.materials],
             "material_constants": lay.material_values, "values": values,
-            "fixed_nodes": lay.fixed_nodes, "fixed_velocity": lay.fixed_velocity})
+            "fixed_nodes": lay.fixed_nodes, "fixed_velocity": lay.fixed_velocity,
+            **({} if f.water is None else {
+                "water": f.water, "pore_water": [None if w is None else w.parameters()
+                                                 for w in model.pore_water]})})
 
     def check_fits(self, prog, snapshot, record_every):
         """Refuse a snapshot (``Solver.snapshot``) whose fingerprint or state fields are
@@ -157,6 +160,14 @@ class State:
         if model.initial_stress is not None:  # the elastic state each law took from it
             values.update(sigma=model.initial_stress[:, :d, :d], work=model.initial_work,
                           **model.initial_state)
+        pores = model.water_arrays
+        if pores is not None:  # the pore water's state (engine/water.py)
+            values.update(pores)
+            if "pw" in pores:  # the grid sees sigma' - p_e I
+                sigma = values.get("sigma", np.zeros((n, d, d)))
+                values["sigma"] = sigma - pores["pw"][:, None, None] * np.eye(d)
+            if self.features.coupled:
+                values["w"] = model.velocity  # the water moves with the skeleton at first
         values.update(x=x, elem=self._element_of(x))
         if self.features.multi_material:
             values["mat"] = model.material_index

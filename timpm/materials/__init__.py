@@ -6,7 +6,8 @@ Materials for multi-dimensional scenes: :class:`LinearElastic`, :class:`NeoHooke
 strength softening with the plastic shear strain),
 :class:`WeaklyCompressibleFluid` (Tait equation of state) and :class:`JFluid` (mpm88's
 fluid).  :class:`Hypoelastic1D` is the study's 1D law (a :class:`timpm.model.scene.Scene` makes it from
-its :class:`timpm.model.scene.Material`).
+its :class:`timpm.model.scene.Material`).  :class:`PoreWater` is the water in a saturated
+body's pores, beside its law (not a law: the soil's law acts on the effective stress).
 """
 from .base import Material, SolidMaterial
 from .drucker_prager import DruckerPrager
@@ -17,9 +18,10 @@ from .linear_elastic import LinearElastic
 from .mohr_coulomb import MohrCoulomb
 from .mohr_coulomb_softening import MohrCoulombSoftening
 from .neo_hookean import NeoHookean
+from .pore_water import PoreWater
 
 __all__ = ["Material", "SolidMaterial", "LinearElastic", "NeoHookean", "DruckerPrager", "MohrCoulomb",
-           "MohrCoulombSoftening", "WeaklyCompressibleFluid", "JFluid", "Hypoelastic1D", "MATERIALS", "get_material"]
+           "MohrCoulombSoftening", "WeaklyCompressibleFluid", "JFluid", "Hypoelastic1D", "PoreWater", "MATERIALS", "get_material"]
 
 MATERIALS = {cls.name: cls for cls in (LinearElastic, NeoHookean, DruckerPrager, MohrCoulomb,
                                        MohrCoulombSoftening, WeaklyCompressibleFluid, JFluid,

@@ -70,6 +70,9 @@ class Material:
     energy_function = False
     #: the stress is a function of F alone: ``stress(s, p, F)`` gives sigma(F)
     stress_from_F = False
+    #: the law may be a saturated soil's skeleton (a body with pore water: the law then
+    #: acts on the effective stress, timpm.materials.pore_water)
+    carries_pore_water = False
 
     def __init__(self, density):
         self.density = self.checked("density", density)
@@ -159,6 +162,8 @@ class Material:
 
 class SolidMaterial(Material):
     """Isotropic elastic constants from Young's modulus and Poisson's ratio."""
+
+    carries_pore_water = True
 
     CONSTANTS = ("density", "mu", "lam", "two_mu")
 

@@ -29,6 +29,7 @@ class Hypoelastic1D(Material):
     name = "hypoelastic-1d"
     CONSTANTS = ("E", "density")
     dims = (1,)
+    carries_pore_water = True
 
     PARAMS = {**Material.PARAMS,
               "E": Param(unit="Pa", doc="Young's modulus", low=0.0, low_open=True),

@@ -79,10 +79,13 @@ def jaky_k0(material) -> float:
     return nu / (1.0 - nu)
 
 
-def vertical_stress(positions, bodies, g, top):
+def vertical_stress(positions, bodies, g, top, level=None):
     """sigma_v (> 0) at each position (n, 2 or 3): g times the mass per area above it
-    through the ``bodies`` (shape with ``contains``, density), up to ``top``; the first body
-    that holds a point gives its density (as the World fills them)."""
+    through the ``bodies`` (shape with ``contains``, density, and optionally the density
+    of the water in its pores), up to ``top``; the first body that holds a point gives its
+    density (as the World fills them).  Below a still-water ``level`` a saturated body
+    weighs its buoyant density rho - rho_w: sigma_v is then the effective stress (the free
+    water above the ground adds to the pore pressure, not to it)."""
     x = np.asarray(positions, dtype=np.float64)
     n, dim = x.shape
     out = np.zeros(n)
@@ -99,9 +102,12 @@ def vertical_stress(positions, bodies, g, top):
         pts[:, [0] + list(range(2, dim))] = key
         rho = np.zeros(SAMPLES)
         free = np.ones(SAMPLES, dtype=bool)
-        for shape, density in bodies:
+        submerged = (s < level) if level is not None else np.zeros(SAMPLES, dtype=bool)
+        for shape, density, *water in bodies:
             inside = free & shape.contains(pts)
             rho[inside] = density
+            if water and water[0] > 0.0:
+                rho[inside & submerged] = density - water[0]
             free &= ~inside
         # sigma_v at depth: the weight of the samples above, a linear interpolation between
         # the sample edges (the integral is exact for piecewise constant rho between them)
@@ -112,10 +118,11 @@ def vertical_stress(positions, bodies, g, top):
     return out
 
 
-def geostatic_stress(positions, bodies, g, top, k0):
+def geostatic_stress(positions, bodies, g, top, k0, level=None):
     """Cauchy stresses (n, 3, 3) of ground at rest: sigma_yy = -sigma_v, sigma_xx = sigma_zz
-    = -k0 sigma_v (``k0`` one value or one per position)."""
-    sv = vertical_stress(positions, bodies, g, top)
+    = -k0 sigma_v (``k0`` one value or one per position); effective stresses under a water
+    ``level`` (:func:`vertical_stress`)."""
+    sv = vertical_stress(positions, bodies, g, top, level)
     k0 = np.broadcast_to(np.asarray(k0, dtype=np.float64), sv.shape)
     out = np.zeros((len(sv), 3, 3))
     out[:, 1, 1] = -sv

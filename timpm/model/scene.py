@@ -248,7 +248,10 @@ class Scene:
     ``transfer`` the particle-grid transfer (the study's ``"musl"``, or the affine
     ``"apic"`` and ``"mls-mpm"`` with uniformly spaced nodes); ``displacement`` a function
     u0(X) the body starts displaced by (see :class:`~timpm.model.Model`); ``integrator``
-    the time integration (``timpm.model.INTEGRATORS``).
+    the time integration (``timpm.model.INTEGRATORS``).  A saturated column: ``pore_water``
+    (:class:`~timpm.materials.pore_water.PoreWater`), ``water`` (the analysis,
+    :class:`~timpm.model.water.Water`) and ``initial_pore_pressure`` (per particle); the
+    critical time step then takes the undrained stiffness E + K_w / n.
     """
 
     grid: Grid1D
@@ -273,6 +276,9 @@ class Scene:
     fixed_time: object = None
     displacement: object = None
     integrator: str = "euler-cromer"
+    pore_water: object = None
+    water: object = None
+    initial_pore_pressure: object = None
 
     def __post_init__(self):
         basis = get_basis(self.basis)
@@ -301,7 +307,9 @@ class Scene:
                       walls=walls,
                       fixed_nodes=fixed_nodes, fixed_time=self.fixed_time,
                       traction=self.traction, name=self.name,
-                      displacement=self.displacement, integrator=self.integrator)
+                      displacement=self.displacement, integrator=self.integrator,
+                      water=self.water, pore_water=(self.pore_water,),
+                      initial_pore_pressure=self.initial_pore_pressure)
         object.__setattr__(self, "model", model)
         x, vol = model.positions[:, 0], model.volume
         object.__setattr__(self, "positions", x)
@@ -312,10 +320,16 @@ class Scene:
         object.__setattr__(self, "walls", model.walls)
         dt = model.dt
         object.__setattr__(self, "dt", dt)
+        # the stiffness a wave meets: the skeleton's, with the pore water's K_w / n where
+        # the water moves with it (undrained and coupled analyses)
+        stiff = self.material
+        if self.water is not None and self.water.pore_pressure:
+            stiff = Material(E=self.material.E + self.pore_water.storage_modulus,
+                             density=self.material.density)
         if self.mass == "lumped" and basis.name == "linear":
-            dt_crit = critical_time_step(self.grid.h, self.material)
+            dt_crit = critical_time_step(self.grid.h, stiff)
         else:
-            dt_crit = discrete_critical_time_step(self.grid, self.material, basis, x, vol,
+            dt_crit = discrete_critical_time_step(self.grid, stiff, basis, x, vol,
                                                   self.mass, fixed)
         dt_crit *= CRITICAL_STEP_FACTOR[model.integrator]
         object.__setattr__(self, "_critical_dt", dt_crit)

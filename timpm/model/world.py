@@ -26,6 +26,7 @@ from ..platform.errors import InputError, about
 from .geostatic import K0, GravityLoading, geostatic_stress, jaky_k0
 from .loads import field_function
 from ..materials import MATERIALS, Material, get_material
+from ..materials.pore_water import PoreWater
 from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Wall, check_scheme,
                     walls_from)
 
@@ -163,6 +164,7 @@ class Body:
     ppc: int = 2
     name: str = ""
     displacement: object = None
+    water: object = None
 
     def __post_init__(self):
         mat = self.material
@@ -180,6 +182,9 @@ class Body:
             raise ValueError(f"body shape must be a Box, a Ball, a Polygon, a Prism or Points, "
                              f"got {self.shape!r}")
         positive_int("ppc (particles per cell and axis)", self.ppc)
+        if self.water is not None and not isinstance(self.water, PoreWater):
+            raise InputError(f"body water must be a timpm.PoreWater (the water in the "
+                             f"body's pores) or None, got {self.water!r}", "water")
         if self.displacement is not None and not callable(self.displacement):
             raise ValueError("body displacement must be a function u0(X) of the body's (n, "
                              f"dim) reference positions, got {type(self.displacement).__name__}")
@@ -235,7 +240,11 @@ class World:
     ``initial_stress``: :class:`~timpm.model.geostatic.K0` (the K0 procedure: the weight of the
     bodies above each particle, sigma_h = K0 sigma_v), :class:`~timpm.model.geostatic.
     GravityLoading` (a damped run under gravity to rest, which the Solver makes first), an
-    (n, 3, 3) array of Cauchy stresses, or None (stress-free).
+    (n, 3, 3) array of Cauchy stresses, or None (stress-free); under water the K0
+    procedure's stress is effective, from the buoyant weight below the level.
+    ``water``: the scene's :class:`~timpm.model.water.Water` (its analysis and still-water
+    level) where some body carries pore water (``Body(water=PoreWater(...))``);
+    ``initial_pore_pressure`` the particles' initial excess pore pressures (n,).
     """
 
     domain: tuple
@@ -258,6 +267,8 @@ class World:
     name: str = "world"
     integrator: str = "euler-cromer"
     initial_stress: object = None
+    water: object = None
+    initial_pore_pressure: object = None
     _particles: dict = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -330,7 +341,9 @@ class World:
                       displacement=(_BodyDisplacements(self.bodies, part["body_index"])
                                     if any(b.displacement is not None for b in self.bodies)
                                     else None),
-                      initial_stress=initial_stress)
+                      initial_stress=initial_stress, water=self.water,
+                      pore_water=part["pore_water"],
+                      initial_pore_pressure=self.initial_pore_pressure)
 
     def _initial_stress(self, dim, g, domain):
         """The particles' initial stresses: a :class:`~timpm.model.geostatic.K0` procedure's
@@ -353,9 +366,13 @@ class World:
         mats = part["materials"]
         k0 = (np.full(len(part["positions"]), spec.k0) if spec.k0 is not None else
               np.array([jaky_k0(m) for m in mats])[part["material_index"]])
+        # under a water level the weight is the buoyant one and the stress effective
+        level = None if self.water is None else self.water.level
         return geostatic_stress(part["positions"],
-                                [(b.shape, b.material.density) for b in self.bodies],
-                                -float(g[1]), float(domain[1]), k0)
+                                [(b.shape, b.material.density,
+                                  0.0 if b.water is None else b.water.density)
+                                 for b in self.bodies],
+                                -float(g[1]), float(domain[1]), k0, level=level)
 
     # ---- derived geometry ----------------------------------------------------------------
     @property
@@ -428,12 +445,13 @@ class World:
             with about(f"bodies[{k}]"):
                 v = np.zeros(dim) if body.velocity is None else _vector(
                     f"{label} velocity", body.velocity, dim)
-            if body.material not in materials:
-                materials.append(body.material)
+            slot = (body.material, body.water)  # a material slot: a law and its pore water
+            if slot not in materials:
+                materials.append(slot)
             xs.append(pts)
             vs.append(np.broadcast_to(v, pts.shape))
             vols.append(vol)
-            mats.append(np.full(len(pts), materials.index(body.material), np.int32))
+            mats.append(np.full(len(pts), materials.index(slot), np.int32))
             ids.append(np.full(len(pts), k, np.int32))
         if not self.allow_overlap:
             for i, bi in enumerate(self.bodies):
@@ -446,10 +464,11 @@ class World:
         x = np.concatenate(xs)
         vol = np.concatenate(vols)
         mat = np.concatenate(mats)
-        density = np.array([m.density for m in materials])[mat]
+        density = np.array([m.density for m, _ in materials])[mat]
         out = dict(positions=x, velocity=np.concatenate(vs).copy(), volume=vol,
                    mass=density * vol, material_index=mat, body_index=np.concatenate(ids),
-                   materials=tuple(materials))
+                   materials=tuple(m for m, _ in materials),
+                   pore_water=tuple(w for _, w in materials))
         for key in ("positions", "velocity", "volume", "mass", "material_index", "body_index"):
             out[key].setflags(write=False)
         return out
@@ -504,7 +523,7 @@ class World:
                              "faces or a particle spacing")
 
     def _check_dt(self, h, g, domain):
-        c = max(m.wave_speed for m in self.materials)
+        c = max(self._wave_speed(b) for b in self.bodies)
         v0 = float(np.max(np.linalg.norm(self.velocity, axis=1)))
         g_norm = float(np.linalg.norm(g))
         height = float(np.abs(g) @ domain) / g_norm if g_norm > 0 else 0.0  # along gravity
@@ -529,6 +548,16 @@ class World:
                 f"(h = {h:g} m, wave speed c = {c:g} m/s of the stiffest material, |v| <= "
                 f"{v0 + v_fall:g} m/s: initial speed plus free fall over the domain height); "
                 "choose a smaller dt, leave dt=None, or pass allow_unstable_dt=True", "dt")
+
+    def _wave_speed(self, body):
+        """The fastest wave in a body: its law's, or with pore water that moves with the
+        skeleton (undrained and coupled analyses) the undrained compression wave
+        sqrt((lambda + 2 mu + K_w / n) / rho)."""
+        mat, water = body.material, body.water
+        c = mat.wave_speed
+        if water is not None and self.water is not None and self.water.pore_pressure:
+            c = math.sqrt(c * c + water.storage_modulus / mat.density)
+        return c
 
     # ---- particles ---------------------------------------------------------------------
     @property

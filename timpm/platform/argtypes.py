@@ -19,14 +19,15 @@ def numbers_as_values(parser):
 
 
 def param(text):
-    """NAME=VALUE with a numeric value, for problem parameters."""
+    """NAME=VALUE for problem parameters: a number, or a word for a parameter that is one
+    (``analysis=undrained``; the problem refuses a word where it needs a number)."""
     name, sep, value = text.partition("=")
-    if not sep or not name:
+    if not sep or not name or not value:
         raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
     try:
         return name, float(value)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"parameter {name}: {value!r} is not a number") from None
+        return name, value
 
 
 def setting(text):

@@ -1,18 +1,21 @@
 """The study's benchmark problems, each a scene builder with its exact solution."""
 from .base import Problem
+from .hydrostatic_column import HydrostaticColumn
 from .k0_layer import K0Layer
 from .mms import MMS1D, MMS2D, MMS3D, ManufacturedSolution
 from .oedometer import Oedometer
 from .soil_column import LargeColumn, SoilColumn, SoilColumn2D
+from .terzaghi import Terzaghi
 from .vibrating_bar import VibratingBar
 from .vibrating_string import VibratingString
 
 PROBLEMS = {cls.name: cls for cls in (VibratingString, SoilColumn, VibratingBar, Oedometer,
-                                      LargeColumn, SoilColumn2D, MMS1D, MMS2D, MMS3D, K0Layer)}
+                                      LargeColumn, SoilColumn2D, MMS1D, MMS2D, MMS3D, K0Layer,
+                                      HydrostaticColumn, Terzaghi)}
 
 __all__ = ["Problem", "VibratingString", "SoilColumn", "LargeColumn", "VibratingBar",
            "SoilColumn2D", "K0Layer", "Oedometer", "ManufacturedSolution", "MMS1D", "MMS2D", "MMS3D",
-           "PROBLEMS",
+           "Terzaghi", "HydrostaticColumn", "PROBLEMS",
            "get_problem"]
 
 

@@ -54,6 +54,11 @@ class Problem:
                              f"its parameters are {', '.join(sorted(known))}")
         params = {k: int(v) if known[k].type in (int, "int") and isinstance(v, float)
                   and v.is_integer() else v for k, v in params.items()}
+        for k, v in params.items():
+            words = known[k].type in (str, "str")
+            if words != isinstance(v, str):
+                raise ValueError(f"{self.name}: parameter {k} must be "
+                                 f"{'a word' if words else 'a number'}, got {v!r}")
         return replace(self, **params)
 
     def check_size(self, elements, ppc) -> None:

@@ -92,7 +92,8 @@ class K0Layer(Problem):
         self.grid(elements, basis_cls)  # checks the count
         n, h = int(elements), self.H / elements
         soil = self.soil
-        dt = min(self.dt, 0.5 * h / soil.wave_speed) if dt is None else dt
+        extra, wave = self.model_options(soil, h)
+        dt = min(self.dt, 0.5 * h / wave) if dt is None else dt
         side = basis_cls.support if basis_cls.uniform_nodes and basis_cls.name != "linear" else 0
         top = max(side, max(1, basis_cls.support - 1))
         X, volume = lattice((self.width, n), ppc, h, placement)
@@ -110,8 +111,13 @@ class K0Layer(Problem):
                       integrator=integrator,
                       walls=(Wall("roller"), Wall("roller"), Wall("sticky"), None),
                       wall_cells=((side, side + self.width), (side, side + n + top)),
-                      initial_stress=stress, name=self.name)
-        return ProblemScene(model, h / soil.wave_speed, "h / c", allow_unstable_dt)
+                      initial_stress=stress, name=self.name, **extra)
+        return ProblemScene(model, h / wave, "h / c", allow_unstable_dt)
+
+    def model_options(self, soil, h):
+        """More of the Model's arguments (a variant's: its water), and the wave speed that
+        bounds the time step."""
+        return {}, soil.wave_speed
 
     def displacement(self, x0, t, stress_update="study"):
         return np.zeros_like(np.asarray(x0, dtype=float).reshape(-1, 2))

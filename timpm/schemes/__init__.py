@@ -10,7 +10,9 @@ owns (its parameters, its particle and grid fields) it declares in its own file
   changed);
 - :mod:`.affine`: APIC (Jiang et al. 2015) and MLS-MPM (Hu et al. 2018);
 - :mod:`.asflip`: APIC with FLIP shares of the velocity and position updates (Fei et al.
-  2021).
+  2021);
+- :mod:`.two_phase`: MUSL for a saturated soil whose pore water flows (the single-point
+  two-phase formulation, Darcy's drag implicit at the nodes).
 
 An integrator replaces a scheme's step by its own phases, calling the scheme's P2G and
 gathers: :mod:`.rk4` (the classical Runge-Kutta method on the particles' equations) and
@@ -29,13 +31,14 @@ from .musl import MUSL
 from .phases import Nodes, Particles, Repeat, Scatter, Whole
 from .pic_blend import PICBlend
 from .rk4 import RungeKutta
+from .two_phase import TwoPhase
 
 __all__ = ["ASFLIP", "Scheme", "Scatter", "Particles", "Nodes", "Whole", "Repeat", "REGISTRY",
            "INTEGRATORS", "TRANSFERS", "OPERATIONS", "scheme_class", "scheme_classes",
            "scheme_params", "scheme_for"]
 
 #: the transfer schemes, a variant before the scheme it changes
-REGISTRY = (PICBlend, MUSL, Affine, ASFLIP)
+REGISTRY = (TwoPhase, PICBlend, MUSL, Affine, ASFLIP)
 #: the integrators that replace a scheme's step, by ``Model.integrator`` (None: the scheme's
 #: own Euler-Cromer step)
 INTEGRATORS = {"euler-cromer": None, "rk4": RungeKutta, "midpoint": Midpoint}

@@ -1,0 +1,215 @@
+"""Soil under water (timpm/materials/pore_water.py, timpm/model/water.py,
+timpm/engine/water.py, timpm/schemes/two_phase.py): the pore water's checks, the
+undrained split of a load, Terzaghi's consolidation against its series, a saturated layer
+at rest under still water, and buoyancy."""
+import math
+
+import numpy as np
+import pytest
+
+import timpm
+from timpm.platform.errors import InputError
+from timpm.problems import get_problem
+from timpm.problems.terzaghi import consolidation_series, degree_of_consolidation
+
+
+# ---- the values and their checks -------------------------------------------------------
+@pytest.mark.parametrize("bad, key", [
+    (dict(porosity=0.0), "porosity"), (dict(porosity=1.0), "porosity"),
+    (dict(porosity=1.3), "porosity"), (dict(porosity=0.3, conductivity=-1e-5), "conductivity"),
+    (dict(porosity=0.3, conductivity=0.0), "conductivity"),
+    (dict(porosity=0.3, bulk_modulus=-1.0), "bulk_modulus"),
+    (dict(porosity=0.3, density=float("nan")), "density"),
+    (dict(porosity=0.3, conductivity=1e-5, permeability=1e-12), "permeability"),
+    (dict(porosity="0.3"), "porosity")])
+def test_pore_water_refuses_bad_values(bad, key):
+    with pytest.raises(InputError) as err:
+        timpm.PoreWater(**bad)
+    assert err.value.key == key
+
+
+def test_pore_water_derived_numbers():
+    water = timpm.PoreWater(porosity=0.3, permeability=1e-12)
+    # k = kappa rho_w g / mu
+    assert water.conductivity == pytest.approx(1e-12 * 1000.0 * 9.81 / 1e-3, rel=1e-15)
+    assert water.storage_modulus == pytest.approx(2.2e9 / 0.3)
+    assert water.drag() == pytest.approx(0.3 * 1000.0 * 9.81 / water.conductivity)
+    # the issue's undrained front: n = 0.3, rho_s = 2650, E_oed = 10 MPa, K_w = 2.2 GPa
+    rho_sat = water.saturated_density(2650.0)
+    assert water.undrained_wave_speed(10e6, rho_sat) == pytest.approx(1846.0, abs=1.0)
+    with pytest.raises(InputError, match="conductivity"):
+        timpm.PoreWater(porosity=0.3).drag()
+
+
+@pytest.mark.parametrize("kwargs, key", [
+    (dict(analysis="wet"), "analysis"), (dict(analysis="drained"), "level"),
+    (dict(level=float("inf")), "level"), (dict(level="high"), "level")])
+def test_water_refuses_bad_values(kwargs, key):
+    with pytest.raises(InputError) as err:
+        timpm.Water(**kwargs)
+    assert err.value.key == key
+
+
+def _layer(water=None, pore=None, material=None, **world):
+    material = material or timpm.MohrCoulomb(E=1e7, nu=0.3, density=2000.0,
+                                             friction_angle=30.0, cohesion=1e3)
+    body = timpm.Body(timpm.Box((0.0, 0.0), (1.0, 1.0)), material, water=pore)
+    return timpm.World(domain=(1.0, 2.0), cells=4, bodies=[body], transfer="musl",
+                       water=water, **world)
+
+
+@pytest.mark.parametrize("make, key, words", [
+    (lambda: _layer(pore=timpm.PoreWater(porosity=0.4)), "water", "give the scene's water"),
+    (lambda: _layer(water=timpm.Water("undrained")), "water", "no body carries"),
+    (lambda: _layer(water=timpm.Water("drained", level=-1.0),
+                    pore=timpm.PoreWater(porosity=0.4)), "level", "below the domain"),
+    (lambda: _layer(water=timpm.Water("undrained"), pore=timpm.PoreWater(porosity=0.4),
+                    material=timpm.WeaklyCompressibleFluid(bulk_modulus=1e5, density=1000.0)),
+     "pore_water", "cannot carry pore water"),
+    (lambda: _layer(water=timpm.Water("coupled"), pore=timpm.PoreWater(porosity=0.4)),
+     "conductivity", "hydraulic conductivity"),
+    (lambda: timpm.World(domain=(1.0, 2.0), cells=4, transfer="apic",
+                         bodies=[timpm.Body(timpm.Box((0.0, 0.0), (1.0, 1.0)),
+                                            timpm.LinearElastic(E=1e7, nu=0.3, density=2e3),
+                                            water=timpm.PoreWater(porosity=0.4,
+                                                                  conductivity=1e-5))],
+                         water=timpm.Water("coupled")), "analysis", "apic transfer"),
+    (lambda: _layer(water=timpm.Water("drained", level=1.5), pore=timpm.PoreWater(0.4),
+                    initial_pore_pressure=np.zeros(64)), "initial_pore_pressure",
+     "keeps no excess"),
+    (lambda: _layer(water=timpm.Water("undrained"), pore=timpm.PoreWater(0.4),
+                    initial_pore_pressure=np.zeros(3)), "initial_pore_pressure", "numbers")])
+def test_bad_water_is_refused_before_any_work(make, key, words):
+    with pytest.raises(InputError, match=words) as err:
+        make()
+    assert err.value.key == key
+
+
+def test_body_water_must_be_pore_water():
+    with pytest.raises(InputError, match="PoreWater"):
+        timpm.Body(timpm.Box((0.0, 0.0), (1.0, 1.0)), "sand", water=0.4)
+
+
+def test_undrained_time_step_takes_the_water():
+    """The undrained wave, sqrt((lambda + 2 mu + K_w / n) / rho), bounds the step."""
+    pore = timpm.PoreWater(porosity=0.4)
+    dry = _layer()
+    wet = _layer(water=timpm.Water("undrained"), pore=pore)
+    soil = dry.bodies[0].material
+    c_u = math.sqrt(soil.wave_speed ** 2 + pore.storage_modulus / soil.density)
+    v = dry._cfl["v"]  # the speed bound: free fall over the domain
+    assert dry.cfl_limit == pytest.approx(dry.h / (soil.wave_speed + v), rel=1e-12)
+    assert wet.cfl_limit == pytest.approx(wet.h / (c_u + v), rel=1e-12)
+    assert wet.dt < dry.dt / 10
+
+
+# ---- undrained: the load shared by the water and the skeleton --------------------------
+def test_undrained_oedometer_shares_the_load():
+    """A 1D column under p0, damped to rest without drainage: the strain eps = -p0 / (E +
+    K_w / n), the pore pressure p = -(K_w / n) eps, the effective stress E eps."""
+    E, n_w, Kw, p0 = 1e6, 0.4, 4e6, 1e4
+    pore = timpm.PoreWater(porosity=n_w, bulk_modulus=Kw)
+    ne, h = 10, 0.1
+    x, vol = timpm.equidistant_particles(ne, 4, h)
+    c = math.sqrt((E + Kw / n_w) / 1000.0)
+    scene = timpm.Scene(grid=timpm.Grid1D(ne, h), positions=x, volume=vol, dt=0.3 * h / c,
+                        material=timpm.Material(E=E, density=1000.0, stress_update="small"),
+                        fixed_nodes=(0,), traction=timpm.Traction(int(np.argmax(x)), -p0,
+                                                                  timpm.Ramp(0.05)),
+                        damping=0.7, pore_water=pore, water=timpm.Water("undrained"))
+    solver = timpm.Solver(scene, energies=False).run(t_end=1.0)
+    eps = -p0 / (E + Kw / n_w)
+    below = x < 0.85  # below the loaded top element
+    pw = solver.read("pw")[below]
+    assert pw == pytest.approx(-(Kw / n_w) * eps, rel=2e-3)
+    effective = solver.read("sigma").reshape(-1)[below] + pw
+    assert effective == pytest.approx(E * eps, rel=2e-3)
+
+
+# ---- coupled: Terzaghi's consolidation -------------------------------------------------
+def test_consolidation_series_values():
+    """The issue's values: u/u0 at the undrained base and U at T = 0.1, 0.2, 0.5, 1."""
+    base = [consolidation_series(1.0, T) for T in (0.1, 0.2, 0.5, 1.0)]
+    assert np.round(base, 3).tolist() == [0.949, 0.772, 0.371, 0.108]
+    U = [degree_of_consolidation(T) for T in (0.1, 0.2, 0.5, 1.0)]
+    assert np.round(U, 3).tolist() == [0.357, 0.504, 0.764, 0.931]
+
+
+@pytest.mark.parametrize("basis", ["linear", "bspline2"])
+def test_terzaghi_follows_the_series(basis):
+    """The coupled two-phase step on Terzaghi's layer (16 elements): u/u0 within 0.02 of
+    the series at every monitored depth at T = 0.1, 0.2, 0.5, 1, the degree of
+    consolidation within 1%."""
+    prob = get_problem("terzaghi")
+    scene = prob.scene(basis=basis)
+    solver = timpm.Solver(scene, energies=False)
+    x0 = scene.positions.copy()
+    for T in (0.1, 0.2, 0.5, 1.0):
+        solver.run(t_end=T * prob.H ** 2 / prob.c_v)
+        rec = prob.summary(x0, solver, "small")
+        assert rec["time_factor"] == pytest.approx(T, rel=1e-4)
+        assert rec["u_over_u0_max_error"] < 0.02, (T, rec["u_over_u0"], rec["u_over_u0_exact"])
+        assert rec["degree_of_consolidation"] == pytest.approx(
+            rec["degree_of_consolidation_exact"], rel=0.01)
+    # the settlement profile: the displacement against the exact one
+    u = solver.displacements()
+    exact = prob.displacement(x0, solver.t)
+    below = x0 < prob.H - scene.grid.h  # the top element carries the point load's share
+    assert np.max(np.abs(u[below] - exact[below])) < 0.02 * prob.p0 * prob.H / prob.E
+
+
+def test_terzaghi_low_permeability_keeps_the_undrained_step():
+    """At k = 1e-8 m/s an explicit drag would step below 2 / a (a = n rho_sat g / ((1 -
+    n) rho_s k), Anura3D's bound: ~1e-8 s); the implicit drag steps at the undrained
+    wave's limit, over a thousand times that, and stays bounded over 20,000 steps: the water
+    barely drains, p stays within 10% of u0 (the waves the drained top sends down the
+    layer, which the drag at this permeability hardly damps)."""
+    prob = get_problem("terzaghi", conductivity=1e-8)
+    scene = prob.scene()
+    explicit = prob.explicit_drag_time_step
+    rho_s = (prob.density - prob.porosity * prob.water_density) / (1 - prob.porosity)
+    assert explicit == pytest.approx(2.0 * (1 - prob.porosity) * rho_s * prob.conductivity
+                                     / (prob.porosity * prob.density * 9.81), rel=1e-12)
+    assert scene.dt == pytest.approx(0.4 * scene.grid.h / prob.undrained_wave_speed, rel=1e-12)
+    assert scene.dt > 1e3 * explicit
+    solver = timpm.Solver(scene, energies=False).run(n_steps=20000)
+    pw = solver.read("pw")
+    assert np.all(np.isfinite(pw))
+    below = scene.positions < prob.H - 2 * scene.grid.h
+    assert np.max(np.abs(pw[below] / prob.p0 - 1.0)) < 0.1
+
+
+# ---- at rest under still water ------------------------------------------------------------
+@pytest.mark.parametrize("analysis", ["drained", "undrained", "coupled"])
+def test_hydrostatic_column_stays_at_rest(analysis):
+    """A saturated Mohr-Coulomb layer under 5 m of still water, started from the
+    hydrostatic pore pressure and the K0 stress of the buoyant weight: p within 1e-3 of
+    rho_w g (h_w - y) (RMS, relative), the effective stress within 1e-6 of the geostatic,
+    no particle moving more than 1 um."""
+    from timpm.studies.study import run_problem
+    rec = run_problem("hydrostatic-column", params={"analysis": analysis}, t_end=0.3,
+                      series=False).record
+    assert rec["pore_pressure_rms_error"] < 1e-3
+    assert rec["sigma_v_rms_error"] < 1e-6 and rec["sigma_h_rms_error"] < 1e-6
+    assert rec["max_displacement"] < 1e-6
+
+
+def test_buoyancy_halves_a_submerged_block_s_settlement():
+    """Drained: an elastic block on a rigid floor, damped to rest under gravity, submerged
+    or dry.  The submerged one weighs rho - rho_w: its top settles (rho - rho_w) / rho of
+    the dry one's (rho = 2000: half), to 2%."""
+    def settlement(level):
+        pore = timpm.PoreWater(porosity=0.4)
+        soil = timpm.LinearElastic(E=1e6, nu=0.0, density=2000.0)
+        body = timpm.Body(timpm.Box((0.0, 0.0), (0.5, 1.0)), soil, ppc=2,
+                          water=pore if level else None)
+        world = timpm.World(domain=(0.5, 1.5), cells=5, bodies=[body], transfer="musl",
+                            walls="slip", damping=0.5,
+                            water=timpm.Water("drained", level=level) if level else None)
+        solver = timpm.Solver(world, energies=False).run(t_end=0.6)
+        x = solver.positions()
+        top = world.positions[:, 1] > 0.9
+        return float(np.mean(world.positions[top, 1] - x[top, 1]))
+    dry, wet = settlement(None), settlement(2.0)
+    assert dry > 0.0
+    assert wet / dry == pytest.approx(0.5, rel=0.02)

@@ -1,0 +1,232 @@
+"""The single-point two-phase MUSL step: a saturated soil whose pore water flows
+(``Water(analysis="coupled")``, model/water.py), in the formulation of Anura3D (Al-Kafaji
+2013; one material point carries the skeleton and its pore water):
+
+- the water, per unit volume, rho_w a_w = -grad p_e - (n rho_w g / k)(w - v) (Darcy's
+  drag against the skeleton's velocity v; the hydrostatic pressure's gradient balances the
+  water's weight: p_e is the excess over it);
+- the mixture, (1 - n) rho_s a_s + n rho_w a_w = div(sigma' - p_e I) + rho' g (the weight
+  buoyant below a still-water level);
+- the pores, dp_e = -(K_w / n) [(1 - n) d eps_v,s + n d eps_v,w].
+
+At the nodes, with M_i = sum phi_i m_p (the mixture), Mbar_i = sum phi_i n rho_w V0_p
+(its water), M_w,i = sum phi_i rho_w V_p, Q_i = sum phi_i (n rho_w g / k) V_p and the
+forces F_i (MUSL's, from sigma' - p_e I) and F_w,i = sum p_e V_p grad phi_i, the two
+balances are solved for the velocities at the step's end with the drag taken there
+(implicitly):
+
+    (M_w / dt + Q) w+ - Q v+ = F_w + M_w w / dt,
+    Mbar w+ / dt + (M - Mbar) v+ / dt = F + (M - Mbar) v / dt + Mbar w / dt,
+
+so that a low permeability (Q large) does not shorten the time step: the step is bounded
+by the undrained wave, sqrt((E_oed + K_w / n) / rho_sat), not by the drag's 2 M_w / Q.
+A node's water is held by its walls (impermeable: the normal velocity the skeleton's) and
+by its Dirichlet conditions; a free surface drains (p_e = 0 is the weak form's natural
+condition).  The rest is MUSL's: the second P2G of both momenta, G2P of the strains.
+"""
+import taichi as ti
+
+from ..platform.declare import Field
+from ..platform.errors import ErrorCode
+from .musl import MUSL
+from .phases import Nodes, Particles, Scatter, Whole
+
+__all__ = ["TwoPhase"]
+
+
+class TwoPhase(MUSL):
+    """See the module."""
+
+    transfers = ("musl",)
+    # (MUSL's integrators, as the PIC blend keeps them: the Model refuses pore water with
+    # any but Euler-Cromer, model/model.py, before a scheme is chosen)
+
+    @classmethod
+    def applies(cls, features) -> bool:
+        return features.transfer == "musl" and features.coupled
+
+    @staticmethod
+    def grid_fields(features):
+        return {**MUSL.grid_fields(features),
+                "gwm": Field(scatter=True, names=("node_water_mass",),
+                             doc="M_w,i = sum phi_i rho_w V_p"),
+                "gwn": Field(scatter=True, names=("node_pore_mass",),
+                             doc="Mbar_i = sum phi_i n rho_w V0_p: the water's share of m_i"),
+                "gwq": Field(scatter=True, names=("node_drag",),
+                             doc="Q_i = sum phi_i (n rho_w g / k) V_p"),
+                "gwf": Field("vector", scatter=True, names=("node_water_force",),
+                             doc="F_w,i = sum p_e V_p grad phi_i"),
+                "gwp": Field("vector", scatter=True,
+                             names=("node_water_momentum", "node_water_velocity"),
+                             doc="P_w,i = sum phi_i rho_w V_p w_p, then w_i = P_w,i / M_w,i"),
+                "gwa": Field("vector", names=("node_water_acceleration",),
+                             doc="a_w,i = (w_i+ - w_i) / dt")}
+
+    def __init__(self, features, ops):
+        super().__init__(features, ops)
+        self.scatters_momentum = True  # the drag's solve reads v_i = P_i / m_i
+        self.p2g = Scatter("P2G: m_i, F_i, P_i; M_w,i, Mbar_i, Q_i, F_w,i, P_w,i",
+                           self.p2g_particle,
+                           rows=("node_mass", "node_force", "node_momentum"),
+                           merge=("node_mass", "node_momentum", "node_force"))
+        self.velocity = Scatter("G2P: v_p += dt sum phi_i a_i, w_p += dt sum phi_i a_w,i; "
+                                "P2G: P_i, P_w,i", self.velocity_particle,
+                                rows=("node_momentum",), merge=("node_momentum",))
+
+    def phases(self):
+        steps = []
+        if not self.f.private_scatter:
+            steps.append(Whole("clear the grid", self.clear))
+        return tuple(steps) + (
+            self.p2g,
+            Nodes("grid: both phases' velocities at the step's end, Darcy's drag implicit; "
+                  "walls", self.acceleration_node),
+            self.velocity,
+            Nodes("grid: v_i = P_i / m_i, w_i = P_w,i / M_w,i, walls", self.velocity_node),
+            Particles("G2P: u_p, grad du, sigma', p_e -= (K_w / n) [(1 - n) d eps_s + n "
+                      "d eps_w], V_p", self.update_particle))
+
+    # ---- P2G ---------------------------------------------------------------------------
+    @ti.func
+    def p2g_particle(self, particles: ti.template(), grid: ti.template(), values: ti.template(),
+                     p, copy):
+        # P2G: m_i, P_i and F_i = sum phi_i f_p - (sigma' - p_e I)_p V_p grad phi_i as MUSL;
+        # the water: M_w,i, Mbar_i, Q_i, F_w,i = sum p_e V_p grad phi_i, P_w,i
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
+        node_values = ti.Matrix.zero(float, 3, self.support)
+        if not inside:
+            self.failures.fail(ErrorCode.OFF_GRID, p)
+        else:
+            mp, vol = particles.m[p], particles.vol[p]
+            fp = self.loads.force(particles, values, p)
+            stress_volume = particles.sigma[p] * vol
+            water_mass = particles.rho_w[p] * vol
+            pore_mass = particles.porosity[p] * particles.rho_w[p] * self.laws.reference_volume(p)
+            drag = particles.drag[p] * vol
+            pressure_volume = particles.pw[p] * vol
+            for r in range(self.stencil.rows):
+                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
+                    node = base + offset
+                    node_values = self.scatter.deposit("node_mass", copy, node, offset,
+                                                       mp * phi, node_values)
+                    node_values = self.scatter.deposit("node_force", copy, node, offset,
+                                                       phi * fp - stress_volume @ grad,
+                                                       node_values)
+                    node_values = self.scatter.deposit("node_momentum", copy, node, offset,
+                                                       mp * phi * particles.v[p], node_values)
+                    self.scatter.add("node_water_mass", copy, node, phi * water_mass)
+                    self.scatter.add("node_pore_mass", copy, node, phi * pore_mass)
+                    self.scatter.add("node_drag", copy, node, phi * drag)
+                    self.scatter.add("node_water_force", copy, node, pressure_volume * grad)
+                    self.scatter.add("node_water_momentum", copy, node,
+                                     phi * water_mass * particles.w[p])
+        return base, inside, node_values
+
+    # ---- the grid: the coupled balances ------------------------------------------------
+    @ti.func
+    def acceleration_node(self, grid: ti.template(), values: ti.template(), I):
+        # (M_w / dt + Q) w+ - Q v+ = F_w + M_w w / dt and Mbar w+ / dt + M_s v+ / dt = F +
+        # M_s v / dt + Mbar w / dt (M_s = m_i - Mbar_i), solved node by node; walls on both
+        # (impermeable); a_i = (v+ - v) / dt, a_w,i = (w+ - w) / dt; zero at Dirichlet and
+        # empty nodes
+        Mw = self.scatter.merged("node_water_mass", I)
+        Mbar = self.scatter.merged("node_pore_mass", I)
+        Q = self.scatter.merged("node_drag", I)
+        Fw = self.scatter.merged("node_water_force", I)
+        Pw = self.scatter.merged("node_water_momentum", I)
+        grid.node_water_mass[I] = Mw  # the velocity phase divides by it
+        dt = values.dt()
+        if ti.static(self.f.damping):  # F_damp = -alpha sgn(v_i) |F_i| (A.4), on the mixture
+            grid.node_force[I] -= (values.damping() * ti.math.sign(grid.node_momentum[I])
+                                   * ti.abs(grid.node_force[I]))
+        a = ti.Vector.zero(float, self.dim)
+        aw = ti.Vector.zero(float, self.dim)
+        m = grid.node_mass[I]
+        if m > values.mass_tol() and not self.boundary.is_fixed(I):
+            v = grid.node_momentum[I] / m
+            w = v
+            v_new = v + dt * grid.node_force[I] / m
+            w_new = v_new
+            if Mw > values.mass_tol():
+                w = Pw / Mw
+                B = (m - Mbar) / dt
+                A = Mw / dt
+                C = Mbar / dt
+                R1 = Fw + A * w
+                R2 = grid.node_force[I] + B * v + C * w
+                w_new = (B * R1 + Q * R2) / (B * (A + Q) + Q * C)
+                v_new = (R2 - C * w_new) / B
+            if ti.static(self.f.has_walls):
+                v_new = self.boundary.apply_walls(I, v_new)
+                w_new = self.boundary.apply_walls(I, w_new)
+            a = (v_new - v) / dt
+            aw = (w_new - w) / dt
+        grid.node_acceleration[I] = a
+        grid.node_water_acceleration[I] = aw
+        grid.node_momentum[I] = ti.Vector.zero(float, self.dim)  # the second P2G's
+        if ti.static(not self.f.private_scatter):  # (merged cleared the copies)
+            grid.node_pore_mass[I] = 0.0
+            grid.node_drag[I] = 0.0
+            grid.node_water_force[I] = ti.Vector.zero(float, self.dim)
+            grid.node_water_momentum[I] = ti.Vector.zero(float, self.dim)
+
+    # ---- G2P of the velocities, P2G of the momenta ----------------------------------------
+    @ti.func
+    def velocity_particle(self, particles: ti.template(), grid: ti.template(),
+                          values: ti.template(), p, copy):
+        # G2P: v_p += dt sum_i phi_i a_i, w_p += dt sum_i phi_i a_w,i; P2G: P_i = sum m_p
+        # phi_i v_p, P_w,i = sum rho_w V_p phi_i w_p
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
+        node_values = ti.Matrix.zero(float, 3, self.support)
+        if inside:
+            vp = particles.v[p] + values.dt() * self.stencil.interpolate(
+                grid.node_acceleration, base, w, dw)
+            wp = particles.w[p] + values.dt() * self.stencil.interpolate(
+                grid.node_water_acceleration, base, w, dw)
+            particles.v[p] = vp
+            particles.w[p] = wp
+            water_mass = particles.rho_w[p] * particles.vol[p]
+            for r in range(self.stencil.rows):
+                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
+                    node = base + offset
+                    node_values = self.scatter.deposit("node_momentum", copy, node, offset,
+                                                       particles.m[p] * phi * vp, node_values)
+                    self.scatter.add("node_water_momentum", copy, node, phi * water_mass * wp)
+        return base, inside, node_values
+
+    # ---- the grid: velocities --------------------------------------------------------------
+    @ti.func
+    def velocity_node(self, grid: ti.template(), values: ti.template(), I):
+        # v_i = P_i / m_i with the walls (MUSL's); w_i = P_w,i / M_w,i with the walls (v_i
+        # where the node holds no water), zero at Dirichlet nodes
+        self.nodes.solve_node(grid.node_momentum, True, I)  # P_i into v_i in place
+        Pw = self.scatter.merged("node_water_momentum", I)
+        Mw = grid.node_water_mass[I]
+        wi = grid.node_velocity[I]
+        if Mw > values.mass_tol():
+            wi = Pw / Mw
+            if ti.static(self.f.has_walls):
+                wi = self.boundary.apply_walls(I, wi)
+        if self.boundary.is_fixed(I):
+            wi = ti.Vector.zero(float, self.dim)
+        grid.node_water_velocity[I] = wi
+        grid.node_water_mass[I] = 0.0
+        if ti.static(self.f.grid_displacement):
+            grid.node_displacement[I] += grid.node_velocity[I] * values.dt()
+
+    # ---- G2P of the particle state ---------------------------------------------------------
+    @ti.func
+    def update_particle(self, particles: ti.template(), grid: ti.template(),
+                        values: ti.template(), p):
+        # G2P: v_p and grad du from v_i (MUSL's gather); the water's d eps_v,w = sum_i dt
+        # w_i . grad phi_i; the pores' (1 - n) d eps_v,s + n d eps_v,w
+        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
+        if inside and not self.failures.halted(p):
+            vp, grad_du = self.gather(particles, grid, values, p, base, w, dw, xi)
+            d_eps_w = 0.0
+            for r in range(self.stencil.rows):
+                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
+                    d_eps_w += values.dt() * grid.node_water_velocity[base + offset].dot(grad)
+            n = particles.porosity[p]
+            self.g2p.update_with_pores(particles, values, p, vp, vp * values.dt(), grad_du,
+                                       (1.0 - n) * grad_du.trace() + n * d_eps_w)
