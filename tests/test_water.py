@@ -62,18 +62,18 @@ def _layer(water=None, pore=None, material=None, **world):
     (lambda: _layer(pore=timpm.PoreWater(porosity=0.4)), "water", "give the scene's water"),
     (lambda: _layer(water=timpm.Water("undrained")), "water", "no body carries"),
     (lambda: _layer(water=timpm.Water("drained", level=-1.0),
-                    pore=timpm.PoreWater(porosity=0.4)), "level", "below the domain"),
+                    pore=timpm.PoreWater(porosity=0.4)), "water.level", "below the domain"),
     (lambda: _layer(water=timpm.Water("undrained"), pore=timpm.PoreWater(porosity=0.4),
                     material=timpm.WeaklyCompressibleFluid(bulk_modulus=1e5, density=1000.0)),
-     "pore_water", "cannot carry pore water"),
+     "bodies", "cannot carry pore water"),
     (lambda: _layer(water=timpm.Water("coupled"), pore=timpm.PoreWater(porosity=0.4)),
-     "conductivity", "hydraulic conductivity"),
+     "bodies", "hydraulic conductivity"),
     (lambda: timpm.World(domain=(1.0, 2.0), cells=4, transfer="apic",
                          bodies=[timpm.Body(timpm.Box((0.0, 0.0), (1.0, 1.0)),
                                             timpm.LinearElastic(E=1e7, nu=0.3, density=2e3),
                                             water=timpm.PoreWater(porosity=0.4,
                                                                   conductivity=1e-5))],
-                         water=timpm.Water("coupled")), "analysis", "apic transfer"),
+                         water=timpm.Water("coupled")), "water.analysis", "apic transfer"),
     (lambda: _layer(water=timpm.Water("drained", level=1.5), pore=timpm.PoreWater(0.4),
                     initial_pore_pressure=np.zeros(64)), "initial_pore_pressure",
      "keeps no excess"),
@@ -213,3 +213,66 @@ def test_buoyancy_halves_a_submerged_block_s_settlement():
     dry, wet = settlement(None), settlement(2.0)
     assert dry > 0.0
     assert wet / dry == pytest.approx(0.5, rel=0.02)
+
+
+# ---- scene files ---------------------------------------------------------------------------
+SCENE = """
+[simulation]
+t_end = 0.05
+transfer = "musl"
+
+[domain]
+size = [2.0, 6.0]
+cells = 8
+
+[material.clay]
+type = "mohr-coulomb"
+E = 1e7
+nu = 0.3
+density = 2000
+friction_angle = 25
+cohesion = 5e3
+
+[[body]]
+material = "clay"
+shape = "box"
+lo = [0, 0]
+hi = [2, 4]
+water = {porosity = 0.4, conductivity = 1e-5}
+
+[water]
+analysis = "coupled"
+level = 5.5
+
+[initial_stress]
+kind = "k0"
+"""
+
+
+def test_a_scene_file_poses_a_submerged_layer(tmp_path):
+    from timpm.scenefile import load_scene
+    path = tmp_path / "layer.toml"
+    path.write_text(SCENE)
+    world = load_scene(path).world
+    assert world.water == timpm.Water("coupled", level=5.5)
+    assert world.bodies[0].water.conductivity == 1e-5
+    # the K0 procedure on the buoyant weight: sigma_v' = (2000 - 1000) g (4 - y)
+    y = world.positions[:, 1]
+    sv = -world.model.initial_stress[:, 1, 1]
+    assert sv == pytest.approx(1000.0 * 9.81 * (4.0 - y), rel=1e-3)
+
+
+@pytest.mark.parametrize("old, new, line, key", [
+    ("porosity = 0.4", "porosity = 1.4", 23, "body[0].water.porosity"),
+    ("conductivity = 1e-5", "conductivity = -1e-5", 23, "body[0].water.conductivity"),
+    ("level = 5.5", "level = -5.5", 27, "water.level"),
+    ('analysis = "coupled"', 'analysis = "soggy"', 26, "water.analysis"),
+    ("porosity = 0.4,", "porosty = 0.4,", 23, "body[0].water")])
+def test_scene_file_water_errors_name_key_and_line(tmp_path, old, new, line, key):
+    from timpm.scenefile import load_scene
+    path = tmp_path / "layer.toml"
+    assert old in SCENE
+    path.write_text(SCENE.replace(old, new))
+    with pytest.raises(ValueError) as err:
+        load_scene(path)
+    assert f"layer.toml:{line}: {key}" in str(err.value)

@@ -645,9 +645,8 @@ class Model:
         if water.level is not None:
             bottom = self.origin[up]
             if water.level <= bottom:
-                raise InputError(f"water: the level {water.level:g} m lies below the domain "
-                                 f"(its bottom is at {bottom:g} m along "
-                                 f"{'xyz'[up]})", "level")
+                raise InputError(f"water: the level {water.level:g} m lies below the grid "
+                                 f"(its bottom is at {'xyz'[up]} = {bottom:g} m)", "level")
             if not self.gravity[up] < 0.0:
                 raise InputError(f"water: a still-water level needs gravity pointing down "
                                  f"{'xyz'[up]} (the hydrostatic pressure's direction), got "

@@ -215,7 +215,9 @@ class _BodyDisplacements:
 #: World's argument; InputError.key)
 _WORLD_KEY_OF_MODEL = {"positions": "bodies", "materials": "bodies", "elements": "domain",
                        "h": "cells", "origin": "domain", "mass_matrix": "transfer",
-                       "projection": "transfer", "particle_force": "tractions"}
+                       "projection": "transfer", "particle_force": "tractions",
+                       "level": "water.level", "analysis": "water.analysis",
+                       "pore_water": "bodies", "conductivity": "bodies"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -315,6 +317,11 @@ class World:
             object.__setattr__(self, "walls", walls_from(self.walls, dim, open_ok=True))
         object.__setattr__(self, "_particles", self._fill(dim, h, domain))
         self._check_dt(h, g, domain)
+        if self.water is not None and self.water.level is not None:
+            up = min(1, dim - 1)
+            if not self.water.level > 0.0:
+                raise InputError(f"water: the level {self.water.level:g} m lies below the "
+                                 f"domain (its bottom is at {'xyz'[up]} = 0)", "water.level")
         with about("tractions"):
             forces, force_time = self._surface_forces(dim, h)
         with about("initial_stress"):

@@ -68,7 +68,7 @@ class Terzaghi(Problem):
     E: float = 1.0e6
     density: float = 2000.0
     H: float = 1.0
-    p0: float = 1.0e4
+    p0: float = 1.0e3
     porosity: float = 0.4
     conductivity: float = 1.0e-3
     water_modulus: float = 2.2e9

@@ -10,13 +10,15 @@ from ..materials import MATERIALS, get_material
 from ..model.model import SIDES
 from ..problems import PROBLEMS
 from ..model.geostatic import K0, GravityLoading
+from ..model.water import Water
+from ..materials.pore_water import PoreWater
 from ..model.world import PRESETS, Ball, Body, Box, Polygon, Prism, Wall, World
 from .keypaths import key_lines, parse_path
 from .reader import Reader, apply_overrides, describe, read_toml, suggest
 from ..studies.landslide import Landslide
-from .schema import (BODY, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
+from .schema import (BODY, BODY_WATER, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
                      PROBLEM_OUTPUT, PROBLEM_TABLES, SHAPE_KEYS, SIMULATION, TRACTION, WALL,
-                     WORLD_TABLES, material_schema)
+                     WATER, WORLD_TABLES, material_schema)
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,6 +197,15 @@ def _bodies(reader, data, materials, dim):
             raise reader.error(where + ("material",), f"unknown material {name!r}"
                                f"{suggest(name, known)}: define [material.{name}] or use "
                                f"one of {', '.join(known)}")
+        water = None
+        if b.get("water") is not None:
+            spec = reader.table(where + ("water",), b["water"], BODY_WATER)
+            try:
+                water = PoreWater(**spec)
+            except ValueError as err:  # names its key (InputError.key)
+                key = getattr(err, "key", None)
+                raise reader.error(where + ("water",) + ((key,) if key in spec else ()),
+                                   str(err)) from None
         try:
             if shape in ("polygon", "prism") and dim != (2 if shape == "polygon" else 3):
                 raise ValueError(f"a {shape} is a {'2D' if shape == 'polygon' else '3D'} "
@@ -204,7 +215,7 @@ def _bodies(reader, data, materials, dim):
                         else Polygon(b["vertices"]) if shape == "polygon"
                         else Prism(b["vertices"], b["z"]))
             bodies.append(Body(geometry, material, velocity=b.get("velocity"),
-                               ppc=b.get("ppc", 2), name=b.get("name", "")))
+                               ppc=b.get("ppc", 2), name=b.get("name", ""), water=water))
         except ValueError as err:
             raise reader.error(where, str(err)) from None
     return bodies
@@ -238,7 +249,7 @@ _WORLD_KEYS = {"domain": "domain", "cells": "domain.cells", "walls": "domain.wal
                "integrator": "simulation.integrator", "dt": "simulation.dt",
                "courant": "simulation.courant", "gravity": "loads.gravity",
                "bodies": "body", "tractions": "loads.traction",
-               "initial_stress": "initial_stress"}
+               "initial_stress": "initial_stress", "water": "water"}
 
 
 def _world_error_key(key):
@@ -288,6 +299,14 @@ def _world_scene(reader, data, path) -> SceneFile:
                        GravityLoading(**{k: spec[k] for k in given}))
         except ValueError as err:
             raise reader.error(("initial_stress",), str(err)) from None
+    water = None
+    if "water" in data:
+        spec = reader.table(("water",), data["water"], WATER)
+        try:
+            water = Water(spec.get("analysis", "coupled"), spec.get("level"))
+        except ValueError as err:
+            key = getattr(err, "key", None)
+            raise reader.error(("water",) + ((key,) if key in WATER else ()), str(err)) from None
     if output["gif"] is not None and dim == 1:
         raise reader.error(("output", "gif"), "a 1D world draws no GIF")
     if output.get("landslide") is not None and dim != 2:
@@ -305,7 +324,7 @@ def _world_scene(reader, data, path) -> SceneFile:
                       pic_fraction=sim.get("pic_fraction", 0.0),
                       transfer_params=sim.get("transfer_params"), tractions=tractions, name=name,
                       integrator=sim.get("integrator", "euler-cromer"),
-                      initial_stress=initial)
+                      initial_stress=initial, water=water)
     except ValueError as err:
         key = _world_error_key(getattr(err, "key", None))
         raise (reader.error(key, str(err)) if key else ValueError(f"{path}: {err}")) from None

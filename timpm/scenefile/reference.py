@@ -1,9 +1,10 @@
 """The schema as documentation: the key tables of docs/scene_files.md."""
 from ..materials import MATERIALS
+from ..materials.pore_water import PoreWater
 from ..schemes import TRANSFERS, scheme_params
 from .schema import (BODY, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
                      REQUIRED, SIMULATION,
-                     TRACTION, TYPES, WALL, material_schema)
+                     TRACTION, TYPES, WALL, WATER, material_schema)
 
 
 def _default_text(key):
@@ -38,7 +39,8 @@ def _parameters(params, title):
     rows = [f"**{title}**", "", "| key | type | default | unit | meaning |",
             "|---|---|---|---|---|"]
     for name, param in params.items():
-        default = "required" if param.default is None else f"{param.default:g}"
+        default = ("none" if param.optional else "required" if param.default is None
+                   else f"{param.default:g}")
         rows.append(f"| `{name}` | a number in {param.range_text()} | {default} | "
                     f"{param.unit} | {param.doc.replace('|', chr(92) + '|')} |")
     return "\n".join(rows)
@@ -66,7 +68,9 @@ def schema_reference() -> str:
     parts = [_markdown(SIMULATION, "[simulation]"), _markdown(DOMAIN, "[domain]"),
              _markdown(WALL, "a wall: a string (the kind) or a table"),
              _markdown(LOADS, "[loads]"), _markdown(TRACTION, "[[loads.traction]]"),
-             _markdown(BODY, "[[body]]"), _markdown(INITIAL_STRESS, "[initial_stress]")]
+             _markdown(BODY, "[[body]]"),
+             _parameters(PoreWater.PARAMS, "[body.water] (a body's pore water)"),
+             _markdown(WATER, "[water]"), _markdown(INITIAL_STRESS, "[initial_stress]")]
     for transfer in TRANSFERS:  # each scheme's own parameters, as it declares them
         if scheme_params(transfer):
             parts.append(_parameters(scheme_params(transfer), "[simulation.transfer_params] "

@@ -7,10 +7,12 @@ from dataclasses import dataclass
 from ..bases import get_basis
 from ..engine.features import MODES
 from ..materials import MATERIALS
+from ..materials.pore_water import PoreWater
 from ..model.model import (INTEGRATORS, ND_BASES, SIDES, TRANSFERS, WALL_KINDS, MASS_KINDS,
                            PROJECTIONS)
 from ..problems import PROBLEMS
 from ..model.scene import PLACEMENTS, STRESS_UPDATES
+from ..model.water import ANALYSES
 from ..model.world import PRESETS
 
 REQUIRED = object()
@@ -123,6 +125,32 @@ BODY = {
     "z": Key("range", REQUIRED, "m", "extent of a prism along z [z0, z1]"),
     "ppc": Key("count", 2, doc="particles per cell and axis"),
     "velocity": Key("vector", "zero", "m/s", "initial velocity"),
+    "water": Key("table", None, doc="the water in the body's pores: {porosity = n, "
+                 "conductivity = k (m/s) or permeability = kappa (m^2), viscosity, density, "
+                 "bulk_modulus} (keys below: [body.water]); the scene's [water] says how it "
+                 "is analysed"),
+}
+
+
+def _pore_water_schema():
+    out = {}
+    for name, param in PoreWater.PARAMS.items():
+        default = (None if param.optional else REQUIRED if param.default is None
+                   else param.default)
+        out[name] = Key("number", default, param.unit, param.doc)
+    return out
+
+
+#: the keys of a body's water table
+BODY_WATER = _pore_water_schema()
+
+WATER = {
+    "analysis": Key("string", "coupled", doc="drained: the buoyant weight under the "
+                    "level, no pore-pressure field; undrained: an excess pore pressure from "
+                    "the volumetric strain, no flow; coupled: the water flows (the two-phase "
+                    "step, Darcy's drag)", choices=ANALYSES),
+    "level": Key("number", None, "m", "the still-water level along the up axis (y; x in "
+                 "1D), above the ground for a sea over the seabed; none: no free water"),
 }
 SHAPE_KEYS = {"box": ("lo", "hi"), "ball": ("center", "radius"), "polygon": ("vertices",),
               "prism": ("vertices", "z")}
@@ -212,7 +240,7 @@ PROBLEM = {
 
 #: the top-level tables of each form
 WORLD_TABLES = ("simulation", "domain", "material", "body", "loads", "initial_stress",
-                "output")
+                "water", "output")
 PROBLEM_TABLES = ("problem", "output")
 
 MATERIAL_TYPE = Key("string", doc="the material law", choices=tuple(MATERIALS))

@@ -281,13 +281,19 @@ class _Run:
             "transfer": solver.transfer, "integrator": scene.model.integrator,
             "mode": solver.mode,
             "critical_dt": scene.critical_dt, "monitored_particle": monitor,
-            # damping dissipates energy by design: no conservation measure then
-            "energy_drift": energy_drift(en) if en is not None and scene.damping == 0 else None,
+            # damping and Darcy's drag dissipate energy by design: no conservation measure
+            "energy_drift": (energy_drift(en) if en is not None and scene.damping == 0
+                             and not _dissipates(scene.model) else None),
         }
         if scene.mass == "consistent":
             record["negative_pivots"] = solver.negative_pivots()
         record.update(prob.summary(x0, solver, stress_update))
         return RunResult(record, x0.copy(), u, exact, series, en)
+
+
+def _dissipates(model) -> bool:
+    """The model dissipates energy besides damping: the drag of flowing pore water."""
+    return model.water is not None and model.water.analysis == "coupled"
 
 
 #: runs (their scenes) by the arguments that built them (oldest first)
