@@ -28,6 +28,7 @@ TINY = {
     "vibrating_string.toml": {"problem.t_end": 0.002},
     "slope_griffiths_lane.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
     "retrogressive_clay_slope.toml": {"domain.cells": 50, "simulation.t_end": 0.05},
+    "submerged_layer.toml": {"domain.cells": 4, "simulation.t_end": 0.02},
 }
 
 

@@ -276,3 +276,31 @@ def test_scene_file_water_errors_name_key_and_line(tmp_path, old, new, line, key
     with pytest.raises(ValueError) as err:
         load_scene(path)
     assert f"layer.toml:{line}: {key}" in str(err.value)
+
+
+# ---- the submarine slope ----------------------------------------------------------------
+def test_submarine_slope_fails_under_water(tmp_path):
+    """timpm demo submarine-slope, coarse (6 cells a height): the weakened slope under 5 m
+    of sea slides out beyond its toe; the GIF is written with the sea drawn; the record
+    holds the run-out, the excess pore pressures and the energies (all the released
+    potential energy dissipated but the kinetic energy left)."""
+    from timpm.output.render import WATER_COLOR, Movie
+    from timpm.scenarios.demos import run_demo
+    out = tmp_path / "sub.gif"
+    result = run_demo("submarine-slope", movie=Movie(out, width=320), frames=4,
+                      cells_per_H=6)
+    rec = result.summary
+    assert out.stat().st_size > 0
+    assert rec["runout"] > 0.0 and rec["water_level"] == 15.0
+    assert rec["excess_pore_pressure_max"] > 0.0 > rec["excess_pore_pressure_min"]
+    assert rec["energy_dissipated"] == pytest.approx(
+        rec["potential_energy_released"] - rec["kinetic_energy_end"], rel=1e-9)
+    from PIL import Image
+    frame = np.asarray(Image.open(out).convert("RGB"))
+    assert np.any(np.all(frame == WATER_COLOR, axis=-1))  # the sea, drawn
+
+
+def test_pore_pressure_colour_needs_pore_water():
+    from timpm.scenarios.demos import run_demo
+    with pytest.raises(ValueError, match="pore-pressure"):
+        run_demo("slope", color="pore-pressure", cells_per_H=4, t_end=0.01)

@@ -391,6 +391,10 @@ def check_image(width: int, height: int, frames: int = 0) -> None:
                          "smaller width or fewer frames")
 
 
+#: the sea below a still-water level, behind the particles
+WATER_COLOR = (205, 226, 245)
+
+
 class Movie:
     """A simulation's frames rendered into an animated GIF ``out`` (``width`` pixels wide,
     ``MIN_WIDTH`` to ``MAX_WIDTH`` of :mod:`timpm.output.decorations`; ``fps`` frames a
@@ -424,6 +428,13 @@ class Movie:
         if value_range is not None:
             colorbar = (lut, *value_range, color if label is None else label, unit)
         lo, hi = (0.0,) * world.dim, world.domain
+        # the sea below a still-water level (2D), drawn behind the particles
+        water = getattr(world, "water", None)
+        self.water_row = None
+        if world.dim == 2 and water is not None and water.level is not None:
+            self.water_level = water.level
+        else:
+            self.water_level = None
         self.layout = FrameLayout(self.width, lo, hi, walls=world.walls, colorbar=colorbar,
                                   title=world.name if title is None else title)
         if self.frames is not None:
@@ -431,10 +442,12 @@ class Movie:
         _, _, pw, ph = self.layout.plot_box
         self.renderer = Renderer(lo, hi, width=pw, height=ph, cmap=cmap,
                                  radius=max(1.0, 0.8 * pw / world.cells / 2))
+        if self.water_level is not None:  # the first pixel row below the level
+            self.water_row = max(0, int(round(ph * (1.0 - self.water_level / hi[1]))))
         self.value_range = self.layout.value_range
         shades = (1.0,) if world.dim == 2 else (1.0, 1.0 - DEPTH_SHADE / 2, 1.0 - DEPTH_SHADE)
         extras = [self.renderer.background, self.renderer.color, NAN_COLOR, TEXT_COLOR, WALL_COLOR,
-                  ROUGH_WALL_COLOR, OPEN_SIDE_COLOR]
+                  ROUGH_WALL_COLOR, OPEN_SIDE_COLOR, WATER_COLOR]
         self.writer.palette = gif_palette(lut, extras, shades)
         self._seconds += time.perf_counter() - t0
 
@@ -448,6 +461,10 @@ class Movie:
                              "Movie.start(world, color, value_range=(vmin, vmax))")
         vmin, vmax = self.value_range if values is not None else (None, None)
         plot = self.renderer.frame(positions, values, vmin=vmin, vmax=vmax)
+        if self.water_row is not None:  # the sea: the empty pixels below the level
+            below = plot[self.water_row:]
+            empty = np.all(below == self.renderer.background, axis=-1)
+            below[empty] = WATER_COLOR
         t0 = time.perf_counter()
         frame = self.layout.frame(plot, t)
         self._seconds += time.perf_counter() - t0

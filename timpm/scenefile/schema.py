@@ -188,7 +188,8 @@ OUTPUT = {
     "json": Key("string", None, doc="file of the run's summary and series as JSON"),
     "gif": Key("string", None, doc="animated GIF of the run (2D and 3D worlds)"),
     "color": Key("string", "speed", doc="colour of the GIF's particles",
-                 choices=("speed", "pressure", "plastic", "von-mises", "body")),
+                 choices=("speed", "pressure", "plastic", "von-mises", "body",
+                          "pore-pressure")),
     "color_range": Key("range", None, doc="the colour bar's range, fixed for the run "
                        "(default: from the scene: speed to max(v0, sqrt(2 g H)), stresses to "
                        "rho g H or rho c v0, plastic strain to 1)"),
