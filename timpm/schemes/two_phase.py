@@ -22,7 +22,12 @@ so that a low permeability (Q large) does not shorten the time step: the step is
 by the undrained wave, sqrt((E_oed + K_w / n) / rho_sat), not by the drag's 2 M_w / Q.
 A node's water is held by its walls (impermeable: the normal velocity the skeleton's) and
 by its Dirichlet conditions; a free surface drains (p_e = 0 is the weak form's natural
-condition).  The rest is MUSL's: the second P2G of both momenta, G2P of the strains.
+condition).  The skeleton's is MUSL's step: the particles' velocities updated, their
+momentum mapped again, the strain from that velocity.  The water's volumetric strain is
+taken from its velocity at the step's end, w+, itself: remapped from the particles, the
+nodal field is a smoothed one, and consolidation ran slower than Terzaghi's series by a
+share growing as 1 / (rho_w h) (4% of the time factor at 64 elements; with w+, 0.0004 of
+u0 at 16 to 64 elements, docs/results.md).
 """
 import taichi as ti
 
@@ -56,11 +61,12 @@ class TwoPhase(MUSL):
                              doc="Q_i = sum phi_i (n rho_w g / k) V_p"),
                 "gwf": Field("vector", scatter=True, names=("node_water_force",),
                              doc="F_w,i = sum p_e V_p grad phi_i"),
-                "gwp": Field("vector", scatter=True,
-                             names=("node_water_momentum", "node_water_velocity"),
-                             doc="P_w,i = sum phi_i rho_w V_p w_p, then w_i = P_w,i / M_w,i"),
+                "gwp": Field("vector", scatter=True, names=("node_water_momentum",),
+                             doc="P_w,i = sum phi_i rho_w V_p w_p"),
                 "gwa": Field("vector", names=("node_water_acceleration",),
-                             doc="a_w,i = (w_i+ - w_i) / dt")}
+                             doc="a_w,i = (w_i+ - w_i) / dt"),
+                "gwe": Field("vector", names=("node_water_velocity",),
+                             doc="w_i+: the water's velocity at the step's end")}
 
     def __init__(self, features, ops):
         super().__init__(features, ops)
@@ -70,7 +76,7 @@ class TwoPhase(MUSL):
                            rows=("node_mass", "node_force", "node_momentum"),
                            merge=("node_mass", "node_momentum", "node_force"))
         self.velocity = Scatter("G2P: v_p += dt sum phi_i a_i, w_p += dt sum phi_i a_w,i; "
-                                "P2G: P_i, P_w,i", self.velocity_particle,
+                                "P2G: P_i", self.velocity_particle,
                                 rows=("node_momentum",), merge=("node_momentum",))
 
     def phases(self):
@@ -82,7 +88,7 @@ class TwoPhase(MUSL):
             Nodes("grid: both phases' velocities at the step's end, Darcy's drag implicit; "
                   "walls", self.acceleration_node),
             self.velocity,
-            Nodes("grid: v_i = P_i / m_i, w_i = P_w,i / M_w,i, walls", self.velocity_node),
+            Nodes("grid: v_i = P_i / m_i, walls", self.velocity_node),
             Particles("G2P: u_p, grad du, sigma', p_e -= (K_w / n) [(1 - n) d eps_s + n "
                       "d eps_w], V_p", self.update_particle))
 
@@ -134,13 +140,13 @@ class TwoPhase(MUSL):
         Q = self.scatter.merged("node_drag", I)
         Fw = self.scatter.merged("node_water_force", I)
         Pw = self.scatter.merged("node_water_momentum", I)
-        grid.node_water_mass[I] = Mw  # the velocity phase divides by it
         dt = values.dt()
         if ti.static(self.f.damping):  # F_damp = -alpha sgn(v_i) |F_i| (A.4), on the mixture
             grid.node_force[I] -= (values.damping() * ti.math.sign(grid.node_momentum[I])
                                    * ti.abs(grid.node_force[I]))
         a = ti.Vector.zero(float, self.dim)
         aw = ti.Vector.zero(float, self.dim)
+        w_end = ti.Vector.zero(float, self.dim)  # (zero at Dirichlet and empty nodes)
         m = grid.node_mass[I]
         if m > values.mass_tol() and not self.boundary.is_fixed(I):
             v = grid.node_momentum[I] / m
@@ -161,10 +167,13 @@ class TwoPhase(MUSL):
                 w_new = self.boundary.apply_walls(I, w_new)
             a = (v_new - v) / dt
             aw = (w_new - w) / dt
+            w_end = w_new
         grid.node_acceleration[I] = a
         grid.node_water_acceleration[I] = aw
+        grid.node_water_velocity[I] = w_end
         grid.node_momentum[I] = ti.Vector.zero(float, self.dim)  # the second P2G's
         if ti.static(not self.f.private_scatter):  # (merged cleared the copies)
+            grid.node_water_mass[I] = 0.0
             grid.node_pore_mass[I] = 0.0
             grid.node_drag[I] = 0.0
             grid.node_water_force[I] = ti.Vector.zero(float, self.dim)
@@ -175,7 +184,7 @@ class TwoPhase(MUSL):
     def velocity_particle(self, particles: ti.template(), grid: ti.template(),
                           values: ti.template(), p, copy):
         # G2P: v_p += dt sum_i phi_i a_i, w_p += dt sum_i phi_i a_w,i; P2G: P_i = sum m_p
-        # phi_i v_p, P_w,i = sum rho_w V_p phi_i w_p
+        # phi_i v_p
         base, w, dw, xi, inside = self.stencil.of(particles.x[p])
         node_values = ti.Matrix.zero(float, 3, self.support)
         if inside:
@@ -185,41 +194,19 @@ class TwoPhase(MUSL):
                 grid.node_water_acceleration, base, w, dw)
             particles.v[p] = vp
             particles.w[p] = wp
-            water_mass = particles.rho_w[p] * particles.vol[p]
             for r in range(self.stencil.rows):
                 for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                    node = base + offset
-                    node_values = self.scatter.deposit("node_momentum", copy, node, offset,
-                                                       particles.m[p] * phi * vp, node_values)
-                    self.scatter.add("node_water_momentum", copy, node, phi * water_mass * wp)
+                    node_values = self.scatter.deposit("node_momentum", copy, base + offset,
+                                                       offset, particles.m[p] * phi * vp,
+                                                       node_values)
         return base, inside, node_values
-
-    # ---- the grid: velocities --------------------------------------------------------------
-    @ti.func
-    def velocity_node(self, grid: ti.template(), values: ti.template(), I):
-        # v_i = P_i / m_i with the walls (MUSL's); w_i = P_w,i / M_w,i with the walls (v_i
-        # where the node holds no water), zero at Dirichlet nodes
-        self.nodes.solve_node(grid.node_momentum, True, I)  # P_i into v_i in place
-        Pw = self.scatter.merged("node_water_momentum", I)
-        Mw = grid.node_water_mass[I]
-        wi = grid.node_velocity[I]
-        if Mw > values.mass_tol():
-            wi = Pw / Mw
-            if ti.static(self.f.has_walls):
-                wi = self.boundary.apply_walls(I, wi)
-        if self.boundary.is_fixed(I):
-            wi = ti.Vector.zero(float, self.dim)
-        grid.node_water_velocity[I] = wi
-        grid.node_water_mass[I] = 0.0
-        if ti.static(self.f.grid_displacement):
-            grid.node_displacement[I] += grid.node_velocity[I] * values.dt()
 
     # ---- G2P of the particle state ---------------------------------------------------------
     @ti.func
     def update_particle(self, particles: ti.template(), grid: ti.template(),
                         values: ti.template(), p):
         # G2P: v_p and grad du from v_i (MUSL's gather); the water's d eps_v,w = sum_i dt
-        # w_i . grad phi_i; the pores' (1 - n) d eps_v,s + n d eps_v,w
+        # w_i+ . grad phi_i; the pores' (1 - n) d eps_v,s + n d eps_v,w
         base, w, dw, xi, inside = self.stencil.of(particles.x[p])
         if inside and not self.failures.halted(p):
             vp, grad_du = self.gather(particles, grid, values, p, base, w, dw, xi)
