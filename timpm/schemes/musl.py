@@ -23,6 +23,10 @@ class MUSL(Scheme):
 
     transfers = ("musl",)
     integrators = ("euler-cromer", "rk4", "midpoint")
+    #: a variant's own P2G at each stencil node (``p2g_node``), compiled in only where a
+    #: variant sets this; ``needs_momentum``: its grid phase reads P2G's momentum
+    extended = False
+    needs_momentum = False
 
     @staticmethod
     def grid_fields(features):
@@ -34,7 +38,8 @@ class MUSL(Scheme):
         self.dim, self.support = f.dim, f.basis.support
         # P2G scatters the momentum where a later phase reads it (the grid phase's damping
         # and walls, the Runge-Kutta and midpoint rates)
-        self.scatters_momentum = f.damping or f.has_walls or f.rk4 or f.midpoint
+        self.scatters_momentum = (f.damping or f.has_walls or f.rk4 or f.midpoint
+                                  or self.needs_momentum)
         momentum = ("node_momentum",) if self.scatters_momentum else ()
         self.p2g = Scatter("P2G: m_i, F_i (and P_i) (A.1/A.2)", self.p2g_particle,
                            rows=("node_mass", "node_force") + momentum,
@@ -113,11 +118,20 @@ class MUSL(Scheme):
                         node_values = self.scatter.deposit("node_momentum", copy, node, offset,
                                                            mp * phi * particles.v[p],
                                                            node_values)
+                    if ti.static(self.extended):
+                        self.p2g_node(particles, values, p, copy, node, phi, grad)
             if ti.static(self.f.consistent and self.dim == 1):
                 for a, c in ti.static(ti.ndrange(self.support, self.support)):
                     self.scatter.accumulate(grid.band[base[0] + a, c - a + self.f.bandwidth],
                                             mp * w[a, 0] * w[c, 0])
         return base, inside, node_values
+
+    @ti.func
+    def p2g_node(self, particles: ti.template(), values: ti.template(), p, copy, node, phi,
+                 grad):
+        """A variant's own P2G of particle p at a stencil node (``extended``; nothing
+        here)."""
+        pass
 
     @ti.func
     def after_p2g(self, particles: ti.template(), grid: ti.template(), values: ti.template()):

@@ -32,7 +32,6 @@ u0 at 16 to 64 elements, docs/results.md).
 import taichi as ti
 
 from ..platform.declare import Field
-from ..platform.errors import ErrorCode
 from .musl import MUSL
 from .phases import Nodes, Particles, Scatter, Whole
 
@@ -68,9 +67,11 @@ class TwoPhase(MUSL):
                 "gwe": Field("vector", names=("node_water_velocity",),
                              doc="w_i+: the water's velocity at the step's end")}
 
+    extended = True        # the water's P2G at each stencil node (p2g_node)
+    needs_momentum = True  # the drag's solve reads v_i = P_i / m_i
+
     def __init__(self, features, ops):
         super().__init__(features, ops)
-        self.scatters_momentum = True  # the drag's solve reads v_i = P_i / m_i
         self.p2g = Scatter("P2G: m_i, F_i, P_i; M_w,i, Mbar_i, Q_i, F_w,i, P_w,i",
                            self.p2g_particle,
                            rows=("node_mass", "node_force", "node_momentum"),
@@ -94,39 +95,18 @@ class TwoPhase(MUSL):
 
     # ---- P2G ---------------------------------------------------------------------------
     @ti.func
-    def p2g_particle(self, particles: ti.template(), grid: ti.template(), values: ti.template(),
-                     p, copy):
-        # P2G: m_i, P_i and F_i = sum phi_i f_p - (sigma' - p_e I)_p V_p grad phi_i as MUSL;
-        # the water: M_w,i, Mbar_i, Q_i, F_w,i = sum p_e V_p grad phi_i, P_w,i
-        base, w, dw, xi, inside = self.stencil.of(particles.x[p])
-        node_values = ti.Matrix.zero(float, 3, self.support)
-        if not inside:
-            self.failures.fail(ErrorCode.OFF_GRID, p)
-        else:
-            mp, vol = particles.m[p], particles.vol[p]
-            fp = self.loads.force(particles, values, p)
-            stress_volume = particles.sigma[p] * vol
-            water_mass = particles.rho_w[p] * vol
-            pore_mass = particles.porosity[p] * particles.rho_w[p] * self.laws.reference_volume(p)
-            drag = particles.drag[p] * vol
-            pressure_volume = particles.pw[p] * vol
-            for r in range(self.stencil.rows):
-                for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                    node = base + offset
-                    node_values = self.scatter.deposit("node_mass", copy, node, offset,
-                                                       mp * phi, node_values)
-                    node_values = self.scatter.deposit("node_force", copy, node, offset,
-                                                       phi * fp - stress_volume @ grad,
-                                                       node_values)
-                    node_values = self.scatter.deposit("node_momentum", copy, node, offset,
-                                                       mp * phi * particles.v[p], node_values)
-                    self.scatter.add("node_water_mass", copy, node, phi * water_mass)
-                    self.scatter.add("node_pore_mass", copy, node, phi * pore_mass)
-                    self.scatter.add("node_drag", copy, node, phi * drag)
-                    self.scatter.add("node_water_force", copy, node, pressure_volume * grad)
-                    self.scatter.add("node_water_momentum", copy, node,
-                                     phi * water_mass * particles.w[p])
-        return base, inside, node_values
+    def p2g_node(self, particles: ti.template(), values: ti.template(), p, copy, node, phi,
+                 grad):
+        # P2G of the water beside MUSL's m_i, P_i and F_i (whose stress is sigma' - p_e I):
+        # M_w,i, Mbar_i, Q_i, F_w,i = sum p_e V_p grad phi_i, P_w,i
+        vol = particles.vol[p]
+        water_mass = particles.rho_w[p] * vol
+        self.scatter.add("node_water_mass", copy, node, phi * water_mass)
+        self.scatter.add("node_pore_mass", copy, node, phi * particles.porosity[p]
+                         * particles.rho_w[p] * self.laws.reference_volume(p))
+        self.scatter.add("node_drag", copy, node, phi * particles.drag[p] * vol)
+        self.scatter.add("node_water_force", copy, node, particles.pw[p] * vol * grad)
+        self.scatter.add("node_water_momentum", copy, node, phi * water_mass * particles.w[p])
 
     # ---- the grid: the coupled balances ------------------------------------------------
     @ti.func
