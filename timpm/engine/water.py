@@ -23,7 +23,6 @@ class Pores:
         self.dim = f.dim
         self.up = min(1, f.dim - 1)  # the up axis: y in 2D and 3D, x in 1D
         self.values = values
-        self.active = f.water is not None
 
     @staticmethod
     def particle_fields(features) -> dict:

@@ -430,11 +430,7 @@ class Movie:
         lo, hi = (0.0,) * world.dim, world.domain
         # the sea below a still-water level (2D), drawn behind the particles
         water = getattr(world, "water", None)
-        self.water_row = None
-        if world.dim == 2 and water is not None and water.level is not None:
-            self.water_level = water.level
-        else:
-            self.water_level = None
+        level = water.level if world.dim == 2 and water is not None else None
         self.layout = FrameLayout(self.width, lo, hi, walls=world.walls, colorbar=colorbar,
                                   title=world.name if title is None else title)
         if self.frames is not None:
@@ -442,8 +438,8 @@ class Movie:
         _, _, pw, ph = self.layout.plot_box
         self.renderer = Renderer(lo, hi, width=pw, height=ph, cmap=cmap,
                                  radius=max(1.0, 0.8 * pw / world.cells / 2))
-        if self.water_level is not None:  # the first pixel row below the level
-            self.water_row = max(0, int(round(ph * (1.0 - self.water_level / hi[1]))))
+        self.water_row = (None if level is None else  # the first pixel row below the level
+                          max(0, int(round(ph * (1.0 - level / hi[1])))))
         self.value_range = self.layout.value_range
         shades = (1.0,) if world.dim == 2 else (1.0, 1.0 - DEPTH_SHADE / 2, 1.0 - DEPTH_SHADE)
         extras = [self.renderer.background, self.renderer.color, NAN_COLOR, TEXT_COLOR, WALL_COLOR,
