@@ -24,8 +24,7 @@ from ..platform.errors import InputError, about
 from ..schemes import TRANSFERS as SCHEME_TRANSFERS, scheme_classes, scheme_params
 from .loads import BodyForce, field_function, time_function
 from ..materials import Material
-from ..materials.pore_water import PoreWater
-from .water import Water
+from .water import checked_water
 from .walls import SIDES, WALL_KINDS, Wall, walls_from
 
 __all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "with_pic_fraction", "SIDES", "WALL_KINDS",
@@ -274,7 +273,9 @@ class Model:
         with about("dt"):
             set_("dt", positive("time step dt", self.dt))
         with about("water"):
-            self._check_water(dim)
+            pores, arrays = checked_water(self)
+            object.__setattr__(self, "pore_water", pores)
+            object.__setattr__(self, "water_arrays", arrays)
 
     # ---- checks ----------------------------------------------------------------------
     def _check_particles(self, dim):
@@ -603,108 +604,6 @@ class Model:
             if not 0 <= self.traction.particle < n:
                 raise ValueError(f"traction particle {self.traction.particle} does not exist "
                                  f"({n} particles)")
-
-    def _check_water(self, dim):
-        """The scene's water and the saturated materials (:mod:`timpm.model.water`): the
-        per-particle arrays the engine uploads (``water_arrays``), None for a dry scene."""
-        set_ = lambda key, value: object.__setattr__(self, key, value)  # noqa: E731
-        given = self.pore_water
-        pores = (None,) * len(self.materials) if given is None else tuple(given)
-        if len(pores) != len(self.materials):
-            raise InputError(f"pore_water must give one PoreWater or None per material "
-                             f"({len(self.materials)}), got {len(pores)}", "pore_water")
-        for k, (mat, pw) in enumerate(zip(self.materials, pores)):
-            if pw is None:
-                continue
-            if not isinstance(pw, PoreWater):
-                raise InputError(f"pore_water[{k}] must be a timpm.PoreWater or None, got "
-                                 f"{pw!r}", "pore_water")
-            if not mat.carries_pore_water:
-                raise InputError(f"the {mat.name} material cannot carry pore water (a "
-                                 f"saturated body is a soil skeleton: a solid law)",
-                                 "pore_water")
-        set_("pore_water", pores)
-        water = self.water
-        saturated = [k for k, pw in enumerate(pores) if pw is not None]
-        if water is None:
-            if saturated:
-                raise InputError("a body carries pore water: give the scene's water "
-                                 "(water=timpm.Water(analysis='drained' | 'undrained' | "
-                                 "'coupled', level=...))", "water")
-            if self.initial_pore_pressure is not None:
-                raise InputError("initial_pore_pressure needs a scene with water",
-                                 "initial_pore_pressure")
-            set_("water_arrays", None)
-            return
-        if not isinstance(water, Water):
-            raise InputError(f"water must be a timpm.Water, got {water!r}", "water")
-        if not saturated:
-            raise InputError("the scene has water but no body carries pore water: give a "
-                             "body pore_water=timpm.PoreWater(...)", "water")
-        up = min(1, dim - 1)
-        if water.level is not None:
-            bottom = self.origin[up]
-            if water.level <= bottom:
-                raise InputError(f"water: the level {water.level:g} m lies below the grid "
-                                 f"(its bottom is at {'xyz'[up]} = {bottom:g} m)", "level")
-            if not self.gravity[up] < 0.0:
-                raise InputError(f"water: a still-water level needs gravity pointing down "
-                                 f"{'xyz'[up]} (the hydrostatic pressure's direction), got "
-                                 f"{self.gravity}", "level")
-        if water.pore_pressure and self.integrator != "euler-cromer":
-            raise InputError(f"water: the {self.integrator} integrator does not take pore "
-                             "water (its stages set the stress from F): use euler-cromer",
-                             "integrator")
-        if water.analysis == "coupled":
-            wrong = [what for what, bad in (
-                (f"the {self.transfer} transfer (the two-phase step is MUSL's: "
-                 "transfer='musl')", self.transfer != "musl"),
-                ("the consistent mass", self.mass_matrix != "lumped"),
-                ("the MLS projection", self.projection != "standard"),
-                ("a PIC fraction", self.pic_fraction > 0.0),
-                ("prescribed non-zero node velocities", self.prescribes_motion)) if bad]
-            if wrong:
-                raise InputError(f"water: the coupled analysis does not take "
-                                 f"{'; '.join(wrong)}", "analysis")
-        n = len(self.positions)
-        index = self.material_index
-        column = lambda values: np.asarray(values, dtype=np.float64)[index]  # noqa: E731
-        arrays = {"rho_w": column([0.0 if pw is None else pw.density for pw in pores])}
-        if water.pore_pressure:
-            arrays["storage"] = column([0.0 if pw is None else pw.storage_modulus
-                                        for pw in pores])
-            pressure = np.zeros(n)
-            if self.initial_pore_pressure is not None:
-                try:
-                    pressure = np.array(self.initial_pore_pressure, dtype=np.float64)
-                    pressure = pressure.reshape(n)
-                except (TypeError, ValueError):
-                    raise InputError(f"initial_pore_pressure must be {n} numbers (one per "
-                                     f"particle), got shape "
-                                     f"{np.shape(self.initial_pore_pressure)}",
-                                     "initial_pore_pressure") from None
-                bad = np.flatnonzero(~np.isfinite(pressure))
-                if len(bad):
-                    raise InputError(f"initial_pore_pressure of particle {int(bad[0])} is "
-                                     "not finite", "initial_pore_pressure")
-                dry = np.flatnonzero((arrays["rho_w"] == 0.0) & (pressure != 0.0))
-                if len(dry):
-                    raise InputError(f"initial_pore_pressure: particle {int(dry[0])} is of a "
-                                     "dry material (no pore water) and cannot hold one",
-                                     "initial_pore_pressure")
-            arrays["pw"] = pressure
-        elif self.initial_pore_pressure is not None:
-            raise InputError("initial_pore_pressure: a drained analysis keeps no excess "
-                             "pore pressure (undrained or coupled do)",
-                             "initial_pore_pressure")
-        if water.analysis == "coupled":
-            with about("pore_water"):
-                arrays["porosity"] = column([0.0 if pw is None else pw.porosity
-                                             for pw in pores])
-                arrays["drag"] = column([0.0 if pw is None else pw.drag() for pw in pores])
-        for arr in arrays.values():
-            arr.setflags(write=False)
-        set_("water_arrays", arrays)
 
     # ---- derived -----------------------------------------------------------------------
     @property

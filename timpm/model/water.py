@@ -27,9 +27,12 @@ and 3D, x in 1D), possibly above the ground (the sea over a seabed); None: no fr
 import math
 from dataclasses import dataclass
 
-from ..platform.errors import InputError
+import numpy as np
 
-__all__ = ["Water", "ANALYSES"]
+from ..materials.pore_water import PoreWater
+from ..platform.errors import InputError, about
+
+__all__ = ["Water", "ANALYSES", "checked_water"]
 
 #: the analyses a scene's water may ask for, the cheapest first
 ANALYSES = ("drained", "undrained", "coupled")
@@ -62,3 +65,105 @@ class Water:
     def pore_pressure(self) -> bool:
         """Whether the particles keep an excess pore pressure (undrained, coupled)."""
         return self.analysis != "drained"
+
+
+def checked_water(model):
+    """A :class:`~timpm.model.Model`'s water checked: its ``pore_water`` as one PoreWater
+    or None per material, and the per-particle arrays the engine uploads (the Model's
+    ``water_arrays``; None for a dry scene)."""
+    dim = model.dim
+    given = model.pore_water
+    pores = (None,) * len(model.materials) if given is None else tuple(given)
+    if len(pores) != len(model.materials):
+        raise InputError(f"pore_water must give one PoreWater or None per material "
+                         f"({len(model.materials)}), got {len(pores)}", "pore_water")
+    for k, (mat, pw) in enumerate(zip(model.materials, pores)):
+        if pw is None:
+            continue
+        if not isinstance(pw, PoreWater):
+            raise InputError(f"pore_water[{k}] must be a timpm.PoreWater or None, got "
+                             f"{pw!r}", "pore_water")
+        if not mat.carries_pore_water:
+            raise InputError(f"the {mat.name} material cannot carry pore water (a "
+                             f"saturated body is a soil skeleton: a solid law)",
+                             "pore_water")
+    water = model.water
+    saturated = [k for k, pw in enumerate(pores) if pw is not None]
+    if water is None:
+        if saturated:
+            raise InputError("a body carries pore water: give the scene's water "
+                             "(water=timpm.Water(analysis='drained' | 'undrained' | "
+                             "'coupled', level=...))", "water")
+        if model.initial_pore_pressure is not None:
+            raise InputError("initial_pore_pressure needs a scene with water",
+                             "initial_pore_pressure")
+        return pores, None
+    if not isinstance(water, Water):
+        raise InputError(f"water must be a timpm.Water, got {water!r}", "water")
+    if not saturated:
+        raise InputError("the scene has water but no body carries pore water: give a "
+                         "body pore_water=timpm.PoreWater(...)", "water")
+    up = min(1, dim - 1)
+    if water.level is not None:
+        bottom = model.origin[up]
+        if water.level <= bottom:
+            raise InputError(f"water: the level {water.level:g} m lies below the grid "
+                             f"(its bottom is at {'xyz'[up]} = {bottom:g} m)", "level")
+        if not model.gravity[up] < 0.0:
+            raise InputError(f"water: a still-water level needs gravity pointing down "
+                             f"{'xyz'[up]} (the hydrostatic pressure's direction), got "
+                             f"{model.gravity}", "level")
+    if water.pore_pressure and model.integrator != "euler-cromer":
+        raise InputError(f"water: the {model.integrator} integrator does not take pore "
+                         "water (its stages set the stress from F): use euler-cromer",
+                         "integrator")
+    if water.analysis == "coupled":
+        wrong = [what for what, bad in (
+            (f"the {model.transfer} transfer (the two-phase step is MUSL's: "
+             "transfer='musl')", model.transfer != "musl"),
+            ("the consistent mass", model.mass_matrix != "lumped"),
+            ("the MLS projection", model.projection != "standard"),
+            ("a PIC fraction", model.pic_fraction > 0.0),
+            ("prescribed non-zero node velocities", model.prescribes_motion)) if bad]
+        if wrong:
+            raise InputError(f"water: the coupled analysis does not take "
+                             f"{'; '.join(wrong)}", "analysis")
+    n = len(model.positions)
+    index = model.material_index
+    column = lambda values: np.asarray(values, dtype=np.float64)[index]  # noqa: E731
+    arrays = {"rho_w": column([0.0 if pw is None else pw.density for pw in pores])}
+    if water.pore_pressure:
+        arrays["storage"] = column([0.0 if pw is None else pw.storage_modulus
+                                    for pw in pores])
+        pressure = np.zeros(n)
+        if model.initial_pore_pressure is not None:
+            try:
+                pressure = np.array(model.initial_pore_pressure, dtype=np.float64)
+                pressure = pressure.reshape(n)
+            except (TypeError, ValueError):
+                raise InputError(f"initial_pore_pressure must be {n} numbers (one per "
+                                 f"particle), got shape "
+                                 f"{np.shape(model.initial_pore_pressure)}",
+                                 "initial_pore_pressure") from None
+            bad = np.flatnonzero(~np.isfinite(pressure))
+            if len(bad):
+                raise InputError(f"initial_pore_pressure of particle {int(bad[0])} is "
+                                 "not finite", "initial_pore_pressure")
+            dry = np.flatnonzero((arrays["rho_w"] == 0.0) & (pressure != 0.0))
+            if len(dry):
+                raise InputError(f"initial_pore_pressure: particle {int(dry[0])} is of a "
+                                 "dry material (no pore water) and cannot hold one",
+                                 "initial_pore_pressure")
+        arrays["pw"] = pressure
+    elif model.initial_pore_pressure is not None:
+        raise InputError("initial_pore_pressure: a drained analysis keeps no excess "
+                         "pore pressure (undrained or coupled do)",
+                         "initial_pore_pressure")
+    if water.analysis == "coupled":
+        with about("pore_water"):
+            arrays["porosity"] = column([0.0 if pw is None else pw.porosity
+                                         for pw in pores])
+            arrays["drag"] = column([0.0 if pw is None else pw.drag() for pw in pores])
+    for arr in arrays.values():
+        arr.setflags(write=False)
+    return pores, arrays
