@@ -43,7 +43,9 @@ def test_pore_water_derived_numbers():
 
 @pytest.mark.parametrize("kwargs, key", [
     (dict(analysis="wet"), "analysis"), (dict(analysis="drained"), "level"),
-    (dict(level=float("inf")), "level"), (dict(level="high"), "level")])
+    (dict(level=float("inf")), "level"), (dict(level="high"), "level"),
+    (dict(analysis="drained", level=1.0, seepage="sideways"), "seepage"),
+    (dict(analysis="undrained", level=1.0, seepage="parallel"), "seepage")])
 def test_water_refuses_bad_values(kwargs, key):
     with pytest.raises(InputError) as err:
         timpm.Water(**kwargs)
@@ -320,6 +322,7 @@ def test_a_scene_file_poses_a_submerged_layer(tmp_path):
     ("conductivity = 1e-5", "conductivity = -1e-5", 23, "body[0].water.conductivity"),
     ("level = 5.5", "level = -5.5", 27, "water.level"),
     ('analysis = "coupled"', 'analysis = "soggy"', 26, "water.analysis"),
+    ('analysis = "coupled"', 'analysis = "coupled"\nseepage = "up"', 27, "water.seepage"),
     ("porosity = 0.4,", "porosty = 0.4,", 23, "body[0].water")])
 def test_scene_file_water_errors_name_key_and_line(tmp_path, old, new, line, key):
     from timpm.scenefile import load_scene

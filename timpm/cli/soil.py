@@ -12,7 +12,7 @@ from ..platform.files import check_distinct, check_output, write_json
 from ..studies import element_test as elements
 from ..studies import factor_of_safety as fos
 
-__all__ = ["element_test", "factor_of_safety", "listing"]
+__all__ = ["element_test", "factor_of_safety", "infinite_slope", "listing"]
 
 
 def listing() -> list:
@@ -108,5 +108,30 @@ def factor_of_safety(args) -> int:
         if args.plot:
             fos.plot_mechanism(scene.world, failed, record, args.plot)
     except (OSError, ValueError) as exc:  # the record is written first: it is kept
+        return _error(exc)
+    return 0
+
+
+def infinite_slope(args) -> int:
+    """``timpm study infinite-slope``: the bisection against the closed form."""
+    from ..studies.infinite_slope import InfiniteSlope
+
+    try:
+        _check_outputs(args, {})
+        slope = InfiniteSlope(beta=args.beta, friction_angle=args.phi, water=args.water)
+        runtime.init(precision="f64")
+        record = slope.factor_of_safety(
+            low=args.bracket[0], high=args.bracket[1], tolerance=args.tolerance,
+            progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
+    except (ValueError, SimulationError) as exc:
+        return _error(exc)
+    print(f"infinite slope ({record['water']}): factor of safety "
+          f"{record['factor_of_safety']:.4f} (bracket {record['bracket'][0]:.4f} to "
+          f"{record['bracket'][1]:.4f}), closed form {record['exact']:.4f}, error "
+          f"{100 * record['relative_error']:+.2f} %, {record['wall_seconds']:.1f} s")
+    try:
+        if args.json:
+            write_json(args.json, record)
+    except (OSError, ValueError) as exc:
         return _error(exc)
     return 0

@@ -57,6 +57,7 @@ class FeatureSet:
     materials: tuple             # ((material class, its flags()), ...) in material-index order
     walls: tuple | None          # wall kind per side ("open": none there, "driven": a moving
                                  # sticky wall); None: no walls
+    periodic: bool               # x periodic: node index modulo the elements along x
     damping: bool                # local damping of A.4
     pic: bool                    # a PIC share in the MUSL velocity update (pic_fraction)
     traction: type | None        # time-function class of the particle traction (1D)
@@ -81,6 +82,7 @@ class FeatureSet:
     water: str | None = None     # the pore water's analysis (model/water.py): "drained",
                                  # "undrained", "coupled"; None: a dry scene
     water_level: bool = False    # a still-water level: buoyancy below it
+    seepage: str = "none"        # "parallel": the pore water's force only along y (Water)
 
     @property
     def pore_pressure(self) -> bool:
@@ -322,7 +324,10 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     materials, damping, traction = list(model.materials), model.damping, model.traction
     # a moving (sticky) wall is its own kind: the others compile as before
     walls = None if model.walls is None else tuple(
-        "open" if w is None else "driven" if w.moves else w.kind for w in model.walls)
+        "open" if w is None or w.kind == "periodic" else "driven" if w.moves else w.kind
+        for w in model.walls)
+    if walls is not None and all(w == "open" for w in walls):
+        walls = None  # periodic x and no wall: nothing to apply at the nodes
     fixed_nodes = list(model.fixed_nodes)
     nodes = model.nodes
     strain_remap = transfer == "apic" and basis.support == 2
@@ -345,6 +350,7 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     features = FeatureSet(
         dim=dim, basis=basis, transfer=transfer, consistent=consistent, mls=mls,
         materials=tuple((type(m), m.flags()) for m in materials), walls=walls,
+        periodic=model.periodic,
         damping=damping > 0.0, pic=model.pic_fraction > 0.0,
         traction=None if traction is None else type(traction.time_function),
         body_force=model.body_force is not None,
@@ -360,7 +366,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         integrator=model.integrator,
         precision=runtime.precision(), arch=runtime.arch(),
         water=None if model.water is None else model.water.analysis,
-        water_level=model.water is not None and model.water.level is not None)
+        water_level=model.water is not None and model.water.level is not None,
+        seepage="none" if model.water is None else model.water.seepage)
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
         per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))

@@ -62,6 +62,12 @@ class G2P:
         if ti.static(self.f.has_u):
             self.accumulate(particles.u[p], du)
         x_new = particles.x[p] + du
+        if ti.static(self.f.periodic):  # x periodic: back into [x_0, x_0 + n_x h)
+            period = values.elements()[0] * values.h()
+            if x_new[0] >= values.origin()[0] + period:
+                x_new[0] -= period
+            elif x_new[0] < values.origin()[0]:
+                x_new[0] += period
         particles.x[p] = x_new
         self.check(particles, values, p, x_new, vp, sig_new, vol_new, jac)
 
@@ -110,9 +116,9 @@ class G2P:
         grad_v = ti.Matrix.zero(float, self.dim, self.dim)
         for r in range(self.stencil.rows):
             for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                vi = grid.node_velocity[base + offset]
+                vi = grid.node_velocity[self.stencil.node(base, offset)]
                 v += phi * vi
-                acc += phi * grid.node_acceleration[base + offset]
+                acc += phi * grid.node_acceleration[self.stencil.node(base, offset)]
                 grad_v += vi.outer_product(grad)
         return v, acc, grad_v
 

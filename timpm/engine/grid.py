@@ -170,6 +170,7 @@ class GridSolve:
             if inside:
                 for r in range(self.stencil.rows):
                     for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                        self.accumulate(self.grid.node_mass[base + offset], particles.m[p] * phi)
-                        self.accumulate(self.grid.node_momentum[base + offset],
+                        node = self.stencil.node(base, offset)
+                        self.accumulate(self.grid.node_mass[node], particles.m[p] * phi)
+                        self.accumulate(self.grid.node_momentum[node],
                                         particles.m[p] * phi * particles.v[p])

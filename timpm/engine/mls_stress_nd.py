@@ -157,7 +157,7 @@ class MLSStressND:
                     scale = jw * values.h() ** self.dim
                     for r in range(self.stencil.rows):
                         for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                            self.accumulate(grid.node_force[base + offset], -scale * (sig @ grad))
+                            self.accumulate(grid.node_force[self.stencil.node(base, offset)], -scale * (sig @ grad))
 
     @ti.func
     def clear_gauss(self, grid: ti.template(), values: ti.template()):

@@ -36,6 +36,8 @@ class Stencil:
         self.rows = self.support ** (self.dim - 1)
         #: padding nodes before x = 0 (the uniform B-splines)
         self.node_offset = features.node_offset
+        #: x periodic: the node index along x modulo the elements (``node``)
+        self.periodic = getattr(features, "periodic", False)
 
     @ti.func
     def of(self, x):
@@ -61,12 +63,24 @@ class Stencil:
                 inside = 0
             b, wk, dwk = self.basis.stencil(xi[k], self.values.elements()[k])
             base[k] = b
-            if b < 0 or b + self.support > self.values.nodes()[k]:
+            if ti.static(self.periodic and k == 0):
+                pass  # the stencil wraps round (``node``): on the grid where xi is
+            elif b < 0 or b + self.support > self.values.nodes()[k]:
                 inside = 0
             for a in ti.static(range(self.support)):
                 w[a, k] = wk[a]
                 dw[a, k] = dwk[a] * self.values.inv_h()
         return base, w, dw, inside
+
+    @ti.func
+    def node(self, base, offset):
+        """The grid index of the stencil node at ``offset``: base + offset, along a
+        periodic x modulo the elements (node n_x is node 0)."""
+        I = base + offset
+        if ti.static(self.periodic):
+            if I[0] >= self.values.elements()[0]:
+                I[0] -= self.values.elements()[0]
+        return I
 
     @ti.func
     def node_weight(self, w, dw, offset):
@@ -155,7 +169,7 @@ class Stencil:
         value = ti.Vector.zero(float, self.dim)
         for r in range(self.rows):
             for a, offset, phi, grad in ti.static(self.row(w, dw, r)):
-                value += phi * node_field[base + offset]
+                value += phi * node_field[self.node(base, offset)]
         return value
 
     @ti.func

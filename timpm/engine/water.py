@@ -41,11 +41,15 @@ class Pores:
 
     @ti.func
     def buoyancy(self, particles: ti.template(), p):
-        """-rho_w V_p g below the still-water level (zero above it and on dry particles)."""
+        """-V_p grad p_h below the level (zero above it and on dry particles): -rho_w V_p g
+        under still water; under a seepage parallel to x its y component only."""
         fb = ti.Vector.zero(float, self.dim)
         if ti.static(self.f.water_level):
             if particles.x[p][self.up] < self.values.water_level():
-                fb = -particles.rho_w[p] * particles.vol[p] * self.values.gravity()
+                g = self.values.gravity()
+                if ti.static(self.f.seepage == "parallel"):
+                    g[0] = 0.0
+                fb = -particles.rho_w[p] * particles.vol[p] * g
         return fb
 
     @ti.func

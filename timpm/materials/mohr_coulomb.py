@@ -128,8 +128,10 @@ class MohrCoulomb(SolidMaterial):
 
     def initial_state(self, stress, dim):
         f = self.yield_function(stress)
+        # round-off of a stress returned to the surface (a gravity loading's): 1e-9 of its
+        # size, and a micro-pascal near the apex of a cohesionless soil
         scale = np.abs(np.asarray(stress)).max(axis=(1, 2)) + self.cohesion
-        outside = np.flatnonzero(f > 1e-9 * scale)
+        outside = np.flatnonzero(f > 1e-9 * scale + 1e-6)
         if len(outside):
             raise ValueError(f"{self.name}: the initial stress of {len(outside)} particle(s) "
                              f"lies outside the Mohr-Coulomb surface (the first, entry "
@@ -137,7 +139,7 @@ class MohrCoulomb(SolidMaterial):
                              "toward 1 or the soil's strength")
         tension = self.apex if self.tensile_strength is None else self.tensile_strength
         top = np.linalg.eigvalsh(np.asarray(stress, dtype=np.float64))[:, 2]
-        over = np.flatnonzero(top > tension * (1 + 1e-12) + 1e-12)
+        over = np.flatnonzero(top > tension * (1 + 1e-12) + 1e-6)
         if len(over):
             raise ValueError(f"{self.name}: the initial stress of {len(over)} particle(s) "
                              f"exceeds the tension cut-off {tension:g} Pa")

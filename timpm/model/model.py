@@ -532,6 +532,7 @@ class Model:
                              "mass or the study's MLS projection (linear basis) hold the end "
                              "nodes fixed instead (fixed_nodes)")
         set_("walls", walls)
+        self._check_periodic(dim, basis)
         cells = self.wall_cells
         if cells is None:
             cells = tuple((0.0, float(e)) for e in self.elements)
@@ -625,9 +626,41 @@ class Model:
         return len(self.elements)
 
     @property
+    def periodic(self) -> bool:
+        """Whether x is periodic (``periodic`` walls on the left and the right)."""
+        return self.walls is not None and self.walls[0] is not None and \
+            self.walls[0].kind == "periodic"
+
+    @property
     def nodes(self) -> tuple:
         basis = self.basis
-        return tuple(basis.n_nodes(e) for e in self.elements)
+        nodes = tuple(basis.n_nodes(e) for e in self.elements)
+        if self.periodic:  # the last column of nodes is the first
+            nodes = (self.elements[0],) + nodes[1:]
+        return nodes
+
+    def _check_periodic(self, dim, basis):
+        """Periodic walls: both x sides (only x), the linear basis, the lumped step."""
+        sides = [s for s, w in zip(SIDES, self.walls or ()) if w is not None
+                 and w.kind == "periodic"]
+        if not sides:
+            return
+        if sides != ["left", "right"]:
+            raise ValueError(f"periodic walls come as a pair on the left and the right side "
+                             f"(x periodic; y and z cannot be), got them on {', '.join(sides)}")
+        wrong = [what for what, bad in (
+            ("1D (a periodic bar has no wall to stand on)", dim == 1),
+            (f"the {basis.name} basis (the linear one only: the B-splines' end functions "
+             "and padding are not periodic)", basis.name != "linear"),
+            ("the consistent mass", self.mass_matrix != "lumped"),
+            ("the MLS projection", self.projection != "standard"),
+            (f"the {self.integrator} integrator", self.integrator != "euler-cromer"),
+            ("wall_cells along x", self.wall_cells is not None
+             and tuple(map(float, self.wall_cells[0])) != (0.0, float(self.elements[0])))) if bad]
+        if wrong:
+            raise ValueError(f"periodic walls do not take {'; '.join(wrong)}")
+        if self.elements[0] < 2:
+            raise ValueError("a periodic x needs at least 2 elements along x")
 
     @property
     def n_particles(self) -> int:

@@ -9,7 +9,7 @@ __all__ = ["Wall", "walls_from", "SIDES", "WALL_KINDS"]
 
 #: the sides of a box, two per axis: x, then y, then z
 SIDES = ("left", "right", "bottom", "top", "back", "front")
-WALL_KINDS = ("sticky", "slip", "friction", "roller")
+WALL_KINDS = ("sticky", "slip", "friction", "roller", "periodic")
 
 
 @dataclass(frozen=True)
@@ -18,7 +18,9 @@ class Wall:
     ``slip`` (no penetration, no friction), ``friction`` (Coulomb, coefficient ``mu``) or
     ``roller`` (no normal motion either way, no friction: the symmetry plane and the
     bilateral u_n = 0 of a Dirichlet side); slip and friction walls let the material
-    separate.  A sticky wall with a ``velocity`` (a vector along the wall: the wall stays
+    separate.  ``periodic`` on both the left and the right side makes x periodic (no wall:
+    the material leaving on one side enters on the other, the grid's last column of nodes
+    is its first: an infinite slope, a shear layer).  A sticky wall with a ``velocity`` (a vector along the wall: the wall stays
     where it is) drives the material touching it at ``velocity`` f(t), f the model's time
     function ``fixed_time`` (a lid-driven cavity, a shear box)."""
 

@@ -23,6 +23,15 @@ without a level): the total pore pressure is p = p_h + p_e, and a free surface, 
 excess vanishes, drains.  ``level`` is the still-water level along the up axis (y in 2D
 and 3D, x in 1D), possibly above the ground (the sea over a seabed); None: no free water
 (gravity off, as in Terzaghi's consolidation, or a dry scene).
+
+``seepage``: ``"none"`` (the water below the level is still: p_h = rho_w g . (x -
+x_level), the buoyant force -rho_w V g) or ``"parallel"`` (steady seepage along x, the
+ground water of an infinite slope posed in the slope's frame: x down the slope, y normal
+to it, gravity tilted; the phreatic surface at ``level`` parallel to x): the pore
+pressure is hydrostatic across the layer under gravity's normal component, p_h = rho_w
+|g_y| (level - y), and constant along x, so the force of the pore water on the skeleton
+is -V grad p_h = -rho_w V g_y e_y: the water's weight along x is carried by its drag on
+the skeleton (the seepage force rho_w |g_x| V, hydraulic gradient i = sin(beta)).
 """
 import math
 from dataclasses import dataclass
@@ -32,10 +41,12 @@ import numpy as np
 from ..materials.pore_water import PoreWater
 from ..platform.errors import InputError, about
 
-__all__ = ["Water", "ANALYSES", "checked_water"]
+__all__ = ["Water", "ANALYSES", "SEEPAGE", "checked_water"]
 
 #: the analyses a scene's water may ask for, the cheapest first
 ANALYSES = ("drained", "undrained", "coupled")
+#: the steady flows of the water below the level (the module)
+SEEPAGE = ("none", "parallel")
 
 
 @dataclass(frozen=True)
@@ -45,6 +56,7 @@ class Water:
 
     analysis: str = "coupled"
     level: float | None = None
+    seepage: str = "none"
 
     def __post_init__(self):
         if self.analysis not in ANALYSES:
@@ -57,6 +69,12 @@ class Water:
                 raise InputError(f"water: level must be a finite height in m (or None: no "
                                  f"free water), got {self.level!r}", "level")
             object.__setattr__(self, "level", float(self.level))
+        if self.seepage not in SEEPAGE:
+            raise InputError(f"water: unknown seepage {self.seepage!r}: choose one of "
+                             f"{', '.join(SEEPAGE)}", "seepage")
+        if self.seepage != "none" and (self.analysis != "drained" or self.level is None):
+            raise InputError("water: a steady seepage is a drained analysis's ground water "
+                             "under a level (give analysis='drained' and level=)", "seepage")
         if self.analysis == "drained" and self.level is None:
             raise InputError("water: a drained analysis without a water level is a dry one: "
                              "give level= (the still-water level, m)", "level")
@@ -104,6 +122,8 @@ def checked_water(model):
         raise InputError("the scene has water but no body carries pore water: give a "
                          "body pore_water=timpm.PoreWater(...)", "water")
     up = min(1, dim - 1)
+    if water.seepage == "parallel" and dim == 1:
+        raise InputError("water: a seepage parallel to x needs a 2D or 3D scene", "seepage")
     if water.level is not None:
         bottom = model.origin[up]
         if water.level <= bottom:

@@ -332,14 +332,14 @@ class World:
         object.__setattr__(self, "fixed_nodes", model.fixed_nodes)
 
     def _model(self, basis, h, g, n, params, forces, force_time, initial_stress):
-        pad, part = self.padding, self._particles
+        part = self._particles
         return Model(basis=basis, origin=self.origin, h=h, elements=self.grid_elements,
                       positions=part["positions"], volume=part["volume"],
                       velocity=part["velocity"], materials=part["materials"],
                       material_index=part["material_index"], body_index=part["body_index"],
                       dt=self.dt, transfer=self.transfer, gravity=tuple(g),
                       damping=self.damping, transfer_params=params, walls=self.walls,
-                      wall_cells=tuple((pad, pad + c) for c in n),
+                      wall_cells=tuple((pad, pad + c) for pad, c in zip(self.pads, n)),
                       fixed_nodes=(dict(self.fixed_nodes) if isinstance(self.fixed_nodes, dict)
                                    else tuple(self.fixed_nodes)),
                       fixed_time=self.fixed_time, particle_force=forces,
@@ -399,12 +399,24 @@ class World:
         return basis.support if basis.uniform_nodes else 0
 
     @property
+    def pads(self) -> tuple:
+        """The padding per axis: none along a periodic x (the grid is the period)."""
+        walls = self.walls
+        if not isinstance(walls, tuple):
+            try:
+                walls = walls_from(walls, self.dim, open_ok=True)
+            except ValueError:
+                walls = ()
+        periodic = bool(walls) and walls[0] is not None and walls[0].kind == "periodic"
+        return tuple(0 if periodic and k == 0 else self.padding for k in range(self.dim))
+
+    @property
     def grid_elements(self) -> tuple:
-        return tuple(int(round(L / self.h)) + 2 * self.padding for L in self.domain)
+        return tuple(int(round(L / self.h)) + 2 * pad for L, pad in zip(self.domain, self.pads))
 
     @property
     def origin(self) -> tuple:
-        return (-self.padding * self.h,) * self.dim
+        return tuple(-pad * self.h for pad in self.pads)
 
     def _check_size(self, dim, h, domain):
         """The grid and the lattices the bodies are filled from, checked before either is

@@ -303,7 +303,8 @@ def _world_scene(reader, data, path) -> SceneFile:
     if "water" in data:
         spec = reader.table(("water",), data["water"], WATER)
         try:
-            water = Water(spec.get("analysis", "coupled"), spec.get("level"))
+            water = Water(spec.get("analysis", "coupled"), spec.get("level"),
+                          spec.get("seepage", "none"))
         except ValueError as err:
             key = getattr(err, "key", None)
             raise reader.error(("water",) + ((key,) if key in WATER else ()), str(err)) from None

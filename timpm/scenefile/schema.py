@@ -12,7 +12,7 @@ from ..model.model import (INTEGRATORS, ND_BASES, SIDES, TRANSFERS, WALL_KINDS, 
                            PROJECTIONS)
 from ..problems import PROBLEMS
 from ..model.scene import PLACEMENTS, STRESS_UPDATES
-from ..model.water import ANALYSES
+from ..model.water import ANALYSES, SEEPAGE
 from ..model.world import PRESETS
 
 REQUIRED = object()
@@ -151,6 +151,10 @@ WATER = {
                     "step, Darcy's drag)", choices=ANALYSES),
     "level": Key("number", None, "m", "the still-water level along the up axis (y; x in "
                  "1D), above the ground for a sea over the seabed; none: no free water"),
+    "seepage": Key("string", "none", doc="none: the water below the level is still; "
+                   "parallel: steady seepage along x (an infinite slope in its frame, "
+                   "gravity tilted: the pore pressure hydrostatic across the layer under "
+                   "gravity's y component; drained)", choices=SEEPAGE),
 }
 SHAPE_KEYS = {"box": ("lo", "hi"), "ball": ("center", "radius"), "polygon": ("vertices",),
               "prism": ("vertices", "z")}

@@ -106,7 +106,7 @@ class Affine(Scheme):
             h_affine = values.h() * affine
             for r in range(self.stencil.rows):
                 for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                    node = base + offset
+                    node = self.stencil.node(base, offset)
                     if ti.static(self.f.mls_mpm):
                         self.scatter.add("node_mass", copy, node, mp * phi)
                         self.scatter.add("node_momentum", copy, node,
@@ -182,7 +182,7 @@ class Affine(Scheme):
             particles.v[p] = vp
             for r in range(self.stencil.rows):
                 for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                    node_values = self.scatter.deposit("node_momentum", copy, base + offset,
+                    node_values = self.scatter.deposit("node_momentum", copy, self.stencil.node(base, offset),
                                                        offset, particles.m[p] * phi * vp,
                                                        node_values)
         return base, inside, node_values
@@ -201,7 +201,7 @@ class Affine(Scheme):
         B = ti.Matrix.zero(float, self.dim, self.dim)  # sum_i phi_i v_i o_i^T
         for r in range(self.stencil.rows):
             for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                vi = grid.node_new_velocity[base + offset]
+                vi = grid.node_new_velocity[self.stencil.node(base, offset)]
                 vp += phi * vi
                 if ti.static(gradient):
                     grad_du += (vi * values.dt()).outer_product(grad)
@@ -241,7 +241,7 @@ class Affine(Scheme):
             vp = particles.v[p]
             for r in range(self.stencil.rows):
                 for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                    grad_du += (grid.node_velocity[base + offset]
+                    grad_du += (grid.node_velocity[self.stencil.node(base, offset)]
                                 * values.dt()).outer_product(grad)
         else:
             B = ti.Matrix.zero(float, self.dim, self.dim)

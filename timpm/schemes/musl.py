@@ -103,7 +103,7 @@ class MUSL(Scheme):
                     self.mls_nd.scatter_gauss(particles, grid, values, p)
             for r in range(self.stencil.rows):
                 for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                    node = base + offset
+                    node = self.stencil.node(base, offset)
                     if ti.static(not self.f.mls):
                         node_values = self.scatter.deposit("node_mass", copy, node, offset,
                                                            mp * phi, node_values)
@@ -201,7 +201,7 @@ class MUSL(Scheme):
                 for r in range(self.stencil.rows):
                     for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
                         node_values = self.scatter.deposit("node_momentum", copy,
-                                                           base + offset, offset,
+                                                           self.stencil.node(base, offset), offset,
                                                            particles.m[p] * phi * vp,
                                                            node_values)
         return base, inside, node_values
@@ -241,7 +241,7 @@ class MUSL(Scheme):
         grad_du = ti.Matrix.zero(float, self.dim, self.dim)
         for r in range(self.stencil.rows):
             for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                vi = grid.node_velocity[base + offset]
+                vi = grid.node_velocity[self.stencil.node(base, offset)]
                 vp += phi * vi
                 grad_du += (vi * values.dt()).outer_product(grad)
         return vp, grad_du

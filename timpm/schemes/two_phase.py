@@ -176,7 +176,7 @@ class TwoPhase(MUSL):
             particles.w[p] = wp
             for r in range(self.stencil.rows):
                 for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                    node_values = self.scatter.deposit("node_momentum", copy, base + offset,
+                    node_values = self.scatter.deposit("node_momentum", copy, self.stencil.node(base, offset),
                                                        offset, particles.m[p] * phi * vp,
                                                        node_values)
         return base, inside, node_values
@@ -193,7 +193,7 @@ class TwoPhase(MUSL):
             d_eps_w = 0.0
             for r in range(self.stencil.rows):
                 for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                    d_eps_w += values.dt() * grid.node_water_velocity[base + offset].dot(grad)
+                    d_eps_w += values.dt() * grid.node_water_velocity[self.stencil.node(base, offset)].dot(grad)
             n = particles.porosity[p]
             self.g2p.update_with_pores(particles, values, p, vp, vp * values.dt(), grad_du,
                                        (1.0 - n) * grad_du.trace() + n * d_eps_w)

@@ -29,6 +29,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..platform.errors import ErrorCode
+
 __all__ = ["reduced", "trial", "factor_of_safety", "add_parser", "plot_mechanism"]
 
 
@@ -42,6 +44,10 @@ def reduced(material, F):
     return material.reduced(F)
 
 
+#: the stops of a run whose mass slid away (off the grid) or was crushed: it failed
+SLID = (ErrorCode.OFF_GRID, ErrorCode.VOLUME_RANGE, ErrorCode.INVERTED)
+
+
 def _height(world):
     y = world.model.positions[:, 1]
     return float(y.max() - y.min())
@@ -51,7 +57,7 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     """Run ``world`` with its soil's strength divided by ``F`` to ``t_end``: whether it
     failed (see the module), the largest displacement at 3/4 and at the end, the
     particles' plastic strain and positions at the end."""
-    from ..platform.errors import ErrorCode, SimulationError
+    from ..platform.errors import SimulationError
     from ..model.geostatic import GravityLoading
     from ..simulation.loading import gravity_loading
     from ..simulation.solver import Solver
@@ -61,20 +67,22 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     if isinstance(w.initial_stress, GravityLoading):
         try:  # the ground loaded under gravity with the reduced strength
             w, _ = gravity_loading(w)
-        except ValueError as err:  # it did not come to rest: it fails under its weight
+        except (ValueError, SimulationError) as err:
+            # it did not come to rest, or slid off the grid: it fails under its weight
+            if isinstance(err, SimulationError) and err.code not in SLID:
+                raise SimulationError(f"the gravity loading at F = {F:g} stopped: {err}",
+                                      err.code, err.step, err.particle, err.node) from None
             return {"F": float(F), "stopped": str(err), "failed": True,
                     "displacement_three_quarters": math.inf, "displacement_end": math.inf,
                     "creep": math.inf, "creep_limit": creep * _height(world)}
-    X = w.model.positions
     s = Solver(w, energies=True, mode=mode)
     out = {"F": float(F), "stopped": None}
+    displacement = _Displacement(w, s)
     try:
-        s.run(t_end=0.75 * t_end)
-        d1 = float(np.linalg.norm(s.positions() - X, axis=1).max())
-        s.run(t_end=t_end)
-        d2 = float(np.linalg.norm(s.positions() - X, axis=1).max())
+        d1 = displacement.run_to(0.75 * t_end)
+        d2 = displacement.run_to(t_end) if math.isfinite(d1) else math.inf
     except SimulationError as err:
-        if err.code not in (ErrorCode.OFF_GRID, ErrorCode.VOLUME_RANGE, ErrorCode.INVERTED):
+        if err.code not in SLID:
             s.release()  # an instability, not a slope that slid away: no factor from it
             raise SimulationError(f"the run at F = {F:g} stopped: {err}", err.code, err.step,
                                   err.particle, err.node) from None
@@ -83,12 +91,47 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     limit = creep * _height(world)
     out.update(displacement_three_quarters=d1, displacement_end=d2,
                creep=d2 - d1 if math.isfinite(d2) else math.inf, creep_limit=limit,
-               failed=bool(out["stopped"]) or (d2 - d1) > limit)
-    if out["stopped"] is None:
+               failed=bool(out["stopped"]) or not math.isfinite(d2) or (d2 - d1) > limit)
+    if out["stopped"] is None and math.isfinite(d2):
         out["positions"] = s.positions()
         out["plastic"] = s.read("plastic")
     s.release()
     return out
+
+
+class _Displacement:
+    """The largest particle displacement of a trial's run from the world's positions.  Along
+    a periodic x the positions wrap round the period L: the run goes in 40 pieces a run and
+    each piece's motion is unwrapped to (-L/2, L/2]; a piece that moves some particle by
+    more than L/4 counts as unbounded motion (a slope sliding away: infinite)."""
+
+    PIECES = 40
+
+    def __init__(self, world, solver):
+        self.solver, self.t = solver, 0.0
+        self.X = world.model.positions
+        m = world.model
+        self.period = m.elements[0] * m.h if m.periodic else None
+        self.u = np.zeros_like(self.X)
+        self.x = self.X.copy()
+
+    def run_to(self, t_end):
+        s = self.solver
+        if self.period is None:
+            s.run(t_end=t_end)
+            return float(np.linalg.norm(s.positions() - self.X, axis=1).max())
+        L, t0 = self.period, self.t
+        for k in range(1, self.PIECES + 1):
+            s.run(t_end=t0 + (t_end - t0) * k / self.PIECES)
+            x = s.positions()
+            dx = x - self.x
+            dx[:, 0] -= L * np.round(dx[:, 0] / L)
+            if np.abs(dx[:, 0]).max() > 0.25 * L:
+                return math.inf
+            self.u += dx
+            self.x = x
+        self.t = t_end
+        return float(np.linalg.norm(self.u, axis=1).max())
 
 
 def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3,

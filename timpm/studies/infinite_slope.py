@@ -1,0 +1,142 @@
+"""An infinite slope's factor of safety by strength reduction, against its closed forms.
+
+The slope is posed in its own frame: x down the slope (periodic: the layer has no ends),
+y normal to it, gravity tilted by the slope angle beta, g = |g| (sin beta, -cos beta).  A
+layer of cohesionless Mohr-Coulomb soil (c' = 0, friction angle phi', associated flow psi
+= phi') of depth ``depth`` rests on a rough rigid base (a sticky wall).  Its initial
+stress is the gravity loading's (a damped run under gravity to rest, with the trial's
+reduced strength), and the factor is bisected as for any slope
+(:mod:`timpm.studies.factor_of_safety`).  The closed forms (plane parallel to the
+surface, c' = 0; e.g. Craig's Soil Mechanics, the infinite slope):
+
+- ``water="dry"`` or ``"submerged"`` (the slope under still water: the buoyant weight):
+  F = tan(phi') / tan(beta);
+- ``water="seepage"`` (steady seepage parallel to the slope, the water table at the
+  surface): F = (gamma' / gamma_sat) tan(phi') / tan(beta), gamma' = gamma_sat - gamma_w.
+
+Why associated flow: in plastic simple shear with psi = 0 the plane parallel to the
+surface is not a plane of the largest stress obliquity, and the mobilised ratio there is
+sin(phi') (Davis 1968), not tan(phi'); with psi = phi' the zero-extension line of the flow
+is the stress characteristic, and the classical factor is the collapse load.
+"""
+import math
+from dataclasses import dataclass
+
+__all__ = ["InfiniteSlope", "WATERS", "add_parser"]
+
+#: the water conditions of the slope
+WATERS = ("dry", "submerged", "seepage")
+G = 9.81
+GAMMA_W = 1000.0 * G  # the unit weight of the water (rho_w = 1000 kg/m^3)
+
+
+@dataclass(frozen=True)
+class InfiniteSlope:
+    """See the module.  Angles in degrees, unit weight (saturated, or dry) in N/m^3,
+    lengths in m, E in Pa; ``cells`` along the period x, ``h`` the cell size."""
+
+    beta: float = 20.0
+    friction_angle: float = 30.0
+    unit_weight: float = 20e3
+    water: str = "submerged"
+    depth: float = 5.0
+    h: float = 0.5
+    cells: int = 4
+    E: float = 1e7
+    nu: float = 0.3
+    ppc: int = 2
+    damping: float = 0.2
+    t_end: float = 2.0
+    loading_time: float = 20.0
+
+    def __post_init__(self):
+        if self.water not in WATERS:
+            raise ValueError(f"infinite slope: unknown water {self.water!r}: choose one of "
+                             f"{', '.join(WATERS)}")
+        if not (0.0 < self.beta < self.friction_angle < 90.0) and self.water != "seepage":
+            raise ValueError(f"infinite slope: need 0 < beta < phi' < 90 degrees (a slope "
+                             f"that can stand dry), got beta {self.beta}, phi' "
+                             f"{self.friction_angle}")
+        if not (0.0 < self.beta < 90.0 and 0.0 < self.friction_angle < 90.0):
+            raise ValueError("infinite slope: beta and phi' must lie in (0, 90) degrees")
+        if self.water != "dry" and not self.unit_weight > GAMMA_W:
+            raise ValueError(f"infinite slope: a saturated unit weight must exceed the "
+                             f"water's {GAMMA_W:g} N/m^3, got {self.unit_weight:g}")
+        for key in ("unit_weight", "depth", "h", "E", "t_end"):
+            if not getattr(self, key) > 0.0:
+                raise ValueError(f"infinite slope: {key} must be positive, got "
+                                 f"{getattr(self, key)!r}")
+        n = self.depth / self.h
+        if abs(n - round(n)) > 1e-9 or round(n) < 2:
+            raise ValueError(f"infinite slope: depth / h must be a whole number of cells "
+                             f"(at least 2), got {n:g}")
+
+    @property
+    def exact(self) -> float:
+        """The closed-form factor of safety (the module)."""
+        ratio = math.tan(math.radians(self.friction_angle)) / math.tan(math.radians(self.beta))
+        if self.water == "seepage":
+            ratio *= (self.unit_weight - GAMMA_W) / self.unit_weight
+        return ratio
+
+    def world(self):
+        """The layer in the slope's frame (the module), loaded under gravity to rest."""
+        from ..materials import MohrCoulomb, PoreWater
+        from ..model.geostatic import GravityLoading
+        from ..model.water import Water
+        from ..model.world import Body, Box, World
+
+        b = math.radians(self.beta)
+        soil = MohrCoulomb(E=self.E, nu=self.nu, density=self.unit_weight / G,
+                                 friction_angle=self.friction_angle, cohesion=0.0,
+                                 dilation_angle=self.friction_angle)
+        pores = None if self.water == "dry" else PoreWater(porosity=0.4,
+                                                                 conductivity=1e-5)
+        water = {"dry": None,
+                 "submerged": Water("drained", level=self.depth + self.h),
+                 "seepage": Water("drained", level=self.depth, seepage="parallel"),
+                 }[self.water]
+        width = self.cells * self.h
+        layer = Body(Box((0.0, 0.0), (width, self.depth)), soil, ppc=self.ppc,
+                           water=pores, name="layer")
+        return World(
+            domain=(width, self.depth + 2 * self.h), cells=self.cells, bodies=(layer,),
+            basis="linear", transfer="musl", damping=self.damping,
+            gravity=(G * math.sin(b), -G * math.cos(b)),
+            walls={"left": "periodic", "right": "periodic", "bottom": "sticky", "top": None},
+            initial_stress=GravityLoading(t_max=self.loading_time), water=water, name="infinite-slope")
+
+    def factor_of_safety(self, low=0.5, high=2.5, tolerance=0.02, creep=1e-3,
+                         progress=None):
+        """The bisection (:func:`timpm.studies.factor_of_safety.factor_of_safety`) and the
+        record, with the closed form and the error beside it."""
+        from .factor_of_safety import factor_of_safety
+
+        record, _ = factor_of_safety(self.world(), self.t_end, low=low, high=high,
+                                     tolerance=tolerance, creep=creep, progress=progress)
+        F = record["factor_of_safety"]
+        record.update(study="infinite-slope", water=self.water, beta=self.beta,
+                      friction_angle=self.friction_angle, unit_weight=self.unit_weight,
+                      depth=self.depth, exact=self.exact,
+                      relative_error=(F - self.exact) / self.exact)
+        return record
+
+
+def add_parser(subparsers):
+    p = subparsers.add_parser(
+        "infinite-slope", help="an infinite slope's factor of safety against its closed form",
+        description="A cohesionless layer in the slope's frame (x periodic, gravity tilted), "
+                    "dry, submerged or with seepage parallel to the slope; its strength "
+                    "divided by F until it slides (timpm study factor-of-safety's bisection).")
+    p.add_argument("--water", choices=WATERS, default="submerged",
+                   help="dry, submerged (still water above) or seepage (parallel to the "
+                        "slope, water table at the surface); default submerged")
+    p.add_argument("--beta", type=float, default=20.0, help="slope angle, degrees (20)")
+    p.add_argument("--phi", type=float, default=30.0, help="friction angle phi', degrees (30)")
+    p.add_argument("--bracket", type=float, nargs=2, default=(0.5, 2.5),
+                   metavar=("LOW", "HIGH"), help="factors where it stands and slides (0.5 2.5)")
+    p.add_argument("--tolerance", type=float, default=0.02, help="final bracket width (0.02)")
+    p.add_argument("--json", metavar="FILE", help="write the record")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(plot=None)
+    return p
