@@ -29,6 +29,8 @@ TINY = {
     "slope_griffiths_lane.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
     "retrogressive_clay_slope.toml": {"domain.cells": 50, "simulation.t_end": 0.05},
     "submerged_layer.toml": {"domain.cells": 4, "simulation.t_end": 0.02},
+    "slope_griffiths_lane_submerged.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
+    "slope_griffiths_lane_drawdown.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
 }
 
 

@@ -83,6 +83,7 @@ class FeatureSet:
                                  # "undrained", "coupled"; None: a dry scene
     water_level: bool = False    # a still-water level: buoyancy below it
     seepage: str = "none"        # "parallel": the pore water's force only along y (Water)
+    phreatic: int = 0            # vertices of a phreatic surface (Water.phreatic), 0: none
 
     @property
     def pore_pressure(self) -> bool:
@@ -366,8 +367,10 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         integrator=model.integrator,
         precision=runtime.precision(), arch=runtime.arch(),
         water=None if model.water is None else model.water.analysis,
-        water_level=model.water is not None and model.water.level is not None,
-        seepage="none" if model.water is None else model.water.seepage)
+        water_level=model.water is not None and model.water.highest is not None,
+        seepage="none" if model.water is None else model.water.seepage,
+        phreatic=0 if model.water is None or model.water.phreatic is None
+        else len(model.water.phreatic))
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
         per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))
@@ -393,8 +396,11 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         critical = getattr(scene, "critical_dt", None)
         mu = model.dt / critical if critical else 1.0
         values.update(midpoint_relaxation=((math.sqrt(mu * mu + 4.0) - mu) / 2.0) ** 2)
-    if features.water_level:
-        values.update(water_level=model.water.level)
+    if features.water_level:  # the level, or the phreatic surface's top (a quick test)
+        values.update(water_level=model.water.highest)
+    if features.phreatic:
+        values.update(phreatic_x=tuple(x for x, _ in model.water.phreatic),
+                      phreatic_y=tuple(y for _, y in model.water.phreatic))
     if features.mls_mpm:
         D_inv = 1.0 / (basis.inertia * h ** 2)
         values.update(D_inv=D_inv, dt_D_inv=model.dt * D_inv)

@@ -58,6 +58,9 @@ def _param_spec(features, scheme_cls):
         spec.update(volume_min="real", volume_max="real")
     if features.water_level:
         spec.update(water_level="real")
+    if features.phreatic:
+        spec.update(phreatic_x=("real", features.phreatic),
+                    phreatic_y=("real", features.phreatic))
     spec.update({name: param.kind for name, param in scheme_cls.PARAMS.items()})
     if features.midpoint:
         spec.update(midpoint_relaxation="real")

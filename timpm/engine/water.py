@@ -47,10 +47,34 @@ class Pores:
         if ti.static(self.f.water_level):
             if particles.x[p][self.up] < self.values.water_level():
                 g = self.values.gravity()
-                if ti.static(self.f.seepage == "parallel"):
-                    g[0] = 0.0
-                fb = -particles.rho_w[p] * particles.vol[p] * g
+                if ti.static(self.f.phreatic):
+                    # below the table y_w(x): -V grad p_h = rho_w V |g| (-y_w'(x), 1)
+                    y_w, slope = self.table(particles.x[p][0])
+                    if particles.x[p][1] < y_w:
+                        fb[0] = particles.rho_w[p] * particles.vol[p] * g[1] * slope
+                        fb[1] = -particles.rho_w[p] * particles.vol[p] * g[1]
+                else:
+                    if ti.static(self.f.seepage == "parallel"):
+                        g[0] = 0.0
+                    fb = -particles.rho_w[p] * particles.vol[p] * g
         return fb
+
+    @ti.func
+    def table(self, x):
+        """The phreatic surface's height y_w and slope y_w' at x (constant beyond its
+        ends): its vertices unrolled, the segment holding x found in order."""
+        xs, ys = self.values.phreatic_x(), self.values.phreatic_y()
+        y_w = ys[0]
+        slope = 0.0
+        for k in ti.static(range(self.f.phreatic - 1)):
+            if x > xs[k]:
+                if x <= xs[k + 1]:
+                    slope = (ys[k + 1] - ys[k]) / (xs[k + 1] - xs[k])
+                    y_w = ys[k] + slope * (x - xs[k])
+                else:
+                    y_w = ys[k + 1]
+                    slope = 0.0
+        return y_w, slope
 
     @ti.func
     def effective(self, particles: ti.template(), p, sigma):

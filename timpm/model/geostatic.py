@@ -83,7 +83,8 @@ def vertical_stress(positions, bodies, g, top, level=None):
     """sigma_v (> 0) at each position (n, 2 or 3): g times the mass per area above it
     through the ``bodies`` (shape with ``contains``, density, and optionally the density
     of the water in its pores), up to ``top``; the first body that holds a point gives its
-    density (as the World fills them).  Below a still-water ``level`` a saturated body
+    density (as the World fills them).  Below a still-water ``level`` (or a water table,
+    a function of x: ``level(x)``) a saturated body
     weighs its buoyant density rho - rho_w: sigma_v is then the effective stress (the free
     water above the ground adds to the pore pressure, not to it)."""
     x = np.asarray(positions, dtype=np.float64)
@@ -102,7 +103,8 @@ def vertical_stress(positions, bodies, g, top, level=None):
         pts[:, [0] + list(range(2, dim))] = key
         rho = np.zeros(SAMPLES)
         free = np.ones(SAMPLES, dtype=bool)
-        submerged = (s < level) if level is not None else np.zeros(SAMPLES, dtype=bool)
+        table = level(float(key[0])) if callable(level) else level  # a water table y_w(x)
+        submerged = (s < table) if table is not None else np.zeros(SAMPLES, dtype=bool)
         for shape, density, *water in bodies:
             inside = free & shape.contains(pts)
             rho[inside] = density

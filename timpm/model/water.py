@@ -32,6 +32,14 @@ pressure is hydrostatic across the layer under gravity's normal component, p_h =
 |g_y| (level - y), and constant along x, so the force of the pore water on the skeleton
 is -V grad p_h = -rho_w V g_y e_y: the water's weight along x is carried by its drag on
 the skeleton (the seepage force rho_w |g_x| V, hydraulic gradient i = sin(beta)).
+
+``phreatic``: a water table that is not level (drained): vertices (x, y) of a polyline,
+x increasing, held constant beyond its ends; below it the pore pressure is hydrostatic,
+p_h = rho_w |g| (y_w(x) - y), and the pore water pushes the skeleton with -V grad p_h =
+rho_w V |g| (-y_w'(x), 1): its buoyancy and the seepage force of the table's slope.  Where
+the table stands above the ground it is the surface of free water.  A slope after rapid
+drawdown keeps its table at its surface (Morgenstern's assumption, B = 1, no flow yet);
+``level`` is then not given (the table says where the water is).
 """
 import math
 from dataclasses import dataclass
@@ -57,6 +65,7 @@ class Water:
     analysis: str = "coupled"
     level: float | None = None
     seepage: str = "none"
+    phreatic: tuple | None = None
 
     def __post_init__(self):
         if self.analysis not in ANALYSES:
@@ -75,9 +84,48 @@ class Water:
         if self.seepage != "none" and (self.analysis != "drained" or self.level is None):
             raise InputError("water: a steady seepage is a drained analysis's ground water "
                              "under a level (give analysis='drained' and level=)", "seepage")
-        if self.analysis == "drained" and self.level is None:
+        if self.phreatic is not None:
+            self._check_phreatic()
+        if self.analysis == "drained" and self.level is None and self.phreatic is None:
             raise InputError("water: a drained analysis without a water level is a dry one: "
                              "give level= (the still-water level, m)", "level")
+
+    def _check_phreatic(self):
+        try:
+            P = np.array(self.phreatic, dtype=np.float64)
+        except (TypeError, ValueError):
+            P = np.zeros((0,))
+        if P.ndim != 2 or P.shape[1] != 2 or len(P) < 2 or not np.all(np.isfinite(P)):
+            raise InputError(f"water: phreatic must be two or more finite (x, y) vertices, "
+                             f"got {self.phreatic!r}", "phreatic")
+        if not np.all(np.diff(P[:, 0]) > 0.0):
+            raise InputError("water: the phreatic surface's x must increase from vertex to "
+                             "vertex (a water table is a function of x)", "phreatic")
+        if self.analysis != "drained":
+            raise InputError("water: a phreatic surface is a drained analysis's water table "
+                             "(analysis='drained')", "phreatic")
+        if self.level is not None or self.seepage != "none":
+            raise InputError("water: give a still-water level or a phreatic surface, not "
+                             "both (where the table stands above the ground it is the "
+                             "free water's surface)", "phreatic")
+        object.__setattr__(self, "phreatic", tuple((float(x), float(y)) for x, y in P))
+
+    def table(self, x):
+        """The water table's height at x (arrays): the level, or the phreatic polyline
+        (constant beyond its ends); None without either."""
+        if self.phreatic is not None:
+            P = np.array(self.phreatic)
+            return np.interp(x, P[:, 0], P[:, 1])
+        if self.level is None:
+            return None
+        return np.full(np.shape(x), self.level)
+
+    @property
+    def highest(self) -> float | None:
+        """The water table's highest point (the level, or the phreatic surface's top)."""
+        if self.phreatic is not None:
+            return max(y for _, y in self.phreatic)
+        return self.level
 
     @property
     def pore_pressure(self) -> bool:
@@ -124,11 +172,20 @@ def checked_water(model):
     up = min(1, dim - 1)
     if water.seepage == "parallel" and dim == 1:
         raise InputError("water: a seepage parallel to x needs a 2D or 3D scene", "seepage")
-    if water.level is not None:
+    if water.phreatic is not None:
+        if dim == 1:
+            raise InputError("water: a phreatic surface needs a 2D or 3D scene", "phreatic")
+        g = np.asarray(model.gravity, dtype=np.float64)
+        if not (g[1] < 0.0 and np.all(np.delete(g, 1) == 0.0)):
+            raise InputError(f"water: a phreatic surface's hydrostatic pressure needs "
+                             f"gravity straight down y, got {model.gravity}", "phreatic")
+    if water.highest is not None:
+        level, key = water.highest, "level" if water.phreatic is None else "phreatic"
         bottom = model.origin[up]
-        if water.level <= bottom:
-            raise InputError(f"water: the level {water.level:g} m lies below the grid "
-                             f"(its bottom is at {'xyz'[up]} = {bottom:g} m)", "level")
+        if level <= bottom:
+            raise InputError(f"water: the {'level' if key == 'level' else 'top of the phreatic surface'} "
+                             f"{level:g} m lies below the grid (its bottom is at "
+                             f"{'xyz'[up]} = {bottom:g} m)", key)
         if not model.gravity[up] < 0.0:
             raise InputError(f"water: a still-water level needs gravity pointing down "
                              f"{'xyz'[up]} (the hydrostatic pressure's direction), got "

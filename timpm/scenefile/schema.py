@@ -155,6 +155,10 @@ WATER = {
                    "parallel: steady seepage along x (an infinite slope in its frame, "
                    "gravity tilted: the pore pressure hydrostatic across the layer under "
                    "gravity's y component; drained)", choices=SEEPAGE),
+    "phreatic": Key("points", None, "m", "a water table that is not level (drained; "
+                    "instead of level): [x, y] vertices, x increasing, constant beyond the "
+                    "ends; hydrostatic pore pressure below it (a slope after rapid "
+                    "drawdown: the table at the ground surface)"),
 }
 SHAPE_KEYS = {"box": ("lo", "hi"), "ball": ("center", "radius"), "polygon": ("vertices",),
               "prism": ("vertices", "z")}
