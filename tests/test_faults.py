@@ -3,6 +3,7 @@ refused before any work; SIGTERM and SIGHUP handled as Ctrl-C; sweep workers tha
 their parent; step counts checked before any kernel; unique temporary names; stale field
 frames.  The commands are the issue's, as a user types them."""
 import json
+import math
 import os
 import signal
 import subprocess
@@ -166,6 +167,21 @@ def test_two_writers_of_one_file_never_leave_it_half_written(tmp_path):
         t.join()
     assert not errors and reads > 0
     assert [p.name for p in tmp_path.iterdir()] == ["r.json"]  # no temporary file left
+
+
+def test_records_are_strict_json(tmp_path):
+    """No record holds Infinity or NaN (strict parsers refuse them): non-finite numbers,
+    also NumPy's and those in arrays, are written null."""
+    import numpy as np
+
+    target = tmp_path / "r.json"
+    write_json(target, {"slid": math.inf, "nan": float("nan"), "np": np.float64(-np.inf),
+                        "series": np.array([1.0, np.nan]), "trials": [{"d": (2.0, math.inf)}],
+                        "kept": 1.5})
+    text = target.read_text()
+    assert "Infinity" not in text and "NaN" not in text
+    assert json.loads(text) == {"slid": None, "nan": None, "np": None, "series": [1.0, None],
+                                "trials": [{"d": [2.0, None]}], "kept": 1.5}
 
 
 def test_a_failed_write_names_its_file_and_leaves_nothing(tmp_path):

@@ -47,9 +47,32 @@ def replacing(path, suffix=""):
 
 
 def write_json(path, doc):
-    """``doc`` as indented JSON at ``path``, written whole."""
+    """``doc`` as indented, strict JSON at ``path``, written whole: a non-finite number
+    (a displacement of a run that slid away, a NaN of a failed state) is written null, so
+    that every JSON parser reads the record (Python's own would write Infinity and NaN,
+    which strict parsers refuse)."""
     with replacing(path) as tmp, open(tmp, "w") as fh:
-        json.dump(doc, fh, indent=2)
+        json.dump(strict_json(doc), fh, indent=2, allow_nan=False)
+
+
+def strict_json(value):
+    """``value`` with every non-finite float replaced by None (dicts, lists, tuples and
+    NumPy scalars and arrays walked through)."""
+    import math
+
+    import numpy as np
+
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return strict_json(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 #: the least free space an output's directory must have before a run starts

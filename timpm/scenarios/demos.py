@@ -450,7 +450,7 @@ class SubmarineSlope(SlopeFailure):
     color = "plastic"
     transfer: str = "musl"
     strength_factor: float = 3.0
-    cells_per_H: int = 30
+    cells_per_H: int = 42
     water_depth: float = 5.0
     porosity: float = 0.4
     conductivity: float = 1.0e-4
