@@ -157,7 +157,8 @@ class MLSStressND:
                     scale = jw * values.h() ** self.dim
                     for r in range(self.stencil.rows):
                         for a, offset, phi, grad in ti.static(self.stencil.row(w, dw, r)):
-                            self.accumulate(grid.node_force[self.stencil.node(base, offset)], -scale * (sig @ grad))
+                            node = self.stencil.node(base, offset)
+                            self.accumulate(grid.node_force[node], -scale * (sig @ grad))
 
     @ti.func
     def clear_gauss(self, grid: ti.template(), values: ti.template()):

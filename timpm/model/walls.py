@@ -20,9 +20,10 @@ class Wall:
     bilateral u_n = 0 of a Dirichlet side); slip and friction walls let the material
     separate.  ``periodic`` on both the left and the right side makes x periodic (no wall:
     the material leaving on one side enters on the other, the grid's last column of nodes
-    is its first: an infinite slope, a shear layer).  A sticky wall with a ``velocity`` (a vector along the wall: the wall stays
-    where it is) drives the material touching it at ``velocity`` f(t), f the model's time
-    function ``fixed_time`` (a lid-driven cavity, a shear box)."""
+    is its first: an infinite slope, a shear layer).  A sticky wall with a ``velocity``
+    (a vector along the wall: the wall stays where it is) drives the material touching it
+    at ``velocity`` f(t), f the model's time function ``fixed_time`` (a lid-driven
+    cavity, a shear box)."""
 
     kind: str = "slip"
     mu: float = 0.0

@@ -181,11 +181,11 @@ def checked_water(model):
                              f"gravity straight down y, got {model.gravity}", "phreatic")
     if water.highest is not None:
         level, key = water.highest, "level" if water.phreatic is None else "phreatic"
+        what = "level" if water.phreatic is None else "top of the phreatic surface"
         bottom = model.origin[up]
         if level <= bottom:
-            raise InputError(f"water: the {'level' if key == 'level' else 'top of the phreatic surface'} "
-                             f"{level:g} m lies below the grid (its bottom is at "
-                             f"{'xyz'[up]} = {bottom:g} m)", key)
+            raise InputError(f"water: the {what} {level:g} m lies below the grid (its "
+                             f"bottom is at {'xyz'[up]} = {bottom:g} m)", key)
         if not model.gravity[up] < 0.0:
             raise InputError(f"water: a still-water level needs gravity pointing down "
                              f"{'xyz'[up]} (the hydrostatic pressure's direction), got "
