@@ -43,6 +43,7 @@ def test_the_bisection_closes_on_the_factor(monkeypatch):
         class model:
             positions = np.array([[0.0, 0.0], [1.0, 10.0]])
             n_particles = 2
+            gravity = (0.0, -9.81)
 
     record, failed = fos.factor_of_safety(World, 1.0, low=0.5, high=3.0, tolerance=0.01)
     lo, hi = record["bracket"]
@@ -55,6 +56,15 @@ def test_the_bisection_closes_on_the_factor(monkeypatch):
         fos.factor_of_safety(World, 1.0, low=0.5, high=1.0)
     with pytest.raises(ValueError, match="0 < low < high"):
         fos.factor_of_safety(World, 1.0, low=2.0, high=1.0)
+    # what cannot give a factor is named, not met with "widen the bracket"
+    for creep in (-1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="creep must be a positive finite"):
+            fos.factor_of_safety(World, 1.0, creep=creep)
+    with pytest.raises(ValueError, match="run of positive length"):
+        fos.factor_of_safety(World, 0.0)
+    World.model.gravity = (0.0, 0.0)
+    with pytest.raises(ValueError, match="no weight"):
+        fos.factor_of_safety(World, 1.0)
 
 
 @pytest.fixture(scope="module")

@@ -229,6 +229,16 @@ def test_gravity_loading_that_cannot_rest_is_refused():
         gravity_loading(w)
 
 
+def test_gravity_loading_shorter_than_its_steps_is_refused():
+    """A t_max of less than 40 steps cannot load the ground and let it rest: refused (it
+    took no step and reported the ground at rest, stress-free)."""
+    from timpm import GravityLoading, gravity_loading
+
+    w = _layer(GravityLoading(t_max=1e-6))
+    with pytest.raises(ValueError, match="shorter than 40 time steps"):
+        gravity_loading(w)
+
+
 @pytest.mark.parametrize("kwargs, message", [
     (dict(damping=1.5), "damping must lie in"), (dict(t_max=-1.0), "t_max must be"),
     (dict(tolerance=0.0), "tolerance must lie in")])

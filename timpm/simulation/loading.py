@@ -57,6 +57,11 @@ def gravity_loading(world, spec=None, progress=None):
                       transfer_params=None,
                       integrator="euler-cromer", initial_stress=start)
     weight = float(np.sum(loading.model.mass_per_particle)) * abs(world.gravity[1]) * height
+    if t_max < 40.0 * loading.dt:
+        raise ValueError(f"gravity loading: t_max = {t_max:g} s is shorter than 40 time steps "
+                         f"(dt = {loading.dt:.3g} s): the ground cannot be loaded and come to "
+                         "rest in it; give a longer t_max (default: 40 times a P-wave's time "
+                         "across the ground's height)")
     s = Solver(loading, energies=True)
     X = loading.model.positions
     try:

@@ -143,6 +143,15 @@ def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3
         raise ValueError(f"the bracket must satisfy 0 < low < high, got [{low}, {high}]")
     if not (0.0 < tolerance < high - low):
         raise ValueError(f"tolerance must lie in (0, high - low), got {tolerance}")
+    if not (isinstance(creep, (int, float)) and math.isfinite(creep) and creep > 0.0):
+        raise ValueError(f"creep must be a positive finite fraction of the ground's height "
+                         f"(default 1e-3), got {creep!r}")
+    if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0.0):
+        raise ValueError(f"the factor of safety needs a run of positive length: t_end = "
+                         f"{t_end!r}")
+    if not any(world.model.gravity):
+        raise ValueError("the slope has no weight (gravity is zero): it cannot fail, and no "
+                         "factor of safety can be read")
     t0 = time.perf_counter()
     trials = []
 
