@@ -118,7 +118,8 @@ def infinite_slope(args) -> int:
 
     try:
         _check_outputs(args, {})
-        slope = InfiniteSlope(beta=args.beta, friction_angle=args.phi, water=args.water)
+        slope = InfiniteSlope(beta=args.beta, friction_angle=args.phi, water=args.water,
+                              dilation_angle=args.psi)
         runtime.init(precision="f64")
         record = slope.factor_of_safety(
             low=args.bracket[0], high=args.bracket[1], tolerance=args.tolerance,

@@ -66,8 +66,10 @@ class G2P:
             period = values.elements()[0] * values.h()
             if x_new[0] >= values.origin()[0] + period:
                 x_new[0] -= period
+                particles.laps[p] += 1.0
             elif x_new[0] < values.origin()[0]:
                 x_new[0] += period
+                particles.laps[p] -= 1.0
         particles.x[p] = x_new
         self.check(particles, values, p, x_new, vp, sig_new, vol_new, jac)
 

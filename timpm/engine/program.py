@@ -95,6 +95,9 @@ def declared_fields(features):
     fields = dict(CORE_PARTICLE_FIELDS)
     if features.has_u:
         fields["u"] = Field("vector", doc="displacement (the 1D exact solutions)")
+    if features.periodic:
+        fields["laps"] = Field(doc="x periodic: the periods the particle has wrapped "
+                                   "(+1 each time it left on the right), for its potential")
 
     def add(owner, declared):
         for name, fld in declared.items():

@@ -66,7 +66,11 @@ class Recorder:
                         if ti.static(self.f.has_u):
                             pot -= m * g * self.particles.u[p][k]
                         else:
-                            pot -= m * g * self.particles.x[p][k]
+                            x = self.particles.x[p][k]
+                            if ti.static(self.f.periodic and k == 0):  # unwrapped
+                                x += self.particles.laps[p] * self.values.elements()[0] \
+                                    * self.values.h()
+                            pot -= m * g * x
                 e = ti.Vector([0.5 * self.particles.m[p] * self.particles.v[p].norm_sqr(),
                                self.laws.strain_energy(p), pot, 0.0])
                 self.accumulate(self.history.energy[slot], e)

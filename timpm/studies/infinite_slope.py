@@ -14,10 +14,13 @@ surface, c' = 0; e.g. Craig's Soil Mechanics, the infinite slope):
 - ``water="seepage"`` (steady seepage parallel to the slope, the water table at the
   surface): F = (gamma' / gamma_sat) tan(phi') / tan(beta), gamma' = gamma_sat - gamma_w.
 
-Why associated flow: in plastic simple shear with psi = 0 the plane parallel to the
-surface is not a plane of the largest stress obliquity, and the mobilised ratio there is
-sin(phi') (Davis 1968), not tan(phi'); with psi = phi' the zero-extension line of the flow
-is the stress characteristic, and the classical factor is the collapse load.
+Why associated flow by default: in plastic simple shear the mobilised ratio on the
+plane parallel to the surface is tan(phi*) = sin(phi') cos(psi) / (1 - sin(phi')
+sin(psi)) (Davis 1968), tan(phi') only where psi = phi' (the zero-extension line of the
+flow is then the stress characteristic).  With another ``dilation_angle`` the closed form
+is Davis's: the F at which tan(phi*) of the reduced strength (tan(phi_F) = tan(phi') / F,
+psi_F = min(psi, phi_F)) equals the ratio the slope asks, tan(beta) (times gamma_sat /
+gamma' with seepage): 1.477 for psi = 0, against the classical 1.586.
 """
 import math
 from dataclasses import dataclass
@@ -48,6 +51,7 @@ class InfiniteSlope:
     damping: float = 0.2
     t_end: float = 2.0
     loading_time: float = 20.0
+    dilation_angle: float | None = None  # None: associated, psi = phi'
 
     def __post_init__(self):
         if self.water not in WATERS:
@@ -59,6 +63,10 @@ class InfiniteSlope:
                              f"{self.friction_angle}")
         if not (0.0 < self.beta < 90.0 and 0.0 < self.friction_angle < 90.0):
             raise ValueError("infinite slope: beta and phi' must lie in (0, 90) degrees")
+        if self.dilation_angle is not None and not (
+                0.0 <= self.dilation_angle <= self.friction_angle):
+            raise ValueError(f"infinite slope: the dilation angle must lie in [0, phi'], "
+                             f"got {self.dilation_angle!r}")
         if self.water != "dry" and not self.unit_weight > GAMMA_W:
             raise ValueError(f"infinite slope: a saturated unit weight must exceed the "
                              f"water's {GAMMA_W:g} N/m^3, got {self.unit_weight:g}")
@@ -72,12 +80,30 @@ class InfiniteSlope:
                              f"(at least 2), got {n:g}")
 
     @property
+    def psi(self) -> float:
+        return self.friction_angle if self.dilation_angle is None else self.dilation_angle
+
+    @property
     def exact(self) -> float:
-        """The closed-form factor of safety (the module)."""
-        ratio = math.tan(math.radians(self.friction_angle)) / math.tan(math.radians(self.beta))
+        """The closed-form factor of safety (the module): the classical one with
+        associated flow, Davis's otherwise."""
+        asked = math.tan(math.radians(self.beta))  # tau / sigma_n' on the parallel plane
         if self.water == "seepage":
-            ratio *= (self.unit_weight - GAMMA_W) / self.unit_weight
-        return ratio
+            asked *= self.unit_weight / (self.unit_weight - GAMMA_W)
+        tan_phi = math.tan(math.radians(self.friction_angle))
+        if self.psi == self.friction_angle:
+            return tan_phi / asked
+
+        def mobilised(F):  # Davis's tan(phi*) of the strength divided by F
+            phi = math.atan(tan_phi / F)
+            psi = min(math.radians(self.psi), phi)
+            return math.sin(phi) * math.cos(psi) / (1.0 - math.sin(phi) * math.sin(psi))
+
+        low, high = 1e-3, 1e3  # mobilised falls as F grows: bisect for it = asked
+        for _ in range(200):
+            mid = math.sqrt(low * high)
+            low, high = (mid, high) if mobilised(mid) > asked else (low, mid)
+        return math.sqrt(low * high)
 
     def world(self):
         """The layer in the slope's frame (the module), loaded under gravity to rest."""
@@ -89,7 +115,7 @@ class InfiniteSlope:
         b = math.radians(self.beta)
         soil = MohrCoulomb(E=self.E, nu=self.nu, density=self.unit_weight / G,
                                  friction_angle=self.friction_angle, cohesion=0.0,
-                                 dilation_angle=self.friction_angle)
+                                 dilation_angle=self.psi)
         pores = None if self.water == "dry" else PoreWater(porosity=0.4,
                                                                  conductivity=1e-5)
         water = {"dry": None,
@@ -116,7 +142,7 @@ class InfiniteSlope:
                                      tolerance=tolerance, creep=creep, progress=progress)
         F = record["factor_of_safety"]
         record.update(study="infinite-slope", water=self.water, beta=self.beta,
-                      friction_angle=self.friction_angle, unit_weight=self.unit_weight,
+                      friction_angle=self.friction_angle, dilation_angle=self.psi, unit_weight=self.unit_weight,
                       depth=self.depth, exact=self.exact,
                       relative_error=(F - self.exact) / self.exact)
         return record
@@ -133,6 +159,9 @@ def add_parser(subparsers):
                         "slope, water table at the surface); default submerged")
     p.add_argument("--beta", type=float, default=20.0, help="slope angle, degrees (20)")
     p.add_argument("--phi", type=float, default=30.0, help="friction angle phi', degrees (30)")
+    p.add_argument("--psi", type=float, default=None,
+                   help="dilation angle, degrees (default phi': associated; the closed "
+                        "form is Davis's otherwise)")
     p.add_argument("--bracket", type=float, nargs=2, default=(0.5, 2.5),
                    metavar=("LOW", "HIGH"), help="factors where it stands and slides (0.5 2.5)")
     p.add_argument("--tolerance", type=float, default=0.02, help="final bracket width (0.02)")
