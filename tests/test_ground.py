@@ -319,3 +319,24 @@ kind = "k0"
                    .replace("z = [0.0, 4.0]\n", ""))
     with pytest.raises(ValueError, match="a polygon is a 2D shape, the domain is 3D"):
         load_scene(bad)
+
+
+def test_refusals_name_what_to_give():
+    """A cohesionless k0-layer is valid (c = 0), a negative cohesion is not; a string
+    initial stress names K0() and GravityLoading(); the scene file's k0 is checked in (0,
+    1] like K0, its gravity loading's damping and tolerance in (0, 1) like GravityLoading."""
+    from dataclasses import replace
+
+    from timpm.problems import get_problem
+    from timpm.scenefile.schema import INITIAL_STRESS, TYPES
+
+    layer = get_problem("k0-layer")
+    assert replace(layer, cohesion=0.0).cohesion == 0.0
+    with pytest.raises(ValueError, match="cohesion must be >= 0"):
+        replace(layer, cohesion=-1.0)
+    with pytest.raises(ValueError, match=r"give timpm.K0\(\)"):
+        World(domain=(1.0, 1.0), cells=4, bodies=[Body(Box((0.0, 0.0), (1.0, 0.5)), _soil())],
+              initial_stress="k0")
+    for key, bad, good in (("k0", 1.5, 1.0), ("damping", 1.0, 0.6), ("tolerance", 1.0, 1e-7)):
+        accepts = TYPES[INITIAL_STRESS[key].type][1]
+        assert accepts(good) and not accepts(bad)

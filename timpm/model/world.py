@@ -358,6 +358,10 @@ class World:
         spec = self.initial_stress
         if isinstance(spec, GravityLoading):
             return None  # computed by a loading run (timpm.simulation.loading), stress-free before it
+        if isinstance(spec, str):
+            raise ValueError(f"initial_stress={spec!r}: give timpm.K0() (the K0 procedure), "
+                             "timpm.GravityLoading() (a damped run under gravity to rest), an "
+                             "(n, 3, 3) array of Cauchy stresses, or None")
         if not isinstance(spec, K0):
             return spec
         if dim == 1:

@@ -38,7 +38,11 @@ class K0Layer(Problem):
     dim = 2
 
     def __post_init__(self):
-        check_positive(self, "density", "E", "H", "cohesion")
+        check_positive(self, "density", "E", "H")
+        if not (isinstance(self.cohesion, (int, float)) and not isinstance(self.cohesion, bool)
+                and np.isfinite(self.cohesion) and self.cohesion >= 0.0):
+            raise ValueError(f"{self.name}: parameter cohesion must be >= 0 (a cohesionless "
+                             f"soil: 0), got {self.cohesion!r}")
         try:
             object.__setattr__(self, "width", whole("width", self.width))
         except ValueError:

@@ -28,6 +28,7 @@ TYPES = {
     "positive": ("a number > 0", lambda v: _is_number(v) and v > 0),
     "non-negative": ("a number >= 0", lambda v: _is_number(v) and v >= 0),
     "fraction": ("a number in (0, 1]", lambda v: _is_number(v) and 0 < v <= 1),
+    "open-fraction": ("a number in (0, 1)", lambda v: _is_number(v) and 0 < v < 1),
     "share": ("a number in [0, 1]", lambda v: _is_number(v) and 0 <= v <= 1),
     "count": ("an integer >= 1", lambda v: isinstance(v, int) and not isinstance(v, bool)
               and v >= 1),
@@ -167,12 +168,12 @@ INITIAL_STRESS = {
     "kind": Key("string", doc="k0: the K0 procedure (sigma_v the weight above, sigma_h = "
                 "K0 sigma_v); gravity: a damped run under gravity to rest (MUSL, local "
                 "damping), its stresses kept", choices=("k0", "gravity")),
-    "k0": Key("positive", None, doc="(k0) sigma_h / sigma_v (default: each material's Jaky "
+    "k0": Key("fraction", None, doc="(k0) sigma_h / sigma_v (default: each material's Jaky "
               "1 - sin phi, nu / (1 - nu) without friction)"),
-    "damping": Key("fraction", 0.6, doc="(gravity) the loading run's local damping factor"),
+    "damping": Key("open-fraction", 0.6, doc="(gravity) the loading run's local damping factor"),
     "t_max": Key("positive", None, "s", "(gravity) its longest time (default: 40 P-wave "
                  "crossings of the ground's height)"),
-    "tolerance": Key("fraction", 1e-7, doc="(gravity) at rest: kinetic energy below this "
+    "tolerance": Key("open-fraction", 1e-7, doc="(gravity) at rest: kinetic energy below this "
                      "share of the weight times the height"),
 }
 
