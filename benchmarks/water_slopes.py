@@ -33,7 +33,7 @@ def main():
     from timpm.scenefile import load_scene
     from timpm.studies.factor_of_safety import factor_of_safety
     from timpm.studies.infinite_slope import WATERS, InfiniteSlope
-    from timpm.studies.limit_equilibrium import _surface, bishop_search
+    from timpm.studies.limit_equilibrium import ground_surface, bishop_search
 
     timpm.init(precision="f64")
     out = {"command": "python benchmarks/water_slopes.py " + " ".join(sys.argv[1:]),
@@ -46,7 +46,7 @@ def main():
         out["infinite_slope"].append(row)
     for case, (name, table, bracket) in CASES.items():
         t0 = time.perf_counter()
-        water = _surface(SLOPE) if table == "surface" else table
+        water = ground_surface(SLOPE) if table == "surface" else table
         bishop, centre, radius = bishop_search(SLOPE, 10e3, 20.0, 20e3, water_table=water)
         le_seconds = time.perf_counter() - t0
         scene = load_scene(ROOT / "examples" / name, overrides={"domain.cells": args.cells})

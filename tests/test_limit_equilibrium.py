@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from timpm.studies.limit_equilibrium import _surface, bishop_circle, bishop_search
+from timpm.studies.limit_equilibrium import ground_surface, bishop_circle, bishop_search
 
 SLOPE = [[0.0, 0.0], [40.0, 0.0], [20.0, 10.0], [0.0, 10.0]]  # H = 10 m, 2:1, toe at x = 40
 CENTRES = (np.linspace(30.0, 40.0, 11), np.linspace(18.0, 28.0, 11))  # about the toe circles
@@ -42,7 +42,7 @@ def test_a_long_shallow_circle_approaches_the_infinite_slope():
 def test_rapid_drawdown_lowers_the_factor_below_the_dry_one():
     """The water table left at the ground surface (rapid drawdown, no free water): the
     pore pressures cut the friction, far below the dry factor and the submerged one."""
-    y_s = _surface(SLOPE)
+    y_s = ground_surface(SLOPE)
     dry, _, _ = bishop_search(SLOPE, 10e3, 20.0, 20e3, centres=CENTRES)
     wet, _, _ = bishop_search(SLOPE, 10e3, 20.0, 20e3, water_table=12.0, centres=CENTRES)
     drawn, _, _ = bishop_search(SLOPE, 10e3, 20.0, 20e3, water_table=y_s, centres=CENTRES)

@@ -104,6 +104,7 @@ def vertical_stress(positions, bodies, g, top, level=None):
         rho = np.zeros(SAMPLES)
         free = np.ones(SAMPLES, dtype=bool)
         table = level(float(key[0])) if callable(level) else level  # a water table y_w(x)
+        table = None if table is None else float(table)
         submerged = (s < table) if table is not None else np.zeros(SAMPLES, dtype=bool)
         for shape, density, *water in bodies:
             inside = free & shape.contains(pts)

@@ -378,8 +378,7 @@ class World:
         k0 = (np.full(len(part["positions"]), spec.k0) if spec.k0 is not None else
               np.array([jaky_k0(m) for m in mats])[part["material_index"]])
         # under a water level the weight is the buoyant one and the stress effective
-        level = (None if self.water is None else self.water.table
-                 if self.water.phreatic is not None else self.water.level)
+        level = None if self.water is None else self.water.table  # y_w(x), or None
         return geostatic_stress(part["positions"],
                                 [(b.shape, b.material.density,
                                   0.0 if b.water is None else b.water.density)

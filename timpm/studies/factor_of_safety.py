@@ -31,7 +31,8 @@ import numpy as np
 
 from ..platform.errors import ErrorCode
 
-__all__ = ["reduced", "trial", "factor_of_safety", "add_parser", "plot_mechanism"]
+__all__ = ["reduced", "trial", "factor_of_safety", "add_parser", "add_bisection_arguments",
+           "plot_mechanism"]
 
 
 def reduced(material, F):
@@ -203,6 +204,15 @@ def plot_mechanism(world, failed, record, path):
     plt.close(fig)
 
 
+def add_bisection_arguments(p, bracket):
+    """--bracket LOW HIGH (default ``bracket``) and --tolerance: the bisection's options."""
+    p.add_argument("--bracket", type=float, nargs=2, default=bracket, metavar=("LOW", "HIGH"),
+                   help=f"factors where the slope stands and fails (default {bracket[0]:g} "
+                        f"{bracket[1]:g})")
+    p.add_argument("--tolerance", type=float, default=0.02,
+                   help="width of the final bracket (default 0.02)")
+
+
 def add_parser(subparsers):
     p = subparsers.add_parser(
         "factor-of-safety", help="a slope's factor of safety by strength reduction",
@@ -210,10 +220,7 @@ def add_parser(subparsers):
                     "scene file to its t_end, and bisect on F until the slope fails (its "
                     "particles still moving over the last quarter of the run).")
     p.add_argument("scene", metavar="FILE.toml", help="a scene file of the slope (2D or 3D)")
-    p.add_argument("--bracket", type=float, nargs=2, default=(0.5, 4.0), metavar=("LOW", "HIGH"),
-                   help="factors where the slope stands and fails (default 0.5 4)")
-    p.add_argument("--tolerance", type=float, default=0.02,
-                   help="width of the final bracket (default 0.02)")
+    add_bisection_arguments(p, bracket=(0.5, 4.0))
     p.add_argument("--creep", type=float, default=1e-3,
                    help="failure: the largest displacement grows over the last quarter of "
                         "the run by more than CREEP x the ground's height (default 1e-3)")

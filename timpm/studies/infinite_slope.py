@@ -25,12 +25,14 @@ gamma' with seepage): 1.477 for psi = 0, against the classical 1.586.
 import math
 from dataclasses import dataclass
 
+from .factor_of_safety import add_bisection_arguments
+from .limit_equilibrium import GAMMA_W
+
 __all__ = ["InfiniteSlope", "WATERS", "add_parser"]
 
 #: the water conditions of the slope
 WATERS = ("dry", "submerged", "seepage")
 G = 9.81
-GAMMA_W = 1000.0 * G  # the unit weight of the water (rho_w = 1000 kg/m^3)
 
 
 @dataclass(frozen=True)
@@ -114,23 +116,23 @@ class InfiniteSlope:
 
         b = math.radians(self.beta)
         soil = MohrCoulomb(E=self.E, nu=self.nu, density=self.unit_weight / G,
-                                 friction_angle=self.friction_angle, cohesion=0.0,
-                                 dilation_angle=self.psi)
-        pores = None if self.water == "dry" else PoreWater(porosity=0.4,
-                                                                 conductivity=1e-5)
+                           friction_angle=self.friction_angle, cohesion=0.0,
+                           dilation_angle=self.psi)
+        pores = None if self.water == "dry" else PoreWater(porosity=0.4, conductivity=1e-5)
         water = {"dry": None,
                  "submerged": Water("drained", level=self.depth + self.h),
                  "seepage": Water("drained", level=self.depth, seepage="parallel"),
                  }[self.water]
         width = self.cells * self.h
         layer = Body(Box((0.0, 0.0), (width, self.depth)), soil, ppc=self.ppc,
-                           water=pores, name="layer")
+                     water=pores, name="layer")
         return World(
             domain=(width, self.depth + 2 * self.h), cells=self.cells, bodies=(layer,),
             basis="linear", transfer="musl", damping=self.damping,
             gravity=(G * math.sin(b), -G * math.cos(b)),
             walls={"left": "periodic", "right": "periodic", "bottom": "sticky", "top": None},
-            initial_stress=GravityLoading(t_max=self.loading_time), water=water, name="infinite-slope")
+            initial_stress=GravityLoading(t_max=self.loading_time), water=water,
+            name="infinite-slope")
 
     def factor_of_safety(self, low=0.5, high=2.5, tolerance=0.02, creep=1e-3,
                          progress=None):
@@ -142,8 +144,8 @@ class InfiniteSlope:
                                      tolerance=tolerance, creep=creep, progress=progress)
         F = record["factor_of_safety"]
         record.update(study="infinite-slope", water=self.water, beta=self.beta,
-                      friction_angle=self.friction_angle, dilation_angle=self.psi, unit_weight=self.unit_weight,
-                      depth=self.depth, exact=self.exact,
+                      friction_angle=self.friction_angle, dilation_angle=self.psi,
+                      unit_weight=self.unit_weight, depth=self.depth, exact=self.exact,
                       relative_error=(F - self.exact) / self.exact)
         return record
 
@@ -162,9 +164,7 @@ def add_parser(subparsers):
     p.add_argument("--psi", type=float, default=None,
                    help="dilation angle, degrees (default phi': associated; the closed "
                         "form is Davis's otherwise)")
-    p.add_argument("--bracket", type=float, nargs=2, default=(0.5, 2.5),
-                   metavar=("LOW", "HIGH"), help="factors where it stands and slides (0.5 2.5)")
-    p.add_argument("--tolerance", type=float, default=0.02, help="final bracket width (0.02)")
+    add_bisection_arguments(p, bracket=(0.5, 2.5))
     p.add_argument("--json", metavar="FILE", help="write the record")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(plot=None)

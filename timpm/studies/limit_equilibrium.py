@@ -24,12 +24,12 @@ import math
 
 import numpy as np
 
-__all__ = ["bishop_circle", "bishop_search"]
+__all__ = ["bishop_circle", "bishop_search", "ground_surface", "GAMMA_W"]
 
-GAMMA_W = 9810.0  # N/m^3
+GAMMA_W = 1000.0 * 9.81  # the unit weight of water (rho_w = 1000 kg/m^3), N/m^3
 
 
-def _surface(polygon):
+def ground_surface(polygon):
     """The ground surface y_s(x) of a polygon (its upper boundary), vectorised."""
     P = np.asarray(polygon, dtype=np.float64)
     segments = np.stack([P, np.roll(P, -1, axis=0)], axis=1)
@@ -62,7 +62,7 @@ def bishop_circle(polygon, centre, radius, cohesion, friction_angle, unit_weight
                   water_table=None, slices=200, gamma_w=GAMMA_W):
     """Bishop's factor on one circle (None where it cuts no soil, crosses the polygon's
     ends, or its slices turn unphysical, m_alpha <= 0.2: a circle too steep at its exit)."""
-    y_s, y_w = _surface(polygon), _table(water_table)
+    y_s, y_w = ground_surface(polygon), _table(water_table)
     xc, yc = centre
     P = np.asarray(polygon, dtype=np.float64)
     x0, x1 = max(P[:, 0].min(), xc - radius), min(P[:, 0].max(), xc + radius)
