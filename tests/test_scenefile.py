@@ -34,6 +34,7 @@ TINY = {
     # with its seepage the slope cannot stand at full strength (F = 0.81): its gravity
     # loading is refused; under still water it stands (F = 1.59)
     "infinite_slope.toml": {"water.seepage": "none", "simulation.t_end": 0.02},
+    "submarine_slope.toml": {"domain.cells": 40, "simulation.t_end": 0.02},
 }
 
 

@@ -45,7 +45,9 @@ def test_pore_water_derived_numbers():
     (dict(analysis="wet"), "analysis"), (dict(analysis="drained"), "level"),
     (dict(level=float("inf")), "level"), (dict(level="high"), "level"),
     (dict(analysis="drained", level=1.0, seepage="sideways"), "seepage"),
-    (dict(analysis="undrained", level=1.0, seepage="parallel"), "seepage")])
+    (dict(analysis="undrained", level=1.0, seepage="parallel"), "seepage"),
+    (dict(analysis="undrained", smoothing="node"), "smoothing"),
+    (dict(analysis="drained", level=1.0, smoothing="cell"), "smoothing")])
 def test_water_refuses_bad_values(kwargs, key):
     with pytest.raises(InputError) as err:
         timpm.Water(**kwargs)
@@ -80,7 +82,10 @@ def _layer(water=None, pore=None, material=None, **world):
                     initial_pore_pressure=np.zeros(64)), "initial_pore_pressure",
      "keeps no excess"),
     (lambda: _layer(water=timpm.Water("undrained"), pore=timpm.PoreWater(0.4),
-                    initial_pore_pressure=np.zeros(3)), "initial_pore_pressure", "numbers")])
+                    initial_pore_pressure=np.zeros(3)), "initial_pore_pressure", "numbers"),
+    (lambda: _layer(water=timpm.Water("undrained", smoothing="cell"),
+                    pore=timpm.PoreWater(0.4), basis="bspline3"), "water.smoothing",
+     "quadratic basis, not bspline3")])
 def test_bad_water_is_refused_before_any_work(make, key, words):
     with pytest.raises(InputError, match=words) as err:
         make()
@@ -103,6 +108,60 @@ def test_undrained_time_step_takes_the_water():
     assert dry.cfl_limit == pytest.approx(dry.h / (soil.wave_speed + v), rel=1e-12)
     assert wet.cfl_limit == pytest.approx(wet.h / (c_u + v), rel=1e-12)
     assert wet.dt < dry.dt / 10
+
+
+# ---- the pore pressure's smoothing: the cell's mean strain --------------------------------
+def _cell_roughness(solver, values):
+    """The RMS of per-particle values less their cell's volume-weighted mean."""
+    from timpm.scenarios.demos import pressure_roughness
+    return pressure_roughness(solver, values)
+
+
+def test_cell_smoothing_makes_the_pressure_constant_per_cell_and_keeps_its_integral():
+    """Undrained, 3 x 3 particles a cell, the layer settling under gravity (Q1 strains vary
+    within a cell): unsmoothed, the excess pore pressure varies within the cells; with
+    smoothing='cell' it is constant in each cell to round-off while no particle has left its
+    cell, and after one step the volume integral sum V_p p_p is the unsmoothed one (the
+    cell mean spreads each cell's sum V d eps, it does not change it)."""
+    pore = timpm.PoreWater(porosity=0.4, bulk_modulus=1e8)
+    runs = {}
+    for smoothing in ("none", "cell"):
+        soil = timpm.MohrCoulomb(E=1e7, nu=0.3, density=2000.0, friction_angle=30.0,
+                                 cohesion=1e3)
+        world = timpm.World(domain=(1.0, 2.0), cells=4, transfer="musl", basis="linear",
+                            bodies=[timpm.Body(timpm.Box((0.0, 0.0), (1.0, 1.0)), soil,
+                                               ppc=3, water=pore)],
+                            water=timpm.Water("undrained", smoothing=smoothing))
+        one = timpm.Solver(world, energies=False).run(n_steps=1)
+        integral = float(np.sum(one.read("vol") * one.read("pw")))
+        many = timpm.Solver(world, energies=False).run(n_steps=40)
+        pw = many.read("pw")
+        cells = np.floor((many.positions() - many.origin) / many.h)
+        start = np.floor((world.positions - many.origin) / many.h)
+        assert np.array_equal(cells, start)  # (no particle changed cell)
+        runs[smoothing] = integral, _cell_roughness(many, pw) / np.sqrt(np.mean(pw ** 2))
+    assert runs["none"][1] > 0.01  # the pattern within the cells: 2% of the pressure here
+    assert runs["cell"][1] < 1e-12
+    assert runs["cell"][0] == pytest.approx(runs["none"][0], rel=1e-12)
+
+
+def test_cell_smoothing_is_the_plain_pressure_in_1d_with_the_linear_basis():
+    """The linear basis's strain is constant over a 1D cell: the undrained oedometer's pore
+    pressures are the same with and without the smoothing (to 1e-9)."""
+    E, n_w, Kw, p0 = 1e6, 0.4, 4e6, 1e4
+    out = []
+    for smoothing in ("none", "cell"):
+        x, vol = timpm.equidistant_particles(10, 4, 0.1)
+        c = math.sqrt((E + Kw / n_w) / 1000.0)
+        scene = timpm.Scene(grid=timpm.Grid1D(10, 0.1), positions=x, volume=vol,
+                            dt=0.03 / c, damping=0.7,
+                            material=timpm.Material(E=E, density=1000.0, stress_update="small"),
+                            fixed_nodes=(0,),
+                            traction=timpm.Traction(int(np.argmax(x)), -p0, timpm.Ramp(0.05)),
+                            pore_water=timpm.PoreWater(porosity=n_w, bulk_modulus=Kw),
+                            water=timpm.Water("undrained", smoothing=smoothing))
+        out.append(timpm.Solver(scene, energies=False).run(t_end=0.3).read("pw"))
+    assert out[1] == pytest.approx(out[0], rel=1e-9)
 
 
 # ---- undrained: the load shared by the water and the skeleton --------------------------
@@ -268,6 +327,67 @@ def test_buoyancy_halves_a_submerged_block_s_settlement():
     dry, wet = settlement(None), settlement(2.0)
     assert dry > 0.0
     assert wet / dry == pytest.approx(0.5, rel=0.02)
+
+
+# ---- a drawdown: the level moving in time ----------------------------------------------
+@pytest.mark.parametrize("kwargs, key", [
+    (dict(analysis="drained", level=2.0, final_level=0.0), "drawdown_time"),
+    (dict(analysis="drained", level=2.0, drawdown_time=1.0), "final_level"),
+    (dict(analysis="drained", level=2.0, final_level=0.0, drawdown_time=0.0), "drawdown_time"),
+    (dict(analysis="drained", level=2.0, final_level=float("nan"), drawdown_time=1.0),
+     "final_level"),
+    (dict(analysis="undrained", final_level=0.0, drawdown_time=1.0), "final_level"),
+    (dict(analysis="drained", level=2.0, seepage="parallel", final_level=0.0,
+          drawdown_time=1.0), "final_level")])
+def test_drawdown_refuses_bad_values(kwargs, key):
+    with pytest.raises(InputError) as err:
+        timpm.Water(**kwargs)
+    assert err.value.key == key
+
+
+def test_a_slow_drawdown_gives_the_block_its_dry_weight_back():
+    """Drained: the submerged block of the buoyancy test (40 particle rows), the level
+    falling from above it to its base in 1 s (5 of the block's periods), then damped to
+    rest: it settles as the dry block does, to 1% (0.3% measured).  (The rest state keeps
+    some of the path in the particles' deformation gradients: 1.5% at 10 rows, 0.9% at 20,
+    0.3% at 40.)"""
+    def settlement(water):
+        soil = timpm.LinearElastic(E=1e6, nu=0.0, density=2000.0)
+        body = timpm.Body(timpm.Box((0.0, 0.0), (0.5, 1.0)), soil, ppc=2,
+                          water=timpm.PoreWater(porosity=0.4) if water else None)
+        world = timpm.World(domain=(0.5, 1.5), cells=20, bodies=[body], transfer="musl",
+                            walls="slip", damping=0.5, water=water)
+        x = timpm.Solver(world, energies=False).run(t_end=2.5).positions()
+        top = world.positions[:, 1] > 0.95
+        return float(np.mean(world.positions[top, 1] - x[top, 1]))
+    dry = settlement(None)
+    drawn = settlement(timpm.Water("drained", level=1.2, final_level=0.0, drawdown_time=1.0))
+    assert drawn / dry == pytest.approx(1.0, rel=0.01)
+
+
+@pytest.mark.parametrize("analysis, conductivity", [("undrained", None), ("coupled", 1e-2)])
+def test_a_rapid_drawdown_leaves_the_table_at_the_ground_surface(analysis, conductivity):
+    """Undrained and coupled: a saturated layer (top at 1 m) under 0.2 m of water, the level
+    falling to 0.5 m in 0.05 s, damped to rest.  The free water's unloading reaches the pore
+    water at once (B = 1): the total pore pressure becomes the hydrostatic one of a table
+    at the ground surface, rho_w g (1 - y), to 1e-4 of rho_w g H, and the skeleton does
+    not move (its effective stress unchanged: under 1 um).  Coupled with k = 1e-2 m/s, the
+    water above the level carries its weight (else it would flow up out of the layer)."""
+    pore = timpm.PoreWater(porosity=0.4, bulk_modulus=1e8, conductivity=conductivity)
+    soil = timpm.MohrCoulomb(E=1e6, nu=0.0, density=2000.0, friction_angle=30.0,
+                             cohesion=1e5)
+    body = timpm.Body(timpm.Box((0.0, 0.0), (0.5, 1.0)), soil, ppc=2, water=pore)
+    water = timpm.Water(analysis, level=1.2, final_level=0.5, drawdown_time=0.05)
+    world = timpm.World(domain=(0.5, 1.5), cells=5, bodies=[body], transfer="musl",
+                        basis="linear", walls="slip", water=water,
+                        initial_stress=timpm.K0(), damping=0.3)
+    solver = timpm.Solver(world, energies=False).run(t_end=0.4)
+    x = solver.positions()
+    gamma_w = 1000.0 * 9.81
+    total = solver.read("pw") + gamma_w * np.maximum(0.5 - x[:, 1], 0.0)
+    exact = gamma_w * (1.0 - world.positions[:, 1])
+    assert np.max(np.abs(total - exact)) < 1e-4 * gamma_w * 1.0
+    assert np.max(np.abs(x - world.positions)) < 1e-6
 
 
 # ---- scene files ---------------------------------------------------------------------------

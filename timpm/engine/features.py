@@ -84,6 +84,8 @@ class FeatureSet:
     water_level: bool = False    # a still-water level: buoyancy below it
     seepage: str = "none"        # "parallel": the pore water's force only along y (Water)
     phreatic: int = 0            # vertices of a phreatic surface (Water.phreatic), 0: none
+    pore_smoothing: bool = False  # the pore strain's cell mean drives p_e (Water.smoothing)
+    drawdown: bool = False       # the still-water level moves in time (Water.final_level)
 
     @property
     def pore_pressure(self) -> bool:
@@ -370,7 +372,9 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         water_level=model.water is not None and model.water.highest is not None,
         seepage="none" if model.water is None else model.water.seepage,
         phreatic=0 if model.water is None or model.water.phreatic is None
-        else len(model.water.phreatic))
+        else len(model.water.phreatic),
+        pore_smoothing=model.water is not None and model.water.smoothing == "cell",
+        drawdown=model.water is not None and model.water.drawdown)
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
         per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))
@@ -398,6 +402,9 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         values.update(midpoint_relaxation=((math.sqrt(mu * mu + 4.0) - mu) / 2.0) ** 2)
     if features.water_level:  # the level, or the phreatic surface's top (a quick test)
         values.update(water_level=model.water.highest)
+    if features.drawdown:
+        values.update(final_level=model.water.final_level,
+                      drawdown_time=model.water.drawdown_time)
     if features.phreatic:
         values.update(phreatic_x=tuple(x for x, _ in model.water.phreatic),
                       phreatic_y=tuple(y for _, y in model.water.phreatic))

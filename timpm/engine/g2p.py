@@ -71,6 +71,8 @@ class G2P:
                 x_new[0] += period
                 particles.laps[p] -= 1.0
         particles.x[p] = x_new
+        if ti.static(self.f.pore_smoothing):  # p_e from the cell's mean (engine/water.py)
+            self.pores.deposit(particles, p, x_new, vol_new, d_eps_pores, deps.trace())
         self.check(particles, values, p, x_new, vp, sig_new, vol_new, jac)
 
     @ti.func

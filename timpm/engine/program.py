@@ -58,6 +58,8 @@ def _param_spec(features, scheme_cls):
         spec.update(volume_min="real", volume_max="real")
     if features.water_level:
         spec.update(water_level="real")
+    if features.drawdown:
+        spec.update(final_level="real", drawdown_time="real")
     if features.phreatic:
         spec.update(phreatic_x=("real", features.phreatic),
                     phreatic_y=("real", features.phreatic))
@@ -201,7 +203,8 @@ class Program:
         # fields declare; the fields P2G adds to (a copy each for the private scatter)
         names, scattered = dict(NODE_NAMES), {}
         integrator = INTEGRATORS[f.integrator]
-        for owner in (self.scheme_class,) + (() if integrator is None else (integrator,)):
+        for owner in ((self.scheme_class,) + (() if integrator is None else (integrator,))
+                      + ((Pores,) if f.water is not None else ())):
             for name, fld in owner.grid_fields(f).items():
                 grid.setdefault(name, _taichi_field(fld, d, real))
                 names.update({alias: name for alias in fld.names})
@@ -352,7 +355,7 @@ class Program:
         mls = MLSProjection(f, accumulate, boundary) if f.mls and f.dim == 1 else None
         mls_nd = MLSStressND(f, stencil, accumulate) if f.mls and f.dim > 1 else None
         nodes = GridSolve(f, grid, values, boundary, stencil, accumulate, banded, cg, mls_nd)
-        pores = Pores(f, values)
+        pores = Pores(f, values, grid, accumulate, run)
         loads = Loads(f, run, accumulate, pores)
         # the compiled unit of each material, reading its constants from its group
         units = [cls.unit(flags, self.params.groups[f"m{k}"])
@@ -366,7 +369,7 @@ class Program:
         assert set(vars(self.ops)) == set(OPERATIONS)
         # the transfer scheme (or the integrator that wraps it) and its step as phases
         self.scheme = scheme_for(f, self.ops)
-        self.phases = self.scheme.phases()
+        self.phases = self.scheme.phases() + pores.phases()
         buffer = FieldView("record", {k: scratch[k] for k in ("rec_count", "track_ids")
                                       if k in scratch})
         self.recorder = Recorder(f, particles, self.history, buffer, run, laws, accumulate,

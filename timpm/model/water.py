@@ -40,6 +40,31 @@ rho_w V |g| (-y_w'(x), 1): its buoyancy and the seepage force of the table's slo
 the table stands above the ground it is the surface of free water.  A slope after rapid
 drawdown keeps its table at its surface (Morgenstern's assumption, B = 1, no flow yet);
 ``level`` is then not given (the table says where the water is).
+
+``final_level`` and ``drawdown_time``: the still-water level falls (or rises) in time, from
+``level`` at t = 0 to ``final_level`` at ``drawdown_time`` (linearly, then held): a
+drawdown.  Drained, the water table in the soil follows the level (a slow drawdown: the
+buoyancy of the share of each particle below the level at time t).  Undrained and
+coupled, the free water leaving the ground takes its weight off the soil as it goes and
+the pore water feels that unloading at once (Skempton's B = 1, Morgenstern's assumption of
+rapid drawdown): where the level passes between a particle and its ground surface y_s
+(the top of its column of particles at the start) the total pore pressure stops falling
+with it, dp_e = -rho_w |g| dL for y < L < y_s, so that just after a rapid drawdown the
+pore pressure is the hydrostatic one of a table at the ground surface; coupled, it then
+drains through the free surfaces, the water above the level carrying its weight.  (Tested
+on layers, where the vertical unloading is the whole of it; on a 2D slope the undrained
+and coupled drawdowns did not yet give trustworthy factors, docs/results.md.)
+
+``smoothing`` (undrained and coupled analyses): ``"none"`` (each particle's excess pore
+pressure follows its own volumetric strain) or ``"cell"`` (the step's pore volumetric
+strain averaged over each grid cell, weighted by the particles' volumes, drives the
+pressure of every particle in the cell: the pressure increment constant per cell, as in
+a mixed element with a pressure constant per element, Q1-P0).  Each particle's own strain
+can carry a pattern within a cell that the grid's forces cannot see, and the pressure,
+stiffened by K_w / n, grows a particle-scale checkerboard in a large deformation; the cell
+mean is the part the nodes see.  With the linear basis in 1D the strain is constant over
+a cell and the two agree; the cubic B-splines are refused (their Terzaghi consolidation
+drifted from the series under the cell mean, docs/results.md).
 """
 import math
 from dataclasses import dataclass
@@ -49,12 +74,14 @@ import numpy as np
 from ..materials.pore_water import PoreWater
 from ..platform.errors import InputError, about
 
-__all__ = ["Water", "ANALYSES", "SEEPAGE", "checked_water"]
+__all__ = ["Water", "ANALYSES", "SEEPAGE", "SMOOTHING", "checked_water"]
 
 #: the analyses a scene's water may ask for, the cheapest first
 ANALYSES = ("drained", "undrained", "coupled")
 #: the steady flows of the water below the level (the module)
 SEEPAGE = ("none", "parallel")
+#: how the pores' volumetric strain drives the excess pore pressure (the module)
+SMOOTHING = ("none", "cell")
 
 
 @dataclass(frozen=True)
@@ -66,6 +93,9 @@ class Water:
     level: float | None = None
     seepage: str = "none"
     phreatic: tuple | None = None
+    smoothing: str = "none"
+    final_level: float | None = None
+    drawdown_time: float | None = None
 
     def __post_init__(self):
         if self.analysis not in ANALYSES:
@@ -86,6 +116,19 @@ class Water:
                              "under a level (give analysis='drained' and level=)", "seepage")
         if self.phreatic is not None:
             self._check_phreatic()
+        if (self.final_level is None) != (self.drawdown_time is None):
+            raise InputError("water: a drawdown takes both final_level (m) and "
+                             "drawdown_time (s)", "final_level" if self.final_level is None
+                             else "drawdown_time")
+        if self.final_level is not None:
+            self._check_drawdown()
+        if self.smoothing not in SMOOTHING:
+            raise InputError(f"water: unknown smoothing {self.smoothing!r}: choose one of "
+                             f"{', '.join(SMOOTHING)}", "smoothing")
+        if self.smoothing != "none" and not self.pore_pressure:
+            raise InputError("water: a drained analysis keeps no excess pore pressure to "
+                             "smooth (smoothing is for analysis='undrained' or 'coupled')",
+                             "smoothing")
         if self.analysis == "drained" and self.level is None and self.phreatic is None:
             raise InputError("water: a drained analysis without a water level is a dry one: "
                              "give level= (the still-water level, m)", "level")
@@ -110,6 +153,31 @@ class Water:
                              "free water's surface)", "phreatic")
         object.__setattr__(self, "phreatic", tuple((float(x), float(y)) for x, y in P))
 
+    def _check_drawdown(self):
+        for key, value, positive in (("final_level", self.final_level, False),
+                                     ("drawdown_time", self.drawdown_time, True)):
+            ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
+                  and math.isfinite(value) and (value > 0.0 or not positive))
+            if not ok:
+                raise InputError(f"water: {key} must be a finite "
+                                 + ("duration in s, > 0" if positive else "height in m")
+                                 + f", got {value!r}", key)
+            object.__setattr__(self, key, float(value))
+        if self.level is None or self.phreatic is not None or self.seepage != "none":
+            raise InputError("water: a drawdown moves a still-water level: give level= "
+                             "(no phreatic surface, no seepage)", "final_level")
+
+    @property
+    def drawdown(self) -> bool:
+        """Whether the level moves in time (final_level, drawdown_time)."""
+        return self.final_level is not None
+
+    def level_at(self, t: float) -> float | None:
+        """The still-water level at time t (the drawdown's, linear then held)."""
+        if not self.drawdown:
+            return self.level
+        return self.level + (self.final_level - self.level) * min(t / self.drawdown_time, 1.0)
+
     def table(self, x):
         """The water table's height at x (arrays): the level, or the phreatic polyline
         (constant beyond its ends); None without either."""
@@ -131,6 +199,21 @@ class Water:
     def pore_pressure(self) -> bool:
         """Whether the particles keep an excess pore pressure (undrained, coupled)."""
         return self.analysis != "drained"
+
+
+def ground_surface_above(positions, volume, up):
+    """Each particle's ground surface y_s: the top of its column of particles (those that
+    share its other coordinates, the lattice a body is filled with), the top particle's
+    upper edge (its position plus half its extent, V^(1/d) / 2)."""
+    x = np.asarray(positions, dtype=np.float64).reshape(len(volume), -1)
+    extent = np.asarray(volume, dtype=np.float64) ** (1.0 / x.shape[1])
+    columns = (np.round(np.delete(x, up, axis=1), 9) if x.shape[1] > 1
+               else np.zeros((len(x), 1)))
+    _, where = np.unique(columns, axis=0, return_inverse=True)
+    where = where.reshape(-1)
+    top = np.full(where.max() + 1 if len(where) else 0, -np.inf)
+    np.maximum.at(top, where, x[:, up] + 0.5 * extent)
+    return top[where]
 
 
 def checked_water(model):
@@ -194,6 +277,12 @@ def checked_water(model):
         raise InputError(f"water: the {model.integrator} integrator does not take pore "
                          "water (its stages set the stress from F): use euler-cromer",
                          "integrator")
+    if water.smoothing == "cell" and model.basis.support > 3:
+        raise InputError(f"water: smoothing='cell' takes the linear or a quadratic basis, "
+                         f"not {model.basis.name}: with the cubic B-spline the cell mean "
+                         "drove Terzaghi's consolidation away from the series as the grid "
+                         "was refined (U = 0.992 against 0.931 at T = 1, 32 elements; "
+                         "docs/results.md)", "smoothing")
     if water.analysis == "coupled":
         wrong = [what for what, bad in (
             (f"the {model.transfer} transfer (the two-phase step is MUSL's: "
@@ -236,6 +325,8 @@ def checked_water(model):
         raise InputError("initial_pore_pressure: a drained analysis keeps no excess "
                          "pore pressure (undrained or coupled do)",
                          "initial_pore_pressure")
+    if water.drawdown and water.pore_pressure:
+        arrays["ground"] = ground_surface_above(model.positions, model.volume, up)
     if water.analysis == "coupled":
         with about("pore_water"):
             arrays["porosity"] = column([0.0 if pw is None else pw.porosity

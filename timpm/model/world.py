@@ -217,6 +217,8 @@ _WORLD_KEY_OF_MODEL = {"positions": "bodies", "materials": "bodies", "elements":
                        "h": "cells", "origin": "domain", "mass_matrix": "transfer",
                        "projection": "transfer", "particle_force": "tractions",
                        "level": "water.level", "analysis": "water.analysis",
+                       "seepage": "water.seepage", "phreatic": "water.phreatic",
+                       "smoothing": "water.smoothing",
                        "pore_water": "bodies", "conductivity": "bodies"}
 
 

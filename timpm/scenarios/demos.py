@@ -441,10 +441,12 @@ class SubmarineSlope(SlopeFailure):
     skeleton's, and so the time step (2.2 GPa would cut it 3.4 times; the undrained
     response is stiff either way: K_w / n is 1.9 times the skeleton's P-wave modulus).
     ``analysis`` "coupled" (the pore water flows, ``conductivity`` k) or "undrained".
-    Coloured by the plastic strain, the level drawn; ``--color pore-pressure`` shows the
-    excess pore pressure, which in the slide carries a particle-scale checkerboard (each
-    particle's pressure follows its own volumetric strain; docs/results.md): the JSON
-    reports its extremes and RMS as they are."""
+    ``smoothing`` the pore pressure's (``Water.smoothing``): "cell", the step's pore strain
+    averaged over each grid cell drives the pressure ("none": each particle's own, which
+    grows a particle-scale checkerboard in the slide, docs/results.md).  Coloured by the
+    plastic strain, the level drawn; ``--color pore-pressure`` shows the excess pore
+    pressure; the JSON reports its extremes, RMS and roughness (the RMS within the cells,
+    :func:`pressure_roughness`)."""
 
     name = "submarine-slope"
     color = "plastic"
@@ -456,6 +458,7 @@ class SubmarineSlope(SlopeFailure):
     conductivity: float = 1.0e-4
     water_modulus: float = 1.0e8
     analysis: str = "coupled"
+    smoothing: str = "cell"
 
     @property
     def level(self) -> float:
@@ -482,7 +485,7 @@ class SubmarineSlope(SlopeFailure):
                      walls={"default": "roller", "bottom": Wall("friction", mu), "top": None,
                             "right": None},
                      initial_stress=K0(), courant=self.courant, name=self.name,
-                     water=Water(self.analysis, level=self.level))
+                     water=Water(self.analysis, level=self.level, smoothing=self.smoothing))
 
     def title(self) -> str:
         return f"submarine slope, strength / {self.strength_factor:g}"
@@ -499,8 +502,22 @@ class SubmarineSlope(SlopeFailure):
                    analysis=self.analysis, water_modulus=self.water_modulus,
                    excess_pore_pressure_max=float(pw.max()),
                    excess_pore_pressure_min=float(pw.min()),
-                   excess_pore_pressure_rms=float(np.sqrt(np.mean(pw ** 2))))
+                   excess_pore_pressure_rms=float(np.sqrt(np.mean(pw ** 2))),
+                   excess_pore_pressure_roughness=pressure_roughness(solver, pw),
+                   smoothing=self.smoothing)
         return out
+
+
+def pressure_roughness(solver, pw) -> float:
+    """The RMS of each particle's pressure less its grid cell's volume-weighted mean: the
+    particle-scale pattern the grid cannot see (0 where the pressure is constant per cell)."""
+    x, vol = solver.positions(), solver.read("vol")
+    h, origin = solver.h, np.asarray(solver.origin)
+    cells = np.floor((x - origin) / h).astype(np.int64)
+    _, which = np.unique(cells, axis=0, return_inverse=True)
+    which = which.reshape(-1)
+    mean = np.bincount(which, vol * pw) / np.bincount(which, vol)
+    return float(np.sqrt(np.mean((pw - mean[which]) ** 2)))
 
 
 DEMOS = {cls.name: cls for cls in (ColumnCollapse, Disks, DamBreak, SlopeFailure,

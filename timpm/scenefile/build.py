@@ -304,7 +304,9 @@ def _world_scene(reader, data, path) -> SceneFile:
         spec = reader.table(("water",), data["water"], WATER)
         try:
             water = Water(spec.get("analysis", "coupled"), spec.get("level"),
-                          spec.get("seepage", "none"), spec.get("phreatic"))
+                          spec.get("seepage", "none"), spec.get("phreatic"),
+                          spec.get("smoothing", "none"), spec.get("final_level"),
+                          spec.get("drawdown_time"))
         except ValueError as err:
             key = getattr(err, "key", None)
             raise reader.error(("water",) + ((key,) if key in WATER else ()), str(err)) from None

@@ -12,7 +12,7 @@ from ..model.model import (INTEGRATORS, ND_BASES, SIDES, TRANSFERS, WALL_KINDS, 
                            PROJECTIONS)
 from ..problems import PROBLEMS
 from ..model.scene import PLACEMENTS, STRESS_UPDATES
-from ..model.water import ANALYSES, SEEPAGE
+from ..model.water import ANALYSES, SEEPAGE, SMOOTHING
 from ..model.world import PRESETS
 
 REQUIRED = object()
@@ -160,6 +160,17 @@ WATER = {
                     "instead of level): [x, y] vertices, x increasing, constant beyond the "
                     "ends; hydrostatic pore pressure below it (a slope after rapid "
                     "drawdown: the table at the ground surface)"),
+    "smoothing": Key("string", "none", doc="none: each particle's excess pore pressure "
+                     "follows its own volumetric strain; cell: the step's pore strain "
+                     "averaged over each grid cell drives the pressure (no particle-scale "
+                     "checkerboard in a large deformation; undrained or coupled, a linear or "
+                     "quadratic basis)", choices=SMOOTHING),
+    "final_level": Key("number", None, "m", "a drawdown: the level falls (or rises) from "
+                       "level to final_level over drawdown_time, linearly (drained: the "
+                       "table follows it; undrained and coupled: the pore water feels the "
+                       "free water's unloading at once, B = 1)"),
+    "drawdown_time": Key("positive", None, "s", "the drawdown's duration (with "
+                         "final_level)"),
 }
 SHAPE_KEYS = {"box": ("lo", "hi"), "ball": ("center", "radius"), "polygon": ("vertices",),
               "prism": ("vertices", "z")}

@@ -98,14 +98,16 @@ class TwoPhase(MUSL):
     def p2g_node(self, particles: ti.template(), values: ti.template(), p, copy, node, phi,
                  grad):
         # P2G of the water beside MUSL's m_i, P_i and F_i (whose stress is sigma' - p_e I):
-        # M_w,i, Mbar_i, Q_i, F_w,i = sum p_e V_p grad phi_i, P_w,i
+        # M_w,i, Mbar_i, Q_i, F_w,i = sum (p_e V_p grad phi_i + phi_i rho_w V_p g [above
+        # the level]), P_w,i
         vol = particles.vol[p]
         water_mass = particles.rho_w[p] * vol
         self.scatter.add("node_water_mass", copy, node, phi * water_mass)
         self.scatter.add("node_pore_mass", copy, node, phi * particles.porosity[p]
                          * particles.rho_w[p] * self.laws.reference_volume(p))
         self.scatter.add("node_drag", copy, node, phi * particles.drag[p] * vol)
-        self.scatter.add("node_water_force", copy, node, particles.pw[p] * vol * grad)
+        self.scatter.add("node_water_force", copy, node, particles.pw[p] * vol * grad
+                         + phi * self.loads.pores.water_weight(particles, p))
         self.scatter.add("node_water_momentum", copy, node, phi * water_mass * particles.w[p])
 
     # ---- the grid: the coupled balances ------------------------------------------------
