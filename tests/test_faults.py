@@ -232,6 +232,44 @@ def test_sigterm_and_sighup_stop_a_run_like_ctrl_c(tmp_path, sig, code):
     assert _cli("resume", saved, "--t-end", ckpt["t"] + 0.01, "--quiet") == 0
 
 
+def _as_background_job(ignored):
+    """A child as a non-interactive shell's background job starts it (``cmd &``: SIGINT
+    ignored) or as nohup does (SIGHUP ignored)."""
+    def start():
+        default_signals()
+        for sig in ignored:
+            signal.signal(sig, signal.SIG_IGN)
+    return start
+
+
+@pytest.mark.parametrize("ignored, sig, code", [
+    ((signal.SIGINT,), signal.SIGTERM, 143), ((signal.SIGINT,), signal.SIGHUP, 129),
+    ((signal.SIGINT, signal.SIGHUP), signal.SIGTERM, 143)])
+def test_a_background_job_keeps_its_outputs_on_sigterm_and_sighup(tmp_path, ignored, sig,
+                                                                  code):
+    """`timpm run ... --json r.json --checkpoint c.npz &` from a script (SIGINT ignored) or
+    under nohup (SIGHUP ignored too), then SIGTERM or SIGHUP: both files written, exit 128 +
+    the signal, the checkpoint resumes (the deferral once gave up where SIGINT was
+    ignored: exit 143 and neither file)."""
+    saved, record = tmp_path / "c.npz", tmp_path / "r.json"
+    run = subprocess.Popen(
+        [sys.executable, "-m", "timpm", "run", "vibrating-string", "--dt", "1e-4", "--t-end",
+         "5000", "--allow-many-steps", "--json", str(record), "--checkpoint", str(saved),
+         "--checkpoint-every", "20000"],
+        env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=_as_background_job(ignored))
+    with killed_at_exit(run):
+        wait_until(run, saved.exists)  # stepping (the first periodic checkpoint)
+        run.send_signal(sig)
+        out, err = run.communicate(timeout=60)
+    assert run.returncode == code, err
+    assert "Traceback" not in err
+    ckpt = load_checkpoint(saved)
+    partial = json.loads(record.read_text())["runs"][0]
+    assert partial["interrupted"] is True and partial["steps"] == ckpt["step"] > 0
+    assert _cli("resume", saved, "--t-end", ckpt["t"] + 0.01, "--quiet") == 0
+
+
 SWEEP = [sys.executable, "-m", "timpm", "convergence", "vibrating-string", "--basis",
          "bspline2", "--mass", "consistent", "--elements", "32", "64", "128", "256", "512",
          "--t-end", "8", "--workers", "2"]

@@ -6,8 +6,9 @@ loop reads between its launches (:func:`requested`): the run stops with its stat
 so that it can be saved, and the command exits with 128 + the signal's number (130 for
 Ctrl-C, 143 for SIGTERM, 129 for SIGHUP; :func:`exit_code`).  A second signal raises
 ``KeyboardInterrupt`` at once, as Python does by default for SIGINT.  Outside the block,
-or off the main thread, or for a signal whose handler the program has replaced, nothing
-changes.
+or off the main thread, or for a signal whose handler the program has replaced or that
+the shell left ignored (a background job's SIGINT in a script, ``cmd & wait``; nohup's
+SIGHUP), nothing changes: the others are still deferred.
 """
 import contextlib
 import signal
@@ -74,8 +75,8 @@ def deferred_sigint():
     usable = threading.current_thread() is threading.main_thread() and not _state["active"]
     taken = [s for s in SIGNALS if usable and signal.getsignal(s) in (
         defaults.get(s, signal.SIG_DFL), _raise_interrupt)]  # (ours: termination_as_interrupt)
-    if signal.SIGINT not in taken:
-        yield
+    if not taken:  # (a signal the shell left ignored stays ignored: a background job's
+        yield      # SIGINT, nohup's SIGHUP; the others are still taken)
         return
     previous = {s: signal.signal(s, _handler) for s in taken}
     _state.update(active=True, requested=False, signal=signal.SIGINT)
