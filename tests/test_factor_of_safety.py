@@ -118,3 +118,115 @@ def test_the_slope_that_fails_runs_out():
     assert s["potential_energy_released"] > 0.0
     assert s["kinetic_energy_end"] < 0.01 * s["potential_energy_released"]
     assert s["energy_dissipated"] == pytest.approx(s["potential_energy_released"], rel=0.02)
+
+
+def _stub_world():
+    class World:  # what the record reads
+        h, basis, transfer = 1.0, Linear, "musl"
+
+        class model:
+            positions = np.array([[0.0, 0.0], [1.0, 10.0]])
+            n_particles = 2
+            gravity = (0.0, -9.81)
+    return World
+
+
+def test_an_interrupted_study_keeps_its_trials_and_resumes_to_the_same_factor(monkeypatch,
+                                                                             tmp_path):
+    """Interrupted during its fourth trial (Ctrl-C, or SIGTERM as the command line turns
+    it), the study raises StudyInterrupted with the three trials and the bracket so far;
+    that record, through the strict JSON writer, resumes: its trials are not run again and
+    the study ends at the factor of the uninterrupted one.  Another study's record is
+    refused."""
+    import json
+
+    from timpm.platform.files import write_json
+
+    true, calls = 1.2345, []
+
+    def stub(world, F, t_end, creep=1e-3, mode="auto"):
+        calls.append(F)
+        if stop_at is not None and len(calls) == stop_at:
+            raise KeyboardInterrupt
+        return {"F": F, "failed": F > true, "displacement_end": math.inf if F > true else 0.0,
+                "creep": math.inf if F > true else 0.0, "creep_limit": 0.01, "stopped": None}
+
+    monkeypatch.setattr(fos, "trial", stub)
+    World = _stub_world()
+    stop_at = None
+    whole, _ = fos.factor_of_safety(World, 1.0, low=0.5, high=3.0, tolerance=0.01)
+    calls.clear()
+    stop_at = 4
+    with pytest.raises(fos.StudyInterrupted) as stop:
+        fos.factor_of_safety(World, 1.0, low=0.5, high=3.0, tolerance=0.01)
+    partial = stop.value.partial
+    assert partial["interrupted"] is True and len(partial["trials"]) == 3
+    assert partial["bracket"] == [0.5, 1.75]  # after low, high and the first midpoint
+    write_json(tmp_path / "f.json", partial)
+    record = json.loads((tmp_path / "f.json").read_text())
+    calls.clear()
+    stop_at = None
+    resumed, _ = fos.factor_of_safety(World, 1.0, low=0.5, high=3.0, tolerance=0.01,
+                                      resume=record)
+    assert resumed["factor_of_safety"] == whole["factor_of_safety"]
+    assert [t["F"] for t in resumed["trials"]] == [t["F"] for t in whole["trials"]]
+    assert len(calls) == len(whole["trials"]) - 3  # the three recorded were not run again
+    with pytest.raises(ValueError, match="record's creep is 0.001, this study's 0.01"):
+        fos.factor_of_safety(World, 1.0, low=0.5, high=3.0, tolerance=0.01, creep=1e-2,
+                             resume=record)
+    with pytest.raises(ValueError, match="--resume takes the JSON record"):
+        fos.factor_of_safety(World, 1.0, resume={"runs": []})
+
+
+def test_sigterm_to_the_study_writes_the_trials_so_far_and_it_resumes(tmp_path):
+    """`timpm study factor-of-safety SLOPE.toml --json f.json`, SIGTERM after its third
+    trial: exit 143, f.json holds the three trials and the bracket, marked interrupted;
+    `--resume f.json` completes it to the factor of the whole study (the slope at h = 2 m,
+    a bracket 0.1 wide: six trials)."""
+    import json
+    import signal
+    import subprocess
+    import sys
+    import threading
+
+    from conftest import CHILD_ENV, default_signals, killed_at_exit
+
+    text = (ROOT / "examples" / "slope_griffiths_lane.toml").read_text()
+    scene = tmp_path / "slope.toml"
+    scene.write_text(text.replace("cells = 120", "cells = 30"))
+    study = [sys.executable, "-m", "timpm", "study", "factor-of-safety", str(scene),
+             "--bracket", "1", "2", "--tolerance", "0.1"]
+    record = tmp_path / "f.json"
+    run = subprocess.Popen(study + ["--json", str(record)], env=CHILD_ENV,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           preexec_fn=default_signals)
+    lines, third = [], threading.Event()
+
+    def read():
+        for line in run.stderr:
+            lines.append(line)
+            if sum(line.startswith("F = ") for line in lines) >= 3:
+                third.set()
+    reader = threading.Thread(target=read, daemon=True)
+    with killed_at_exit(run):
+        reader.start()
+        assert third.wait(timeout=240), "".join(lines)
+        run.send_signal(signal.SIGTERM)
+        run.wait(timeout=120)
+        reader.join(timeout=10)
+    err = "".join(lines)
+    assert run.returncode == 143, err
+    assert "Traceback" not in err and "interrupted after" in err and "--resume" in err
+    partial = json.loads(record.read_text())
+    assert partial["interrupted"] is True and len(partial["trials"]) >= 3
+    done = subprocess.run(study + ["--resume", str(record), "--json", str(record), "--quiet"],
+                          env=CHILD_ENV, capture_output=True, text=True,
+                          preexec_fn=default_signals, timeout=600)
+    assert done.returncode == 0, done.stderr
+    resumed = json.loads(record.read_text())
+    assert "interrupted" not in resumed
+    whole, _ = fos.factor_of_safety(
+        __import__("timpm.scenefile", fromlist=["load_scene"]).load_scene(scene).world,
+        resumed["t_end"], low=1.0, high=2.0, tolerance=0.1)
+    assert resumed["factor_of_safety"] == whole["factor_of_safety"]
+    assert len(resumed["trials"]) == len(whole["trials"])

@@ -6,7 +6,7 @@ bad input, and writes its record before its plot."""
 import argparse
 import sys
 
-from ..platform import runtime
+from ..platform import interrupt, runtime
 from ..platform.errors import SimulationError
 from ..platform.files import check_distinct, check_output, write_json
 from ..studies import element_test as elements
@@ -81,6 +81,19 @@ def element_test(argv) -> int:
     return 0
 
 
+def _read_record(path):
+    """A JSON record (``--resume``), or a ValueError naming the file."""
+    import json
+
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except OSError as exc:
+        raise ValueError(f"--resume {path}: {exc.strerror}") from None
+    except ValueError as exc:
+        raise ValueError(f"--resume {path}: not a JSON record ({exc})") from None
+
+
 def factor_of_safety(args) -> int:
     """``timpm study factor-of-safety FILE.toml``: the bisection, its record and plot."""
     from ..scenefile import load_scene
@@ -91,11 +104,26 @@ def factor_of_safety(args) -> int:
         if scene.world is None:
             raise ValueError(f"{args.scene}: the factor of safety takes a world (a slope), "
                              "not a [problem]")
+        resume = None
+        if args.resume:
+            resume = _read_record(args.resume)
         runtime.init(precision=scene.precision)
         record, failed = fos.factor_of_safety(
             scene.world, scene.t_end, low=args.bracket[0], high=args.bracket[1],
-            tolerance=args.tolerance, creep=args.creep, mode=scene.mode,
+            tolerance=args.tolerance, creep=args.creep, mode=scene.mode, resume=resume,
             progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
+    except fos.StudyInterrupted as stop:  # the trials so far, resumable
+        stop.partial["scene"] = args.scene
+        kept = ""
+        if args.json:
+            try:
+                write_json(args.json, stop.partial)
+                kept = (f"; the trials so far in {args.json} (timpm study factor-of-safety "
+                        f"{args.scene} --resume {args.json} ...)")
+            except (OSError, ValueError) as exc:
+                kept = f"; the record could not be written: {exc}"
+        print(f"timpm: {stop}{kept}", file=sys.stderr)
+        return interrupt.exit_code()
     except (ValueError, SimulationError) as exc:
         return _error(exc)
     record["scene"] = args.scene

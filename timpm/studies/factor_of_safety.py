@@ -22,6 +22,13 @@ is not small.  A run that stops because material leaves the grid (or is crushed)
 failed too; one that stops for another reason (the energy guard: an instability) stops
 the study, since no factor can be read from it.  The bracket is reported with the
 factor, which is its midpoint.
+
+**Interrupted and resumed.**  Ctrl-C, SIGTERM or SIGHUP during a trial stops the study with
+:class:`StudyInterrupted`, whose ``partial`` record holds the trials finished and the
+bracket so far (``"interrupted": true``); given back as ``resume`` (``timpm study
+factor-of-safety FILE.toml --resume F.json``) its trials are taken for the runs they were
+(the bisection's factors repeat exactly), so the study goes on where it stopped and ends
+at the factor it would have found.
 """
 import math
 import time
@@ -32,7 +39,45 @@ import numpy as np
 from ..platform.errors import ErrorCode
 
 __all__ = ["reduced", "trial", "factor_of_safety", "add_parser", "add_bisection_arguments",
-           "plot_mechanism"]
+           "plot_mechanism", "StudyInterrupted", "resumable_trials"]
+
+
+class StudyInterrupted(Exception):
+    """Ctrl-C, SIGTERM or SIGHUP stopped the study between or during its trials:
+    ``partial`` is its record so far (the trials finished, the bracket, ``"interrupted":
+    true``)."""
+
+    def __init__(self, partial: dict):
+        done = len(partial["trials"])
+        super().__init__(f"interrupted after {done} trial{'s' * (done != 1)} (bracket "
+                         f"{partial['bracket'][0]:.4f} to {partial['bracket'][1]:.4f})")
+        self.partial = partial
+
+
+#: the settings a resumed study must share with the record it resumes
+RESUME_KEYS = ("t_end", "creep", "tolerance", "particles", "h", "basis", "transfer")
+
+
+def resumable_trials(record, settings) -> dict:
+    """The trials of an earlier (interrupted) study's ``record``, F -> trial, checked
+    against this study's ``settings`` (``RESUME_KEYS``): a record of another scene or
+    other settings is refused, naming what differs."""
+    if not isinstance(record, dict) or record.get("study") != "factor-of-safety" \
+            or not isinstance(record.get("trials"), list):
+        raise ValueError("--resume takes the JSON record of a factor-of-safety study (its "
+                         "--json file)")
+    for key in RESUME_KEYS:
+        if record.get(key) != settings[key]:
+            raise ValueError(f"--resume: the record's {key} is {record.get(key)!r}, this "
+                             f"study's {settings[key]!r}: it is another study's record")
+    out = {}
+    for r in record["trials"]:
+        if not (isinstance(r, dict) and isinstance(r.get("F"), float)
+                and isinstance(r.get("failed"), bool)):
+            raise ValueError(f"--resume: a trial of the record is not one this study wrote: "
+                             f"{r!r}")
+        out[r["F"]] = r
+    return out
 
 
 def reduced(material, F):
@@ -120,10 +165,12 @@ class _Displacement:
 
 
 def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3,
-                     mode="auto", progress=None):
+                     mode="auto", progress=None, resume=None):
     """Bisect on F between ``low`` (the slope must stand) and ``high`` (it must fail) until
     the bracket is at most ``tolerance`` wide; returns the record (``factor_of_safety``,
-    ``bracket``, every trial) and the last failed trial (its mechanism)."""
+    ``bracket``, every trial) and the last failed trial (its mechanism).  ``resume``: an
+    interrupted study's record, whose trials stand for the runs they were (the module);
+    interrupted, raises :class:`StudyInterrupted` with the record so far."""
     if not (0.0 < low < high) or not math.isfinite(high):
         raise ValueError(f"the bracket must satisfy 0 < low < high, got [{low}, {high}]")
     if not (0.0 < tolerance < high - low):
@@ -139,41 +186,55 @@ def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3
                          "factor of safety can be read")
     t0 = time.perf_counter()
     trials = []
+    settings = {"t_end": t_end, "creep": creep, "tolerance": tolerance,
+                "particles": world.model.n_particles, "h": world.h, "basis": world.basis.name,
+                "transfer": world.transfer}
+    done = {} if resume is None else resumable_trials(resume, settings)
 
     def run(F):
-        r = trial(world, F, t_end, creep, mode)
+        r = done.get(F)
+        if r is None:
+            r = trial(world, F, t_end, creep, mode)
+        elif progress is not None:
+            progress(f"F = {F:.4f}: {'fails' if r['failed'] else 'stands'} (from the "
+                     "resumed record)")
         trials.append(r)
-        if progress is not None:
+        if progress is not None and F not in done:
             progress(f"F = {F:.4f}: {'fails' if r['failed'] else 'stands'} (largest "
                      f"displacement {r['displacement_end']:.3g} m, {r['creep']:.3g} m in the "
                      f"last quarter; limit {r['creep_limit']:.3g} m)")
         return r
 
-    for F, should_fail in ((low, False), (high, True)):
-        if run(F)["failed"] != should_fail:
-            raise ValueError(f"the slope {'fails' if not should_fail else 'stands'} at the "
-                             f"bracket's {'low' if not should_fail else 'high'} end F = {F:g}: "
-                             "widen the bracket (--bracket LOW HIGH)")
-    failed = trials[-1]
-    while high - low > tolerance:
-        mid = 0.5 * (low + high)
-        r = run(mid)
-        if r["failed"]:
-            high, failed = mid, r
-        else:
-            low = mid
-    record = {
-        "study": "factor-of-safety", "factor_of_safety": 0.5 * (low + high),
-        "bracket": [low, high], "tolerance": tolerance, "t_end": t_end,
-        "criterion": f"failed where the largest particle displacement grows by more than "
-                     f"{creep:g} x the ground's height over the last quarter of the run",
-        "creep": creep, "height": _height(world), "particles": world.model.n_particles,
-        "h": world.h, "basis": world.basis.name, "transfer": world.transfer,
-        "wall_seconds": time.perf_counter() - t0,
-        "trials": [{k: v for k, v in r.items() if k not in ("positions", "plastic")}
-                   for r in trials],
-    }
-    return record, failed
+    def record(low, high):
+        return {
+            "study": "factor-of-safety", "factor_of_safety": 0.5 * (low + high),
+            "bracket": [low, high], **settings,
+            "criterion": f"failed where the largest particle displacement grows by more "
+                         f"than {creep:g} x the ground's height over the last quarter of "
+                         f"the run",
+            "height": _height(world), "wall_seconds": time.perf_counter() - t0,
+            "trials": [{k: v for k, v in r.items() if k not in ("positions", "plastic")}
+                       for r in trials]}
+
+    try:
+        for F, should_fail in ((low, False), (high, True)):
+            if run(F)["failed"] != should_fail:
+                raise ValueError(f"the slope {'fails' if not should_fail else 'stands'} at "
+                                 f"the bracket's {'low' if not should_fail else 'high'} end F "
+                                 f"= {F:g}: widen the bracket (--bracket LOW HIGH)")
+        failed = trials[-1]
+        while high - low > tolerance:
+            mid = 0.5 * (low + high)
+            r = run(mid)
+            if r["failed"]:
+                high, failed = mid, r
+            else:
+                low = mid
+    except KeyboardInterrupt:  # Ctrl-C, SIGTERM, SIGHUP: the trials so far, resumable
+        partial = record(low, high)
+        partial["interrupted"] = True
+        raise StudyInterrupted(partial) from None
+    return record(low, high), failed
 
 
 def plot_mechanism(world, failed, record, path):
@@ -224,7 +285,10 @@ def add_parser(subparsers):
     p.add_argument("--creep", type=float, default=1e-3,
                    help="failure: the largest displacement grows over the last quarter of "
                         "the run by more than CREEP x the ground's height (default 1e-3)")
-    p.add_argument("--json", metavar="FILE", help="write the factor, bracket and trials")
+    p.add_argument("--json", metavar="FILE", help="write the factor, bracket and trials "
+                   "(interrupted: the trials so far)")
+    p.add_argument("--resume", metavar="FILE.json", help="go on from an interrupted "
+                   "study's --json record: its trials stand for the runs they were")
     p.add_argument("--plot", metavar="FILE.png", help="draw the failure mechanism")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     return p
