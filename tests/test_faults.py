@@ -270,6 +270,31 @@ def test_a_background_job_keeps_its_outputs_on_sigterm_and_sighup(tmp_path, igno
     assert _cli("resume", saved, "--t-end", ckpt["t"] + 0.01, "--quiet") == 0
 
 
+@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_an_interrupted_demo_writes_its_gif_and_json(tmp_path, sig, code):
+    """`timpm demo slope --out s.gif --json s.json`, a signal after two frames: the GIF of the
+    frames so far (and the state where it stopped) and the JSON of the run so far, marked
+    interrupted, exit 128 + the signal (it kept only its PNG frames)."""
+    gif, record, pngs = tmp_path / "s.gif", tmp_path / "s.json", tmp_path / "frames"
+    run = subprocess.Popen(
+        [sys.executable, "-m", "timpm", "demo", "slope", "--out", str(gif), "--json",
+         str(record), "--png-dir", str(pngs), "--frames", "200", "--width", "320"],
+        env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=default_signals)
+    with killed_at_exit(run):
+        wait_until(run, lambda: len(list(pngs.glob("*.png"))) >= 3)
+        run.send_signal(sig)
+        out, err = run.communicate(timeout=120)
+    assert run.returncode == code, err
+    assert "Traceback" not in err and "the run so far in" in err
+    doc = json.loads(record.read_text())
+    assert doc["interrupted"] is True and 0.0 < doc["t_end"] < 10.0
+    assert 3 <= len(doc["series"]["t"]) < 201 and doc["series"]["t"][-1] == doc["t_end"]
+    from PIL import Image
+    with Image.open(gif) as im:  # (the writer merges a frame identical to the one before)
+        assert 3 <= im.n_frames <= len(doc["series"]["t"])
+
+
 SWEEP = [sys.executable, "-m", "timpm", "convergence", "vibrating-string", "--basis",
          "bspline2", "--mass", "consistent", "--elements", "32", "64", "128", "256", "512",
          "--t-end", "8", "--workers", "2"]

@@ -414,9 +414,10 @@ def _demo(args):
                       frames=args.frames + 1)
     _start_taichi(args)
     fields = _field_writer(args)
-    result = run_demo(args.name, movie=movie, frames=args.frames, color=args.color,
-                      progress=args.progress, mode=args.mode, fields=fields,
-                      allow_many_steps=args.allow_many_steps, **params)
+    with interrupt.deferred_sigint():  # a signal: the GIF and the JSON of the run so far
+        result = run_demo(args.name, movie=movie, frames=args.frames, color=args.color,
+                          progress=args.progress, mode=args.mode, fields=fields,
+                          allow_many_steps=args.allow_many_steps, **params)
     print(result.report())
     if args.json:
         doc = {k: getattr(result, k) for k in ("name", "out", "frames", "particles", "steps",
@@ -425,11 +426,18 @@ def _demo(args):
                                                "summary", "memory")}
         doc["simulated_per_wall_second"] = result.simulated_per_wall_second
         doc["series"] = {k: v.tolist() for k, v in result.series.items()}
+        if result.interrupted is not None:
+            doc["interrupted"] = True
         _write_json(args.json, doc)
     if args.plot:
         from ..output.viz import plot_demo
 
         plot_demo(result, args.plot)
+    if result.interrupted is not None:
+        kept = [f for f in (result.out, args.json) if f]
+        print(f"timpm: {result.interrupted}"
+              + (f"; the run so far in {', '.join(kept)}" if kept else ""), file=sys.stderr)
+        return result.interrupted.exit_code
     return 0
 
 

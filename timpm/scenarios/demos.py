@@ -599,6 +599,7 @@ class DemoResult:
     series: dict = field(default_factory=dict)
     summary: dict = field(default_factory=dict)
     memory: dict = field(default_factory=dict)
+    interrupted: object = None  # the RunInterrupted that stopped it (None: it ran to t_end)
 
     @property
     def simulated_per_wall_second(self) -> float:
@@ -625,26 +626,38 @@ def run_frames(solver, t_end, frames, movie=None, color=None, fields=None, progr
     """Run ``solver`` from its time t0 to ``t_end`` in ``frames`` equal parts; at the start
     and after each part ``movie`` gets the particles coloured by ``color``, ``fields`` the
     particle fields and ``observe(solver, t)`` a dict of values.  Returns those values'
-    series (with ``t``) as arrays.  A Ctrl-C (:class:`~timpm.platform.interrupt.RunInterrupted`)
-    leaves at a frame's step boundary; the frames so far are written."""
+    series (with ``t``) as arrays.  A Ctrl-C, SIGTERM or SIGHUP under
+    :func:`~timpm.platform.interrupt.deferred_sigint` stops the run at a step boundary
+    (:class:`~timpm.platform.interrupt.RunInterrupted`): the state there is added as a last
+    frame and the exception carries the series so far (``series``)."""
+    from ..platform.interrupt import RunInterrupted
+
     series = {}
     bar = Progress(frames, progress)
     solver.compile()
     t0 = solver.t  # 0 for a new run (t0 + (t_end - t0) k / frames: t_end k / frames)
+
+    def frame():
+        if observe is not None:
+            for key, value in observe(solver, solver.t).items():
+                series.setdefault(key, []).append(value)
+        series.setdefault("t", []).append(solver.t)
+        if movie is not None:
+            movie.add(solver.positions(), quantity(solver, color), t=solver.t)
+        if fields is not None:
+            fields.write(solver)
+
     try:
         for k in range(frames + 1):
             if k:
                 solver.run(t_end=t0 + (t_end - t0) * k / frames, progress=False,
                            allow_many_steps=allow_many_steps)
-            if observe is not None:
-                for key, value in observe(solver, solver.t).items():
-                    series.setdefault(key, []).append(value)
-            series.setdefault("t", []).append(solver.t)
-            if movie is not None:
-                movie.add(solver.positions(), quantity(solver, color), t=solver.t)
-            if fields is not None:
-                fields.write(solver)
+            frame()
             bar.update(k)
+    except RunInterrupted as stop:  # the state where it stopped, whole: a last frame
+        frame()
+        stop.series = {k: np.asarray(v) for k, v in series.items()}
+        raise
     finally:
         bar.close()
     return {k: np.asarray(v) for k, v in series.items()}
@@ -663,7 +676,12 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
     ``fields`` (a :class:`timpm.output.fields.FieldWriter`) gets the particle fields at
     every frame.  A run of more than :data:`~timpm.platform.checks.MAX_STEPS` steps (a time step
     the CFL limit shrank) is refused before it starts unless ``allow_many_steps``.
+    Stopped by a signal under :func:`~timpm.platform.interrupt.deferred_sigint` (the command
+    line's), it closes the movie on the frames so far and returns the result of the run to
+    where it stopped, its ``interrupted`` the :class:`~timpm.platform.interrupt.RunInterrupted`.
     """
+    from ..platform.interrupt import RunInterrupted
+
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise ValueError(f"frames must be a positive integer, got {frames!r}")
     demo = get_demo(name, **params)
@@ -678,8 +696,12 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
         value_range, label, unit = color_range(demo, color, len(world.bodies))
         movie.start(world, color, value_range=value_range, label=label, unit=unit,
                     title=demo.title())
-    series = run_frames(solver, t_end, frames, movie=movie, color=color, fields=fields,
-                        progress=progress, observe=demo.observe, allow_many_steps=True)
+    interrupted = None
+    try:
+        series = run_frames(solver, t_end, frames, movie=movie, color=color, fields=fields,
+                            progress=progress, observe=demo.observe, allow_many_steps=True)
+    except RunInterrupted as stop:  # the GIF and the record of the run so far
+        interrupted, series = stop, stop.series
     if movie is not None:
         movie.close()
     render_seconds = movie.seconds if movie is not None else 0.0
@@ -690,4 +712,5 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
                         series=series, memory=solver.memory())
     result.summary = demo.summary(solver, result.series)
     result.solver = solver
+    result.interrupted = interrupted
     return result
