@@ -11,11 +11,86 @@ import numpy as np
 __all__ = ["Polygon", "Prism"]
 
 
-def _segments_cross(p, q, r, s):
-    """Whether the closed segments pq and rs properly cross (touching ends excluded)."""
-    def orient(a, b, c):
-        return np.sign((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
-    return (orient(p, q, r) * orient(p, q, s) < 0) and (orient(r, s, p) * orient(r, s, q) < 0)
+def _orient(a, b, c):
+    """The sign of the turn a -> b -> c (arrays of points, (..., 2))."""
+    return np.sign((b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1])
+                   - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0]))
+
+
+#: a segment whose bounding box covers more buckets than this is tested against all
+LONG_SEGMENT_BUCKETS = 64
+#: the most segment pairs the self-crossing check tests (about 2 s): beyond, refused
+MAX_PAIRS = 20_000_000
+
+
+def _candidate_pairs(p, q, owner="Polygon"):
+    """Pairs (i, j), i < j, of segments p_i q_i whose bounding boxes share a bucket of a
+    uniform grid (the bucket the typical segment's size), and every pair with a long
+    segment: a superset of the crossing pairs, near-linear for an outline such as a
+    terrain profile."""
+    n = len(p)
+    lo, hi = np.minimum(p, q), np.maximum(p, q)
+    span = float(np.max(np.ptp(np.concatenate([p, q]), axis=0)))
+    size = max(2.0 * float(np.median(np.max(hi - lo, axis=1))), span * 1e-9, 1e-300)
+    c0 = np.floor((lo - lo.min(axis=0)) / size).astype(np.int64)
+    c1 = np.floor((hi - lo.min(axis=0)) / size).astype(np.int64)
+    nx, ny = c1[:, 0] - c0[:, 0] + 1, c1[:, 1] - c0[:, 1] + 1
+    long = nx * ny > LONG_SEGMENT_BUCKETS
+    planned = int(np.count_nonzero(long)) * (n - 1)
+    if planned <= MAX_PAIRS:
+        covered = int(np.sum((nx * ny)[~long]))
+        planned += covered if covered > MAX_PAIRS else 0
+    if planned > MAX_PAIRS:
+        raise ValueError(f"{owner}: its {n} edges are too long against their spacing to check "
+                         f"for crossings within bounds ({int(np.count_nonzero(long))} edges "
+                         f"span more than {LONG_SEGMENT_BUCKETS} times the typical edge): "
+                         "resample the outline more evenly")
+    pairs = []
+    for i in np.flatnonzero(long):  # few: against every other segment
+        others = np.arange(n)
+        pairs.append(np.stack([np.full(n - 1, i), np.delete(others, i)], axis=1))
+    short = np.flatnonzero(~long)
+    counts = (nx * ny)[short]
+    seg = np.repeat(short, counts)
+    k = np.arange(len(seg)) - np.repeat(np.cumsum(counts) - counts, counts)
+    bx = c0[seg, 0] + k % nx[seg]
+    by = c0[seg, 1] + k // nx[seg]
+    bucket = bx * (int(c1[:, 1].max()) + 1) + by
+    order = np.lexsort((seg, bucket))
+    bucket, seg = bucket[order], seg[order]
+    _, occupancy = np.unique(bucket, return_counts=True)
+    if int(np.sum(occupancy * (occupancy - 1) // 2)) + planned > MAX_PAIRS:
+        raise ValueError(f"{owner}: its {n} edges crowd together too densely to check for "
+                         f"crossings within bounds (up to {int(occupancy.max())} in one "
+                         "place): resample the outline more evenly")
+    offset = 1
+    while True:  # pair each entry with the ones after it in its bucket
+        same = bucket[offset:] == bucket[:-offset] if offset < len(bucket) else np.zeros(0, bool)
+        if not same.any():
+            break
+        pairs.append(np.stack([seg[:-offset][same], seg[offset:][same]], axis=1))
+        offset += 1
+    if not pairs:
+        return np.zeros((0, 2), dtype=np.int64)
+    out = np.concatenate(pairs)
+    return np.unique(np.sort(out, axis=1), axis=0)
+
+
+def _first_crossing(v, owner="Polygon"):
+    """The first pair of edges (i, j) of the closed outline v that properly cross
+    (touching ends excluded; neighbours never cross), or None."""
+    n = len(v)
+    p, q = v, np.roll(v, -1, axis=0)
+    ij = _candidate_pairs(p, q, owner)
+    i, j = ij[:, 0], ij[:, 1]
+    keep = (j - i > 1) & ~((i == 0) & (j == n - 1))
+    i, j = i[keep], j[keep]
+    cross = ((_orient(p[i], q[i], p[j]) * _orient(p[i], q[i], q[j]) < 0)
+             & (_orient(p[j], q[j], p[i]) * _orient(p[j], q[j], q[i]) < 0))
+    if not cross.any():
+        return None
+    k = np.lexsort((j[cross], i[cross]))[0]
+    return int(i[cross][k]), int(j[cross][k])
 
 
 def _vertices(owner, value):
@@ -31,17 +106,15 @@ def _vertices(owner, value):
         bad = int(np.flatnonzero(~np.all(np.isfinite(v), axis=1))[0])
         raise ValueError(f"{owner} vertex {bad} is not finite: {tuple(v[bad])}")
     n = len(v)
-    for i in range(n):
-        if np.all(v[i] == v[(i + 1) % n]):
-            raise ValueError(f"{owner} vertices {i} and {(i + 1) % n} coincide at "
-                             f"{tuple(map(float, v[i]))}")
-    for i in range(n):
-        for j in range(i + 2, n):
-            if i == 0 and j == n - 1:
-                continue  # neighbours through the closing edge
-            if _segments_cross(v[i], v[(i + 1) % n], v[j], v[(j + 1) % n]):
-                raise ValueError(f"{owner} edges {i} and {j} cross: the outline must not "
-                                 f"intersect itself")
+    same = np.flatnonzero(np.all(v == np.roll(v, -1, axis=0), axis=1))
+    if len(same):
+        i = int(same[0])
+        raise ValueError(f"{owner} vertices {i} and {(i + 1) % n} coincide at "
+                         f"{tuple(map(float, v[i]))}")
+    crossing = _first_crossing(v, owner)
+    if crossing is not None:
+        raise ValueError(f"{owner} edges {crossing[0]} and {crossing[1]} cross: the outline "
+                         f"must not intersect itself")
     area = 0.5 * float(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
     if abs(area) <= 1e-12 * float(np.ptp(v, axis=0).prod()):
         raise ValueError(f"{owner} encloses no area (its vertices lie on a line)")
@@ -49,14 +122,27 @@ def _vertices(owner, value):
 
 
 def _inside(vertices, points):
-    """Even-odd rule: the points (n, 2) inside the closed polygon (on an edge: either)."""
-    x, y = points[..., 0, None], points[..., 1, None]
+    """Even-odd rule: the points (..., 2) inside the closed polygon (on an edge: either).
+    A horizontal ray from each point counts the edges it crosses; each edge meets only the
+    points in its y range [min, max), found in the points sorted by y, so the work is the
+    number of (edge, point) meetings, not edges times points."""
+    pts = np.asarray(points, dtype=np.float64)
+    shape = pts.shape[:-1]
+    pts = pts.reshape(-1, 2)
     x0, y0 = vertices[:, 0], vertices[:, 1]
     x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
-    straddles = (y0 > y) != (y1 > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x_cross = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
-    return (np.count_nonzero(straddles & (x < x_cross), axis=-1) % 2) == 1
+    order = np.argsort(pts[:, 1], kind="stable")
+    ys = pts[order, 1]
+    lo = np.searchsorted(ys, np.minimum(y0, y1), side="left")
+    hi = np.searchsorted(ys, np.maximum(y0, y1), side="left")
+    counts = hi - lo
+    edge = np.repeat(np.arange(len(x0)), counts)
+    which = order[np.repeat(lo, counts) + np.arange(counts.sum())
+                  - np.repeat(np.cumsum(counts) - counts, counts)]
+    px, py = pts[which, 0], pts[which, 1]
+    x_cross = x0[edge] + (py - y0[edge]) * (x1[edge] - x0[edge]) / (y1[edge] - y0[edge])
+    hits = np.bincount(which[px < x_cross], minlength=len(pts))
+    return (hits % 2 == 1).reshape(shape)
 
 
 @dataclass(frozen=True)
