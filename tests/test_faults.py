@@ -610,3 +610,28 @@ def test_element_test_outputs_are_checked_first(args, message, capsys, tmp_path,
     assert _cli("run", "biaxial-mc", *args) == 2
     assert message in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
+
+
+# ---- round 4: the runtime's refusals, as one line each -----------------------------------
+@pytest.mark.parametrize("argv, env, words", [
+    (["--help"], {"TIMPM_TAICHI": "nonsense"}, "TIMPM_TAICHI must be 'taichi' or 'forge'"),
+    (["run", "vibrating-string", "--t-end", "0.001"], {"TIMPM_TAICHI": "nonsense"},
+     "TIMPM_TAICHI must be"),
+    (["study", "factor-of-safety", str(Path(__file__).parent.parent / "examples"
+                                       / "slope_griffiths_lane.toml")],
+     {"TIMPM_ARCH": "cuda"}, "cannot run on the cuda backend"),
+    (["study", "infinite-slope", "--arch", "cuda"], {}, "cannot run on the cuda backend"),
+    (["run", "vibrating-string", "--threads", "100000"], {}, "more than 16 times the"),
+    (["run", "vibrating-string"], {"TIMPM_THREADS": "100000"}, "TIMPM_THREADS = 100000 is more")])
+def test_runtime_settings_are_refused_in_one_line(argv, env, words):
+    """A bad TIMPM_TAICHI (even for --help), a backend the machine lacks for a study (which
+    now takes --arch and --threads), thousands of threads (a thousand deadlocked Taichi's
+    pool under a memory limit): exit 2, one line, no traceback."""
+    import shutil
+    if (env.get("TIMPM_ARCH") == "cuda" or "--arch" in argv) and shutil.which("nvidia-smi"):
+        pytest.skip("this machine may have CUDA")
+    out = subprocess.run([sys.executable, "-m", "timpm", *argv], env={**ENV, **env},
+                         capture_output=True, text=True, timeout=120,
+                         preexec_fn=default_signals)
+    assert out.returncode == 2, out.stderr
+    assert words in out.stderr and "Traceback" not in out.stderr

@@ -8,7 +8,18 @@ for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 # the Taichi that runs timpm (taichi, or taichi-forge where only that is installed), then
 # runtime: it imports Taichi without its banner (printed when Taichi starts)
-from .platform import taichi_backend  # before anything imports taichi
+try:
+    from .platform import taichi_backend  # before anything imports taichi
+except ImportError as _exc:
+    import sys as _sys
+
+    # the timpm command (its script, or python -m timpm while it is being found): one line
+    # and exit 2, as every other argument error; a Python import raises as usual
+    if (os.path.basename(_sys.argv[0]) == "timpm" or _sys.argv[:1] == ["-m"]) \
+            and type(_exc).__name__ == "TaichiChoiceError":
+        _sys.stderr.write(f"timpm: error: {_exc}\n")
+        raise SystemExit(2) from None
+    raise
 from .platform.runtime import init
 from .bases import BASES, Basis, Linear, get_basis
 from .model.scene import (Constant, Grid1D, Material, Ramp, Scene, Sine, Traction,

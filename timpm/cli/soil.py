@@ -36,6 +36,16 @@ def _check_outputs(args, inputs=None):
     check_distinct({"--json": args.json, "--plot": args.plot}, inputs)
 
 
+def _init(args, precision):
+    """Taichi at ``precision`` with the study's --threads and --arch (TIMPM_THREADS and
+    TIMPM_ARCH without them); a backend the machine lacks is a ValueError (printed as the
+    other argument errors)."""
+    try:
+        runtime.init(threads=args.threads, arch=args.arch, precision=precision)
+    except runtime.BackendUnavailable as exc:
+        raise ValueError(str(exc)) from None
+
+
 def _error(exc) -> int:
     print(f"timpm: error: {exc}", file=sys.stderr)
     return 2
@@ -107,7 +117,7 @@ def factor_of_safety(args) -> int:
         resume = None
         if args.resume:
             resume = _read_record(args.resume)
-        runtime.init(precision=scene.precision)
+        _init(args, scene.precision)
         record, failed = fos.factor_of_safety(
             scene.world, scene.t_end, low=args.bracket[0], high=args.bracket[1],
             tolerance=args.tolerance, creep=args.creep, mode=scene.mode, resume=resume,
@@ -148,7 +158,7 @@ def infinite_slope(args) -> int:
         _check_outputs(args, {})
         slope = InfiniteSlope(beta=args.beta, friction_angle=args.phi, water=args.water,
                               dilation_angle=args.psi)
-        runtime.init(precision="f64")
+        _init(args, "f64")
         record = slope.factor_of_safety(
             low=args.bracket[0], high=args.bracket[1], tolerance=args.tolerance,
             progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))

@@ -65,8 +65,22 @@ class ForkedProcess(RuntimeError):
     """timpm used in a child forked after the parent started Taichi."""
 
 
+#: the most worker threads per core this process may use (more only share the cores, and
+#: a thousand threads under a memory limit deadlocked Taichi's thread pool)
+THREADS_PER_CORE = 16
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
 def _threads(threads):
-    """``threads`` checked, or ``TIMPM_THREADS`` when None (None if that is unset too)."""
+    """``threads`` checked, or ``TIMPM_THREADS`` when None (None if that is unset too); at
+    most ``THREADS_PER_CORE`` times the cores this process may use."""
+    what = "threads"
     if threads is None:
         text = os.environ.get("TIMPM_THREADS", "").strip()
         if not text:
@@ -78,9 +92,15 @@ def _threads(threads):
         if threads < 1:
             raise ValueError(f"the environment variable TIMPM_THREADS must be a positive "
                              f"integer (worker threads), got {text!r}")
-        return threads
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
+        what = "TIMPM_THREADS"
+    elif isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
         raise ValueError(f"threads must be a positive integer, got {threads!r}")
+    cores = _cores()
+    if threads > THREADS_PER_CORE * cores:
+        raise ValueError(f"{what} = {threads} is more than {THREADS_PER_CORE} times the "
+                         f"{cores} core{'s' * (cores != 1)} this process may use (at most "
+                         f"{THREADS_PER_CORE * cores}): more threads than cores only share "
+                         "them")
     return int(threads)
 
 

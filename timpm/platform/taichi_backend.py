@@ -17,12 +17,16 @@ import importlib.util
 import os
 import sys
 
-__all__ = ["NAME", "FORGE"]
+__all__ = ["NAME", "FORGE", "TaichiChoiceError"]
 
 #: the distribution that runs timpm: "taichi" or "taichi-forge"
 NAME = "taichi"
 #: True when taichi-forge stands in for taichi
 FORGE = False
+
+
+class TaichiChoiceError(ImportError):
+    """The Taichi that TIMPM_TAICHI asks for, or any Taichi, cannot be had."""
 
 
 class _ForgeAlias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
@@ -44,21 +48,21 @@ class _ForgeAlias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 def _choose() -> str:
     want = os.environ.get("TIMPM_TAICHI", "").strip().lower()
     if want not in ("", "taichi", "forge", "taichi-forge", "taichi_forge"):
-        raise ImportError(f"the environment variable TIMPM_TAICHI must be 'taichi' or "
+        raise TaichiChoiceError(f"the environment variable TIMPM_TAICHI must be 'taichi' or "
                           f"'forge' (taichi-forge), got {want!r}")
     if "taichi" in sys.modules:  # imported before timpm: that one runs
         return "taichi-forge" if sys.modules["taichi"].__name__ == "taichi_forge" else "taichi"
     have_taichi = importlib.util.find_spec("taichi") is not None
     if want == "taichi" or (want == "" and have_taichi):
         if not have_taichi:
-            raise ImportError("TIMPM_TAICHI=taichi, but the taichi package is not installed "
+            raise TaichiChoiceError("TIMPM_TAICHI=taichi, but the taichi package is not installed "
                               "(pip install 'taichi>=1.7,<1.8')")
         return "taichi"
     if importlib.util.find_spec("taichi_forge") is None:
         if want:
-            raise ImportError("TIMPM_TAICHI=forge, but taichi-forge is not installed "
+            raise TaichiChoiceError("TIMPM_TAICHI=forge, but taichi-forge is not installed "
                               "(pip install taichi-forge)")
-        raise ImportError("timpm needs Taichi: neither taichi nor taichi-forge is installed "
+        raise TaichiChoiceError("timpm needs Taichi: neither taichi nor taichi-forge is installed "
                           "(pip install timpm brings the one for this Python)")
     return "taichi-forge"
 

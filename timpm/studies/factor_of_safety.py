@@ -275,6 +275,8 @@ def add_bisection_arguments(p, bracket):
 
 
 def add_parser(subparsers):
+    from ..platform.argtypes import add_runtime_arguments
+
     p = subparsers.add_parser(
         "factor-of-safety", help="a slope's factor of safety by strength reduction",
         description="Divide c and tan(phi) of every Mohr-Coulomb material by F, run the "
@@ -290,5 +292,6 @@ def add_parser(subparsers):
     p.add_argument("--resume", metavar="FILE.json", help="go on from an interrupted "
                    "study's --json record: its trials stand for the runs they were")
     p.add_argument("--plot", metavar="FILE.png", help="draw the failure mechanism")
+    add_runtime_arguments(p)
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     return p

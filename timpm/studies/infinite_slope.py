@@ -167,5 +167,8 @@ def add_parser(subparsers):
     add_bisection_arguments(p, bracket=(0.5, 2.5))
     p.add_argument("--json", metavar="FILE", help="write the record")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
+    from ..platform.argtypes import add_runtime_arguments
+
+    add_runtime_arguments(p)
     p.set_defaults(plot=None)
     return p
