@@ -635,3 +635,20 @@ def test_runtime_settings_are_refused_in_one_line(argv, env, words):
                          preexec_fn=default_signals)
     assert out.returncode == 2, out.stderr
     assert words in out.stderr and "Traceback" not in out.stderr
+
+
+@pytest.mark.parametrize("argv", [
+    ["large-column", "--dt", "0.1", "--allow-unstable-dt"],
+    ["vibrating-bar", "--dt", "1", "--t-end", "1000", "--allow-unstable-dt",
+     "--allow-many-steps"]])
+def test_a_run_stopped_by_its_physics_keeps_its_record(tmp_path, capsys, argv):
+    """An inverted material, an energy that grows without a source: the run stops with
+    its error (exit 2, one line), and --json holds the record of the run to there, marked
+    failed with the error, its code and step (it was lost)."""
+    record = tmp_path / "r.json"
+    assert _cli("run", *argv, "--json", record) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and f"the record of the run to there is in {record}" in err
+    run = json.loads(record.read_text())["runs"][0]
+    assert 0 < run["failed"]["step"] <= run["steps"] and run["failed"]["code"] > 0
+    assert run["failed"]["error"] in err

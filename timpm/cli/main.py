@@ -357,6 +357,14 @@ def _run(args, start):
             raise OutputError(exc.errno, f"{exc.strerror}; the record is in {args.json}",
                               exc.filename) from None
         raise
+    except SimulationError as exc:  # a physics failure: its record is kept all the same
+        kept = getattr(exc, "result", None)
+        if kept is None or not args.json:
+            raise
+        _write_json(args.json, {"command": args.command, "problem": kept.record["problem"],
+                                "runs": [kept.record]})
+        raise SimulationError(f"{exc}; the record of the run to there is in {args.json}",
+                              exc.code, exc.step, exc.particle, exc.node) from None
     except interrupt.RunInterrupted as stop:
         doc = {"command": args.command, "runs": [stop.result.record]} if stop.result else None
         if doc and args.json:

@@ -9,6 +9,7 @@ import numpy as np
 from ..simulation.batch import Batch
 from ..platform.checks import distinct, finite, step_count, whole
 from ..problems import get_problem
+from ..platform.errors import SimulationError
 from ..simulation.solver import Solver
 from .analysis import energy_drift, observed_rates, rms_error
 from .sweep import check_executor, interruptible, map_runs
@@ -127,6 +128,14 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                     fields.write(solver)
                 if checkpoint is not None and stop in saves:
                     save_checkpoint(checkpoint, solver, description)
+        except SimulationError as err:  # a physics failure: the record of the run to there
+            try:
+                err.result = run.result(solver, build_seconds)
+                err.result.record["failed"] = {"error": str(err), "code": int(err.code),
+                                               "step": int(err.step)}
+            except Exception:  # (a state too broken for the record: the error alone)
+                err.result = None
+            raise
         except RunInterrupted as stop:
             to = interrupted_to or checkpoint
             if to is not None:
