@@ -357,3 +357,16 @@ def test_refusals_name_what_to_give():
     for key, bad, good in (("k0", 1.5, 1.0), ("damping", 1.0, 0.6), ("tolerance", 1.0, 1e-7)):
         accepts = TYPES[INITIAL_STRESS[key].type][1]
         assert accepts(good) and not accepts(bad)
+
+
+def test_a_soil_too_soft_for_its_initial_stress_is_refused_before_the_run():
+    """Issue 45 item 3: a K0 layer of E = 1 Pa asks an elastic log strain of 1e5 of its
+    Hencky law (F = exp(eps): 0 or infinity, NaN energies from t = 0, the run exiting 0):
+    refused, naming the strain, the modulus and the fix; E = 1 MPa starts (0.2 at most)."""
+    from timpm.studies.study import run_problem
+
+    with pytest.raises(ValueError, match=r"elastic log strain of 1.35e\+05 .*E = 1 Pa.*"
+                                         r"stiffen the soil"):
+        run_problem("k0-layer", params={"E": 1.0}, t_end=0.01)
+    r = run_problem("k0-layer", params={"E": 1e6}, t_end=0.01).record
+    assert r["sigma_v_rms_error"] is not None and math.isfinite(r["sigma_v_rms_error"])

@@ -42,7 +42,12 @@ import taichi as ti
 
 from ..platform.declare import Field, Param
 
-__all__ = ["Material", "SolidMaterial"]
+__all__ = ["Material", "SolidMaterial", "MAX_INITIAL_LOG_STRAIN"]
+
+#: the largest elastic log strain an initial stress may ask of a Hencky law (beyond it the
+#: stretch exp(eps) over- or underflows toward 0 or infinity: a soil of E = 1 Pa under its
+#: weight started from F = 0)
+MAX_INITIAL_LOG_STRAIN = 1.0
 
 
 @ti.data_oriented
@@ -221,6 +226,15 @@ class SolidMaterial(Material):
         eye = np.eye(tau.shape[1])
         eps = (tau - self.lam * trace_eps[:, None, None] * eye) / (2.0 * self.mu)
         w, Q = np.linalg.eigh(eps[:, :dim, :dim])
+        worst = np.abs(eps).max(axis=(1, 2)) if len(eps) else np.zeros(0)
+        if len(worst) and not worst.max() <= MAX_INITIAL_LOG_STRAIN:
+            k = int(np.argmax(worst))
+            raise ValueError(f"{self.name}: the initial stress ({np.abs(stress[k]).max():.3g} "
+                             f"Pa at its largest) needs an elastic log strain of "
+                             f"{worst[k]:.3g} (stress / E, E = {self.E:g} Pa), beyond the "
+                             f"{MAX_INITIAL_LOG_STRAIN:g} a Hencky law is started from (a "
+                             f"stretch of e^{MAX_INITIAL_LOG_STRAIN:g}): stiffen the soil (E) "
+                             "or start it from a smaller stress")
         F = np.einsum("nij,nj,nkj->nik", Q, np.exp(w), Q)
         ezz = eps[:, 2, 2] if dim == 2 and not plane_trace else np.zeros(len(eps))
         return F, ezz
