@@ -370,3 +370,20 @@ def test_a_soil_too_soft_for_its_initial_stress_is_refused_before_the_run():
         run_problem("k0-layer", params={"E": 1.0}, t_end=0.01)
     r = run_problem("k0-layer", params={"E": 1e6}, t_end=0.01).record
     assert r["sigma_v_rms_error"] is not None and math.isfinite(r["sigma_v_rms_error"])
+
+
+def test_the_k0_procedure_carries_no_weight_across_a_gap():
+    """Issue 45 item 4: a block held 0.5 m above the ground (an air gap) does not load the
+    ground below it: the ground's vertical stress is its own weight, while the same block
+    resting on it adds its weight (rho g 1.5 m); within the block, its own weight."""
+    from timpm.model.geostatic import vertical_stress
+    from timpm.model.world import Box
+
+    rho, g = 2000.0, 9.81
+    ground = (Box((0.0, 0.0), (1.0, 5.0)), rho)
+    points = np.array([[0.5, 2.0], [0.5, 6.0]])
+    for block_lo, carried in ((5.5, 0.0), (5.0, 1.5)):
+        block = (Box((0.0, block_lo), (1.0, block_lo + 1.5)), rho)
+        sv = vertical_stress(points, [ground, block], g, top=8.0)
+        assert sv[0] == pytest.approx(rho * g * (3.0 + carried), rel=1e-3)
+        assert sv[1] == pytest.approx(rho * g * (block_lo + 1.5 - 6.0), rel=1e-3)

@@ -82,8 +82,9 @@ def jaky_k0(material) -> float:
 def vertical_stress(positions, bodies, g, top, level=None):
     """sigma_v (> 0) at each position (n, 2 or 3): g times the mass per area above it
     through the ``bodies`` (shape with ``contains``, density, and optionally the density
-    of the water in its pores), up to ``top``; the first body that holds a point gives its
-    density (as the World fills them).  Below a still-water ``level`` (or a water table,
+    of the water in its pores), up to ``top`` or to the gap above it (a body above a gap
+    rests on nothing below it: its weight is not carried across); the first body that
+    holds a point gives its density (as the World fills them).  Below a still-water ``level`` (or a water table,
     a function of x: ``level(x)``) a saturated body
     weighs its buoyant density rho - rho_w: sigma_v is then the effective stress (the free
     water above the ground adds to the pore pressure, not to it)."""
@@ -113,8 +114,11 @@ def vertical_stress(positions, bodies, g, top, level=None):
                 rho[inside & submerged] = density - water[0]
             free &= ~inside
         # sigma_v at depth: the weight of the samples above, a linear interpolation between
-        # the sample edges (the integral is exact for piecewise constant rho between them)
-        edges = np.concatenate([[0.0], np.cumsum(rho) * ds * g])
+        # the sample edges (the integral is exact for piecewise constant rho between them);
+        # a gap (a sample in no body) carries nothing: the weight restarts below it
+        weight = np.cumsum(rho) * ds * g
+        weight -= np.maximum.accumulate(np.where(free, weight, 0.0))
+        edges = np.concatenate([[0.0], weight])
         depth_edges = top - np.arange(SAMPLES + 1) * ds
         rows = np.flatnonzero(where == c)
         out[rows] = np.interp(x[rows, 1], depth_edges[::-1], edges[::-1])
