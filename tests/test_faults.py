@@ -652,3 +652,17 @@ def test_a_run_stopped_by_its_physics_keeps_its_record(tmp_path, capsys, argv):
     run = json.loads(record.read_text())["runs"][0]
     assert 0 < run["failed"]["step"] <= run["steps"] and run["failed"]["code"] > 0
     assert run["failed"]["error"] in err
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["run", "vibrating-string", "--frames", "5"], "--frames 5 spaces the field files: give "
+                                                   "--vtk DIR or --npz DIR"),
+    (["demo", "disks", "--fps", "10"], "--fps shapes the GIF: give --out FILE.gif"),
+    (["demo", "disks", "--png-dir", "frames", "--width", "320"],
+     "--width, --png-dir shape the GIF: give --out FILE.gif")])
+def test_an_option_that_needs_another_is_refused_without_it(capsys, argv, words):
+    """Issue 45 item 9: --frames without a field format, a GIF's --fps, --width or --png-dir
+    without --out did nothing, silently: refused before any work."""
+    assert _cli(*argv) == 2
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err

@@ -94,6 +94,10 @@ def _add_allow_many_steps(p):
                    help=f"run even if the run takes more than {MAX_STEPS:.0e} steps")
 
 
+#: the field files a run writes with --vtk or --npz and no --frames
+FIELD_FRAMES = 20
+
+
 def _add_fields(p, frames_help=None):
     p.add_argument("--vtk", metavar="DIR", help="write the particle fields as a ParaView "
                    "time series: DIR/particles.pvd and one .vtu per frame")
@@ -102,7 +106,7 @@ def _add_fields(p, frames_help=None):
     p.add_argument("--grid", action="store_true", help="with --vtk or --npz: also the grid's "
                    "nodal mass and velocity at each frame (--vtk: DIR/grid.pvd, .vti images)")
     if frames_help:
-        p.add_argument("--frames", type=positive_int, default=20, help=frames_help)
+        p.add_argument("--frames", type=positive_int, default=None, help=frames_help)
 
 
 def _add_checkpoint(p):
@@ -121,6 +125,9 @@ def _field_writer(args):
         if args.grid:
             raise ValueError("--grid writes the grid beside the particle fields: give --vtk "
                              "DIR or --npz DIR too")
+        if getattr(args, "command", None) != "demo" and getattr(args, "frames", None):
+            raise ValueError(f"--frames {args.frames} spaces the field files: give --vtk DIR "
+                             "or --npz DIR too (or leave --frames out)")
         return None
     from ..output.fields import FieldWriter
 
@@ -256,8 +263,9 @@ def _parser():
     demo.add_argument("name", help="one of: column-collapse, disks, dam-break")
     demo.add_argument("--out", metavar="FILE.gif", help="animated GIF to write")
     demo.add_argument("--frames", type=positive_int, default=60, help="frames (default 60)")
-    demo.add_argument("--fps", type=positive_int, default=20)
-    demo.add_argument("--width", type=positive_int, default=640,
+    demo.add_argument("--fps", type=positive_int, default=None,
+                      help="GIF frames per second (default 20; with --out)")
+    demo.add_argument("--width", type=positive_int, default=None,
                       help="frame width [px], 320 to 8192 (default 640)")
     demo.add_argument("--color", help="colour by: speed, pressure, plastic, von-mises, body")
     demo.add_argument("--png-dir", metavar="DIR", help="also write every frame as PNG")
@@ -345,7 +353,7 @@ def _run(args, start):
 
     try:
         with interrupt.deferred_sigint():
-            result = start(fields=_field_writer(args), frames=args.frames,
+            result = start(fields=_field_writer(args), frames=args.frames or FIELD_FRAMES,
                            checkpoint=args.checkpoint, checkpoint_every=args.checkpoint_every,
                            interrupted_to=args.checkpoint or interrupt.INTERRUPTED_CHECKPOINT)
     except OSError as exc:  # an output failed after the run: the record is written still
@@ -417,9 +425,15 @@ def _demo(args):
         params["transfer_params"] = dict(args.transfer_params)
     _check_output_files(args)
     movie = None
+    unused = [flag for flag, value in (("--fps", args.fps), ("--width", args.width),
+                                       ("--png-dir", args.png_dir)) if value is not None]
+    if unused and not args.out:
+        raise ValueError(f"{', '.join(unused)} shape{'s' * (len(unused) == 1)} the GIF: give "
+                         "--out FILE.gif too (or leave "
+                         f"{'it' if len(unused) == 1 else 'them'} out)")
     if args.out:
-        movie = Movie(args.out, fps=args.fps, width=args.width, png_dir=args.png_dir,
-                      frames=args.frames + 1)
+        movie = Movie(args.out, fps=args.fps or 20, width=args.width or 640,
+                      png_dir=args.png_dir, frames=args.frames + 1)
     _start_taichi(args)
     fields = _field_writer(args)
     with interrupt.deferred_sigint():  # a signal: the GIF and the JSON of the run so far

@@ -144,7 +144,7 @@ def resume(args, saved, fields) -> int:
     try:
         with deferred_sigint():
             result = resume_scene(saved, args.t_end, mode=args.mode, fields=fields,
-                                  frames=args.frames, checkpoint=args.checkpoint,
+                                  frames=args.frames or 20, checkpoint=args.checkpoint,
                                   allow_many_steps=args.allow_many_steps)
     except RunInterrupted as stop:
         if args.json and stop.result is not None:
