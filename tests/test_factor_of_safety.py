@@ -100,7 +100,7 @@ def test_the_study_refuses_what_it_cannot_reduce(tmp_path, capsys):
         "friction_angle = 20.0", "").replace("cohesion = 10e3                # c' / (gamma H) = 0.05", "")
         .replace("dilation_angle = 0.0", "").replace('[initial_stress]\nkind = "k0"\n', ""))
     assert main(["study", "factor-of-safety", str(f), "--quiet"]) == 2
-    assert "neo-hookean has none to divide" in capsys.readouterr().err
+    assert "no body is of it: slope (neo-hookean)" in capsys.readouterr().err
     assert main(["study", "factor-of-safety", str(ROOT / "examples" / "slope_griffiths_lane.toml"),
                  "--plot", str(tmp_path / "p.svg")]) == 2
     assert "--plot" in (err := capsys.readouterr().err) and "one of .png" in err
@@ -230,3 +230,24 @@ def test_sigterm_to_the_study_writes_the_trials_so_far_and_it_resumes(tmp_path):
         resumed["t_end"], low=1.0, high=2.0, tolerance=0.1)
     assert resumed["factor_of_safety"] == whole["factor_of_safety"]
     assert len(resumed["trials"]) == len(whole["trials"])
+
+
+def test_a_slope_on_an_elastic_base_reduces_only_its_soil():
+    """Issue 45 item 6: only the Mohr-Coulomb bodies are reduced; an elastic base stays as
+    it is (it was refused, naming neither body nor material)."""
+    from timpm.materials import LinearElastic
+    from timpm.model.world import Body, Box, Polygon, World
+
+    soil = MohrCoulomb(E=1e8, nu=0.3, density=2000.0, friction_angle=30.0, cohesion=1e4)
+    base = LinearElastic(E=1e9, nu=0.3, density=2500.0)
+    world = World(domain=(20.0, 8.0), cells=20, basis="linear", transfer="musl",
+                  bodies=[Body(Box((0.0, 0.0), (20.0, 2.0)), base, name="base"),
+                          Body(Polygon([(0.0, 2.0), (15.0, 2.0), (5.0, 6.0), (0.0, 6.0)]),
+                               soil, name="slope")])
+    out = fos.reduced_bodies(world, 2.0)
+    assert out[0].material is base
+    assert out[1].material.cohesion == pytest.approx(5e3)
+    rock = World(domain=(20.0, 8.0), cells=20, basis="linear", transfer="musl",
+                 bodies=[Body(Box((0.0, 0.0), (20.0, 2.0)), base, name="base")])
+    with pytest.raises(ValueError, match=r"no body is of it: base \(linear-elastic\)"):
+        fos.reduced_bodies(rock, 2.0)

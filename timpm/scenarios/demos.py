@@ -360,7 +360,8 @@ class SlopeFailure(Demo):
         from ..materials import MohrCoulomb
 
         F = _positive("strength_factor", self.strength_factor)
-        return MohrCoulomb(E=self.E, nu=self.nu, density=self.unit_weight / G,
+        return MohrCoulomb(E=self.E, nu=self.nu,
+                           density=_positive("unit_weight", self.unit_weight) / G,
                            friction_angle=self.friction_angle,
                            cohesion=self.cohesion).reduced(F)
 

@@ -38,7 +38,7 @@ import numpy as np
 
 from ..platform.errors import ErrorCode
 
-__all__ = ["reduced", "trial", "factor_of_safety", "add_parser", "add_bisection_arguments",
+__all__ = ["reduced", "reduced_bodies", "trial", "factor_of_safety", "add_parser", "add_bisection_arguments",
            "plot_mechanism", "StudyInterrupted", "resumable_trials"]
 
 
@@ -90,6 +90,22 @@ def reduced(material, F):
     return material.reduced(F)
 
 
+def reduced_bodies(world, F):
+    """The world's bodies, each Mohr-Coulomb one's strength divided by F (the others, an
+    elastic base or a structure, as they are); a world without Mohr-Coulomb soil is
+    refused, naming its bodies and their materials."""
+    from ..materials import MohrCoulomb
+
+    if not any(isinstance(b.material, MohrCoulomb) for b in world.bodies):
+        names = ", ".join(f"{b.name or f'body {k}'} ({b.material.name})"
+                          for k, b in enumerate(world.bodies))
+        raise ValueError(f"strength reduction divides the strength of Mohr-Coulomb soil, and "
+                         f"no body is of it: {names} (make the slope's material "
+                         "mohr-coulomb)")
+    return tuple(replace(b, material=reduced(b.material, F))
+                 if isinstance(b.material, MohrCoulomb) else b for b in world.bodies)
+
+
 #: the stops of a run whose mass slid away (off the grid) or was crushed: it failed
 SLID = (ErrorCode.OFF_GRID, ErrorCode.VOLUME_RANGE, ErrorCode.INVERTED)
 
@@ -108,7 +124,7 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     from ..simulation.loading import gravity_loading
     from ..simulation.solver import Solver
 
-    bodies = tuple(replace(b, material=reduced(b.material, F)) for b in world.bodies)
+    bodies = reduced_bodies(world, F)
     w = replace(world, bodies=bodies)
     if isinstance(w.initial_stress, GravityLoading):
         try:  # the ground loaded under gravity with the reduced strength
