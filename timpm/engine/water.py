@@ -49,11 +49,9 @@ class Pores:
             fields["ground"] = Field(doc="the ground surface y_s above the particle (a "
                                          "drawdown's unloading of the pore water)")
         if features.pore_smoothing:
-            fields.update(
-                pore_strain=Field(scratch=True, doc="the step's pore volumetric strain, "
-                                                    "waiting for its cell's mean"),
-                pore_pending=Field(dtype="int", scratch=True,
-                                   doc="1: the particle's pore strain is in its cell's sums"))
+            fields["pore_pending"] = Field(dtype="int", scratch=True,
+                                           doc="1: the particle's pore strain is in its "
+                                               "cell's sums, its p_e waiting for the mean")
             if features.path_work:
                 fields["pore_dilation"] = Field(scratch=True, doc="the step's tr(d eps) (the "
                                                                  "pressure increment's work)")
@@ -216,7 +214,6 @@ class Pores:
             c = self.cell_of(x)
             self.accumulate(self.grid.cell_volume[c], vol)
             self.accumulate(self.grid.cell_dilation[c], vol * d_eps_v)
-            particles.pore_strain[p] = d_eps_v
             particles.pore_pending[p] = 1
             if ti.static(self.f.path_work):
                 particles.pore_dilation[p] = dilation
