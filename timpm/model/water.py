@@ -66,7 +66,7 @@ mean is the part the nodes see.  With the linear basis in 1D the strain is const
 a cell and the two agree; the cubic B-splines are refused (their Terzaghi consolidation
 drifted from the series under the cell mean, docs/results.md).  Measured sound on the
 submarine slope with K_w = 0.1 GPa; with water's own 2.2 GPa a 10 m undrained slope grew a
-motion at its toe under it (docs/results.md, open).
+motion along its base under it (docs/results.md, open).
 """
 import math
 from dataclasses import dataclass
