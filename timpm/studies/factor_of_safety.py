@@ -38,8 +38,8 @@ import numpy as np
 
 from ..platform.errors import ErrorCode
 
-__all__ = ["reduced", "reduced_bodies", "trial", "factor_of_safety", "add_parser", "add_bisection_arguments",
-           "plot_mechanism", "StudyInterrupted", "resumable_trials"]
+__all__ = ["reduced", "reduced_bodies", "trial", "factor_of_safety", "add_parser",
+           "add_bisection_arguments", "plot_mechanism", "StudyInterrupted", "resumable_trials"]
 
 
 class StudyInterrupted(Exception):
