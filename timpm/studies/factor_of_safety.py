@@ -261,6 +261,10 @@ def plot_mechanism(world, failed, record, path):
 
     from ..platform.files import replacing
 
+    if failed.get("plastic") is None and not failed.get("stopped"):  # (a record's trial)
+        raise ValueError(f"no mechanism to draw: the run at F = {failed['F']:g}, the smallest "
+                         "that failed, came from the resumed record, which keeps no particle "
+                         "state; run that factor again (without --resume) to draw it")
     if failed.get("plastic") is None:  # the run stopped (off the grid, no rest under gravity)
         raise ValueError(f"no mechanism to draw: the run at F = {failed['F']:g}, the smallest "
                          f"that failed, stopped ({failed['stopped']}); narrow the tolerance "
