@@ -171,6 +171,8 @@ def test_an_interrupted_study_keeps_its_trials_and_resumes_to_the_same_factor(mo
     assert resumed["factor_of_safety"] == whole["factor_of_safety"]
     assert [t["F"] for t in resumed["trials"]] == [t["F"] for t in whole["trials"]]
     assert len(calls) == len(whole["trials"]) - 3  # the three recorded were not run again
+    with pytest.raises(ValueError, match="came from the resumed record"):  # (no state kept)
+        fos.plot_mechanism(World, record["trials"][1], resumed, tmp_path / "m.png")
     with pytest.raises(ValueError, match="record's creep is 0.001, this study's 0.01"):
         fos.factor_of_safety(World, 1.0, low=0.5, high=3.0, tolerance=0.01, creep=1e-2,
                              resume=record)
