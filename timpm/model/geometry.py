@@ -36,15 +36,16 @@ def _candidate_pairs(p, q, owner="Polygon"):
     c1 = np.floor((hi - lo.min(axis=0)) / size).astype(np.int64)
     nx, ny = c1[:, 0] - c0[:, 0] + 1, c1[:, 1] - c0[:, 1] + 1
     long = nx * ny > LONG_SEGMENT_BUCKETS
-    planned = int(np.count_nonzero(long)) * (n - 1)
-    if planned <= MAX_PAIRS:
-        covered = int(np.sum((nx * ny)[~long]))
-        planned += covered if covered > MAX_PAIRS else 0
+    planned = int(np.count_nonzero(long)) * (n - 1)  # each long edge against every other
     if planned > MAX_PAIRS:
         raise ValueError(f"{owner}: its {n} edges are too long against their spacing to check "
                          f"for crossings within bounds ({int(np.count_nonzero(long))} edges "
                          f"span more than {LONG_SEGMENT_BUCKETS} times the typical edge): "
                          "resample the outline more evenly")
+    if int(np.sum((nx * ny)[~long])) > MAX_PAIRS:  # the (bucket, edge) entries
+        raise ValueError(f"{owner}: its {n} edges are too many to check for crossings "
+                         f"within bounds (more than {MAX_PAIRS} bucket entries): resample the "
+                         "outline more coarsely")
     pairs = []
     for i in np.flatnonzero(long):  # few: against every other segment
         others = np.arange(n)
