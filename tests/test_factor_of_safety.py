@@ -26,6 +26,17 @@ def test_strength_reduction_divides_c_and_tan_phi():
         fos.reduced(NeoHookean(E=1e6, nu=0.3, density=1e3), 1.5)
 
 
+def _stub_world():
+    class World:  # what the record reads
+        h, basis, transfer = 1.0, Linear, "musl"
+
+        class model:
+            positions = np.array([[0.0, 0.0], [1.0, 10.0]])
+            n_particles = 2
+            gravity = (0.0, -9.81)
+    return World
+
+
 def test_the_bisection_closes_on_the_factor(monkeypatch):
     """With a slope that fails exactly above F* the bracket shrinks around F* to the
     tolerance, and a bracket that does not hold it is refused."""
@@ -36,15 +47,7 @@ def test_the_bisection_closes_on_the_factor(monkeypatch):
                 "creep_limit": 0.0, "plastic": None, "positions": None}
 
     monkeypatch.setattr(fos, "trial", stub)
-
-    class World:  # the record reads these
-        h, basis, transfer = 1.0, Linear, "musl"
-
-        class model:
-            positions = np.array([[0.0, 0.0], [1.0, 10.0]])
-            n_particles = 2
-            gravity = (0.0, -9.81)
-
+    World = _stub_world()
     record, failed = fos.factor_of_safety(World, 1.0, low=0.5, high=3.0, tolerance=0.01)
     lo, hi = record["bracket"]
     assert lo <= true < hi and hi - lo <= 0.01
@@ -118,17 +121,6 @@ def test_the_slope_that_fails_runs_out():
     assert s["potential_energy_released"] > 0.0
     assert s["kinetic_energy_end"] < 0.01 * s["potential_energy_released"]
     assert s["energy_dissipated"] == pytest.approx(s["potential_energy_released"], rel=0.02)
-
-
-def _stub_world():
-    class World:  # what the record reads
-        h, basis, transfer = 1.0, Linear, "musl"
-
-        class model:
-            positions = np.array([[0.0, 0.0], [1.0, 10.0]])
-            n_particles = 2
-            gravity = (0.0, -9.81)
-    return World
 
 
 def test_an_interrupted_study_keeps_its_trials_and_resumes_to_the_same_factor(monkeypatch,

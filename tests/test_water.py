@@ -111,18 +111,14 @@ def test_undrained_time_step_takes_the_water():
 
 
 # ---- the pore pressure's smoothing: the cell's mean strain --------------------------------
-def _cell_roughness(solver, values):
-    """The RMS of per-particle values less their cell's volume-weighted mean."""
-    from timpm.scenarios.demos import pressure_roughness
-    return pressure_roughness(solver, values)
-
-
 def test_cell_smoothing_makes_the_pressure_constant_per_cell_and_keeps_its_integral():
     """Undrained, 3 x 3 particles a cell, the layer settling under gravity (Q1 strains vary
     within a cell): unsmoothed, the excess pore pressure varies within the cells; with
     smoothing='cell' it is constant in each cell to round-off while no particle has left its
     cell, and after one step the volume integral sum V_p p_p is the unsmoothed one (the
     cell mean spreads each cell's sum V d eps, it does not change it)."""
+    from timpm.scenarios.demos import pressure_roughness
+
     pore = timpm.PoreWater(porosity=0.4, bulk_modulus=1e8)
     runs = {}
     for smoothing in ("none", "cell"):
@@ -139,7 +135,7 @@ def test_cell_smoothing_makes_the_pressure_constant_per_cell_and_keeps_its_integ
         cells = np.floor((many.positions() - many.origin) / many.h)
         start = np.floor((world.positions - many.origin) / many.h)
         assert np.array_equal(cells, start)  # (no particle changed cell)
-        runs[smoothing] = integral, _cell_roughness(many, pw) / np.sqrt(np.mean(pw ** 2))
+        runs[smoothing] = integral, pressure_roughness(many, pw) / np.sqrt(np.mean(pw ** 2))
     assert runs["none"][1] > 0.01  # the pattern within the cells: 2% of the pressure here
     assert runs["cell"][1] < 1e-12
     assert runs["cell"][0] == pytest.approx(runs["none"][0], rel=1e-12)

@@ -174,12 +174,6 @@ class Water:
         """Whether the level moves in time (final_level, drawdown_time)."""
         return self.final_level is not None
 
-    def level_at(self, t: float) -> float | None:
-        """The still-water level at time t (the drawdown's, linear then held)."""
-        if not self.drawdown:
-            return self.level
-        return self.level + (self.final_level - self.level) * min(t / self.drawdown_time, 1.0)
-
     def table(self, x):
         """The water table's height at x (arrays): the level, or the phreatic polyline
         (constant beyond its ends); None without either."""

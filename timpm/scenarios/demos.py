@@ -710,8 +710,7 @@ def run_demo(name, movie=None, frames=60, color=None, progress=None, mode="auto"
                         particles=world.n_particles, steps=solver.step, t_end=solver.t,
                         dt=world.dt, compile_seconds=solver.compile_seconds,
                         simulation_seconds=solver.run_seconds, render_seconds=render_seconds,
-                        series=series, memory=solver.memory())
+                        series=series, memory=solver.memory(), interrupted=interrupted)
     result.summary = demo.summary(solver, result.series)
     result.solver = solver
-    result.interrupted = interrupted
     return result
