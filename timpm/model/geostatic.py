@@ -83,11 +83,13 @@ def vertical_stress(positions, bodies, g, top, level=None):
     """sigma_v (> 0) at each position (n, 2 or 3): g times the mass per area above it
     through the ``bodies`` (shape with ``contains``, density, and optionally the density
     of the water in its pores), up to ``top`` or to the gap above it (a body above a gap
-    rests on nothing below it: its weight is not carried across); the first body that
-    holds a point gives its density (as the World fills them).  Below a still-water ``level`` (or a water table,
-    a function of x: ``level(x)``) a saturated body
-    weighs its buoyant density rho - rho_w: sigma_v is then the effective stress (the free
-    water above the ground adds to the pore pressure, not to it)."""
+    rests on nothing below it: its weight is not carried across).  Every body that holds a
+    point adds its density there, as the World places them: bodies that overlap
+    (``allow_overlap``) each fill the common region with their own particles, so a lens
+    inside a layer weighs the layer's density plus its own.  Below a still-water ``level``
+    (or a water table, a function of x: ``level(x)``) a saturated body weighs its buoyant
+    density rho - rho_w: sigma_v is then the effective stress (the free water above the
+    ground adds to the pore pressure, not to it)."""
     x = np.asarray(positions, dtype=np.float64)
     n, dim = x.shape
     out = np.zeros(n)
@@ -108,10 +110,10 @@ def vertical_stress(positions, bodies, g, top, level=None):
         table = None if table is None else float(table)
         submerged = (s < table) if table is not None else np.zeros(SAMPLES, dtype=bool)
         for shape, density, *water in bodies:
-            inside = free & shape.contains(pts)
-            rho[inside] = density
+            inside = shape.contains(pts)
+            rho[inside] += density
             if water and water[0] > 0.0:
-                rho[inside & submerged] = density - water[0]
+                rho[inside & submerged] -= water[0]
             free &= ~inside
         # sigma_v at depth: the weight of the samples above, a linear interpolation between
         # the sample edges (the integral is exact for piecewise constant rho between them);

@@ -1,0 +1,63 @@
+"""Faults of issue 48 (round 4, second run), items 4, 5 and 7, and issue 45's item 9
+leftovers: the K0 weight of overlapping bodies as placed, TI_ARCH against --arch, and the
+small surfaces (demo help, the slope demo's advice, shared edges, --set blamed, non-finite
+writes, element tests at zero strength, huge increment counts).  The commands are the
+issues', small and fast."""
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import CHILD_ENV, default_signals
+from timpm import Body, Box, K0, MohrCoulomb, World
+from timpm.model.geostatic import vertical_stress
+
+ROOT = Path(__file__).resolve().parent.parent
+G = 9.81
+
+
+def _timpm(*args, env=None, timeout=120, cwd=None):
+    """``timpm ARGS`` in a child process: (exit code, stdout + stderr)."""
+    p = subprocess.run([sys.executable, "-m", "timpm", *map(str, args)], capture_output=True,
+                       text=True, env={**CHILD_ENV, **(env or {})}, timeout=timeout,
+                       cwd=cwd or ROOT, preexec_fn=default_signals)
+    return p.returncode, p.stdout + p.stderr
+
+
+# ---- item 4: K0 weighs every body as placed ---------------------------------------------
+def _soil(density):
+    return MohrCoulomb(E=1e7, nu=0.3, density=density, friction_angle=30.0, cohesion=5e3)
+
+
+@pytest.mark.parametrize("lens_first", [False, True])
+def test_k0_weighs_a_denser_lens_placed_inside_a_layer(lens_first):
+    """A lens (2 <= y <= 3, 4 <= x <= 6) placed with allow_overlap inside a layer 4 m deep:
+    the World fills the common region with the particles of both bodies, so the column
+    through the lens carries the lens's whole weight on top of the layer's.  The stress
+    under it exceeds the stress beside it by rho_lens g t (t = 1 m), to the integral's
+    1e-4 of sigma_v, whichever body comes first."""
+    rho, rho_lens, t = 1800.0, 2600.0, 1.0
+    layer, lens = Body(Box((0, 0), (10, 4)), _soil(rho)), Body(Box((4, 2), (6, 3)), _soil(rho_lens))
+    w = World(domain=(10.0, 5.0), cells=10, basis="linear", transfer="musl",
+              allow_overlap=True, bodies=[lens, layer] if lens_first else [layer, lens],
+              gravity=(0, -G), initial_stress=K0(0.5))
+    m = w.model
+    x, sv = m.positions, -m.initial_stress[:, 1, 1]
+    at = lambda xc, yc: sv[(np.abs(x[:, 0] - xc) < 1e-9) & (np.abs(x[:, 1] - yc) < 1e-9)]
+    beside, under = at(1.25, 1.25), at(5.25, 1.25)
+    assert len(beside) == 1 and len(under) == 1  # the layer's particle; the lens's are above
+    assert beside[0] == pytest.approx(rho * G * (4.0 - 1.25), rel=1e-4)
+    assert under[0] - beside[0] == pytest.approx(rho_lens * G * t, abs=1e-4 * under[0])
+    # inside the lens both bodies' particles sit at each point and weigh the same
+    inside = at(5.25, 2.25)
+    assert len(inside) == 2 and inside[0] == inside[1]
+    assert inside[0] == pytest.approx((rho * (4 - 2.25) + rho_lens * (3 - 2.25)) * G, rel=1e-4)
+
+
+def test_vertical_stress_adds_the_densities_of_overlapping_shapes():
+    bodies = [(Box((0.0, 0.0), (10.0, 4.0)), 1800.0), (Box((4.0, 2.0), (6.0, 3.0)), 2600.0)]
+    sv = vertical_stress(np.array([[1.0, 1.0], [5.0, 1.0]]), bodies, G, top=4.0)
+    np.testing.assert_allclose(sv, [1800 * G * 3, 1800 * G * 3 + 2600 * G], rtol=1e-4)
