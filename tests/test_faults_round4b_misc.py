@@ -3,7 +3,6 @@ leftovers: the K0 weight of overlapping bodies as placed, TI_ARCH against --arch
 small surfaces (demo help, the slope demo's advice, shared edges, --set blamed, non-finite
 writes, element tests at zero strength, huge increment counts).  The commands are the
 issues', small and fast."""
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -61,3 +60,69 @@ def test_vertical_stress_adds_the_densities_of_overlapping_shapes():
     bodies = [(Box((0.0, 0.0), (10.0, 4.0)), 1800.0), (Box((4.0, 2.0), (6.0, 3.0)), 2600.0)]
     sv = vertical_stress(np.array([[1.0, 1.0], [5.0, 1.0]]), bodies, G, top=4.0)
     np.testing.assert_allclose(sv, [1800 * G * 3, 1800 * G * 3 + 2600 * G], rtol=1e-4)
+
+
+# ---- item 5: TI_ARCH never overrides --arch silently -------------------------------------
+@pytest.mark.parametrize("value", ["cuda", "vulkan"])
+def test_ti_arch_that_disagrees_with_the_cpu_run_is_refused(value):
+    """``TI_ARCH=cuda timpm run vibrating-string`` on a CPU run: refused before Taichi
+    starts (it printed Taichi's "falling back to CPU" and ran on), naming TI_ARCH, the
+    backend asked for and how to fix it."""
+    code, out = _timpm("run", "vibrating-string", env={"TI_ARCH": value})
+    assert code == 2, out
+    assert f"TI_ARCH='{value}' asks Taichi for the {value} backend, but timpm was asked for " \
+           f"cpu" in out
+    assert "unset TI_ARCH" in out and f"--arch {value}" in out
+    assert "falling back" not in out and "Traceback" not in out and "e_RMS" not in out
+
+
+def test_ti_arch_bogus_is_a_clear_error_not_an_abort():
+    code, out = _timpm("run", "vibrating-string", env={"TI_ARCH": "bogus"})
+    assert code == 2, out  # was -6: Taichi's C++ assertion
+    assert "TI_ARCH='bogus' names no Taichi backend" in out and "unset TI_ARCH" in out
+    assert "Assertion" not in out and "Traceback" not in out
+
+
+@pytest.mark.parametrize("env, args", [({"TI_ARCH": "opengl"}, ()),
+                                       ({"TI_ARCH": "cuda"}, ("--arch", "cpu")),
+                                       ({"TI_ARCH": "cuda", "TIMPM_ARCH": "cpu"}, ())])
+def test_ti_arch_is_checked_against_every_way_of_asking(env, args):
+    code, out = _timpm("run", "vibrating-string", *args, env=env)
+    assert code == 2 and "TI_ARCH" in out and "Traceback" not in out, out
+    if args:
+        assert "by --arch" in out
+    elif "TIMPM_ARCH" in env:
+        assert "by the environment variable TIMPM_ARCH" in out
+
+
+@pytest.mark.parametrize("value", ["x64", "cpu", "CPU"])
+def test_a_ti_arch_that_agrees_runs(value):
+    """Taichi's name of the CPU, or timpm's (on which Taichi itself aborts), agree with a
+    CPU run: it runs, on the CPU."""
+    code, out = _timpm("run", "vibrating-string", "--elements", "8", env={"TI_ARCH": value})
+    assert code == 0, out
+    assert "energy_drift" in out
+
+
+def test_ti_arch_is_refused_from_python_before_taichi_starts():
+    code = ("import os; os.environ['TI_ARCH'] = 'cuda'\n"
+            "from timpm.platform import runtime\n"
+            "try:\n    runtime.init()\nexcept ValueError as e:\n    print('refused:', e)\n"
+            "from taichi.lang import impl\nprint('started:', impl.get_runtime().prog is not None)")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       env=CHILD_ENV, timeout=120)
+    assert "refused: the environment variable TI_ARCH='cuda'" in p.stdout, p.stdout + p.stderr
+    assert "started: False" in p.stdout
+
+
+def test_a_cpu_request_is_checked_against_the_arch_taichi_started():
+    """A CPU run that Taichi started elsewhere (a GPU node's TI_* settings) is refused,
+    naming the arch it started: faked here by a check that sees no CPU."""
+    code = ("from timpm.platform import runtime\n"
+            "runtime._started = lambda arch: False\n"
+            "try:\n    runtime.init(arch='cpu')\nexcept runtime.BackendUnavailable as e:\n"
+            "    print('refused:', e)\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       env=CHILD_ENV, timeout=120)
+    assert "refused: timpm asked Taichi for the CPU and it started on " in p.stdout, \
+        p.stdout + p.stderr

@@ -119,6 +119,41 @@ def _arch(arch):
     return arch
 
 
+#: Taichi's names of the backends in ``TI_ARCH`` (its own variable, which ``ti.init`` puts
+#: before its ``arch`` argument) as timpm's: "cpu" too, which Taichi itself aborts on
+_TI_ARCH_NAMES = {"x64": "cpu", "arm64": "cpu", "cpu": "cpu", "cuda": "cuda",
+                  "vulkan": "vulkan", "metal": "metal"}
+#: Taichi's other backends, which timpm does not run on
+_TI_ARCH_OTHERS = ("opengl", "gles", "dx11", "dx12", "amdgpu", "cc", "wasm")
+
+
+def _check_ti_arch(arch: str, source: str) -> None:
+    """Taichi's own ``TI_ARCH``, if set, checked against the backend timpm was asked for
+    (``arch``, from ``source``): ``ti.init`` would put it before the backend timpm passes,
+    silently (falling back to the CPU from a GPU it lacks, or running a CPU request on a
+    GPU), and abort the process in C++ on a name it does not know.  One that agrees is
+    kept from Taichi (timpm passes the backend itself); any other is refused."""
+    text = os.environ.get("TI_ARCH")
+    if text is None or not text.strip():
+        return
+    name = text.strip().lower()
+    fix = "unset TI_ARCH (timpm's backend is --arch, TIMPM_ARCH or timpm.init(arch=...))"
+    if name in _TI_ARCH_OTHERS:
+        raise ValueError(f"the environment variable TI_ARCH={text!r} names Taichi's {name} "
+                         f"backend, which timpm does not run on (it runs on "
+                         f"{', '.join(ARCHS)}); {fix}")
+    if name not in _TI_ARCH_NAMES:
+        raise ValueError(f"the environment variable TI_ARCH={text!r} names no Taichi backend "
+                         f"(Taichi would abort: it takes x64, arm64, cuda, vulkan, metal, "
+                         f"...); {fix}")
+    if _TI_ARCH_NAMES[name] != arch:
+        wanted = _TI_ARCH_NAMES[name]
+        raise ValueError(f"the environment variable TI_ARCH={text!r} asks Taichi for the "
+                         f"{wanted} backend, but timpm was asked for {arch} ({source}), "
+                         f"and Taichi would take TI_ARCH's silently: {fix}, or ask for "
+                         f"{wanted} with --arch {wanted} (TIMPM_ARCH={wanted})")
+
+
 def _optimize(optimize):
     """``optimize`` checked, or ``TIMPM_OPTIMIZE`` ("1" or "0") when None (False if unset:
     Taichi's control-flow optimisation doubles the compilation, and since the stencil
@@ -150,7 +185,12 @@ def _settings(threads=None, debug=False, precision="f64", pin=True, arch=None,
               optimize=None, fast_math=True) -> dict:
     """The settings of a start, checked before Taichi is touched."""
     _check_opt_level()
+    source = ("by --arch, the arch argument" if arch is not None else
+              "by the environment variable TIMPM_ARCH"
+              if os.environ.get("TIMPM_ARCH", "").strip() else
+              "the default: no --arch, no TIMPM_ARCH")
     arch = _arch(arch)
+    _check_ti_arch(arch, source)
     if precision not in ("f64", "f32"):
         raise ValueError(f"precision must be 'f64' or 'f32', got {precision!r}")
     if not isinstance(fast_math, bool):
@@ -180,6 +220,9 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
     GPU backend scatters with atomic adds, on one launch per step); a backend this machine lacks
     raises :class:`BackendUnavailable`, not Taichi's silent fallback to the CPU (the
     runtime stays as it was, or restarts with the last settings or the defaults).
+    Taichi's own ``TI_ARCH`` must name the same backend or be unset (a ValueError before
+    Taichi starts: ``ti.init`` would take it silently); the backend started is checked to
+    be the one asked for, the CPU too.
     ``threads`` caps the CPU worker threads (a positive integer; default: ``TIMPM_THREADS``
     or all cores); ``precision`` sets the default float type of literals and fields ("f64"
     or "f32"); ``debug=True`` turns on Taichi's own bounds checks (slow); ``pin`` binds
@@ -223,12 +266,23 @@ def init(threads: int | None = None, debug: bool = False, precision: str = "f64"
         if arch == "cpu":
             raise
         failure = exc
-    if failure is None and (arch == "cpu" or impl.current_cfg().arch == ARCHS[arch]):
+    if failure is None and _started(arch):
         return
+    started = ti._lib.core.arch_name(impl.current_cfg().arch)
+    if arch == "cpu":  # not a fallback: the CPU was asked for and Taichi started another
+        _state.pop("settings", None)
+        raise BackendUnavailable(f"timpm asked Taichi for the CPU and it started on "
+                                 f"{started}: check Taichi's environment variables (TI_*)")
     why = (f"Taichi failed to start it ({failure})" if failure else
-           f"Taichi fell back to {ti._lib.core.arch_name(impl.current_cfg().arch)}")
+           f"Taichi fell back to {started}")
     _start(previous or _settings())  # the last start again, or the defaults
     raise _unavailable(arch, why) from failure
+
+
+def _started(arch: str) -> bool:
+    """Whether the backend Taichi started is ``arch`` (timpm's name)."""
+    current = impl.current_cfg().arch
+    return current in _CPUS if arch == "cpu" else current == ARCHS[arch]
 
 
 _compile_clock = [0.0]  # seconds in kernel calls that built a new kernel instance
@@ -356,7 +410,14 @@ def _start(settings: dict) -> None:
         kwargs["unrolling_kernel_warning_limit"] = 0
     _print_banner()
     stop()  # a restart: the last start's kernels written in turn
-    ti.init(**kwargs)
+    # TI_ARCH, checked to agree (_check_ti_arch), kept from ti.init: it would take it
+    # before the arch passed, and abort on timpm's own name "cpu"
+    ti_arch = os.environ.pop("TI_ARCH", None)
+    try:
+        ti.init(**kwargs)
+    finally:
+        if ti_arch is not None:
+            os.environ["TI_ARCH"] = ti_arch
     taichi_frontend.memoize_source_positions()
     _state.update(settings=settings, owner=threading.get_ident(),
                   owner_name=threading.current_thread().name)
