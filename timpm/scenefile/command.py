@@ -111,7 +111,7 @@ def main(argv) -> int:
                                overrides=overrides, allow_many_steps=args.allow_many_steps)
     except RunInterrupted as stop:
         saved = f"; state saved to {stop.checkpoint}" if stop.checkpoint else ""
-        record = scene.output.get("json")
+        record = getattr(stop, "record", None)  # only a record that was written
         print(f"timpm: {stop}{saved}"
               + (f"; partial record {record}" if record else ""), file=sys.stderr)
         return stop.exit_code

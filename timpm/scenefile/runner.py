@@ -1,7 +1,9 @@
 """Running a checked scene: its output writers checked before any work, the world run frame
 by frame (a GIF, field files) or the problem run, the summary and the JSON record; a world
 run's checkpoint continued (:func:`resume_scene`)."""
+import math
 import os
+import signal
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -135,6 +137,7 @@ def run_scene(scene, progress=None, checkpoint=None, overrides=None,
     except RunInterrupted as stop:  # Ctrl-C: the partial record, then on to the caller
         if stop.result is not None and scene.output.get("json") is not None:
             write_json(scene.output["json"], stop.result.document())
+            stop.record = scene.output["json"]  # (the command names only what it wrote)
         raise
     except OSError as err:  # an output failed after the run: the record is written still
         kept, record = getattr(err, "result", None), scene.output.get("json")
@@ -239,9 +242,12 @@ def _run_world(scene, fields_writer, movie, progress, checkpoint, run,
 
     if isinstance(world.initial_stress, GravityLoading):  # the stresses of a loading run
         try:
-            world, _ = gravity_loading(world, progress=None)
+            world, _ = gravity_loading(world, progress=_loading_progress(progress),
+                                       allow_many_steps=allow_many_steps)
         except ValueError as err:
             raise scene.error(("initial_stress",), str(err)) from None
+        except RunInterrupted as stop:  # before the scene's run: no state of it to save
+            raise _interrupted_loading(scene, stop) from None
     run = {**run, "mode": scene.mode,
            "record_every": max(1, int(round(t_end / world.dt / 200)))}
     solver = Solver(world, mode=scene.mode, energies=True, record_every=run["record_every"])
@@ -258,6 +264,38 @@ def _run_world(scene, fields_writer, movie, progress, checkpoint, run,
                              fields=fields_writer, progress=progress)
     finally:
         solver.release()
+
+
+def _loading_progress(progress):
+    """The gravity loading's progress lines on stderr: with --progress, or (by default) on
+    a terminal."""
+    import sys
+
+    if progress is False or (progress is None and not sys.stderr.isatty()):
+        return None
+    return lambda line: print(line, file=sys.stderr, flush=True)
+
+
+def _interrupted_loading(scene, stop):
+    """Ctrl-C (SIGTERM, SIGHUP) during the scene's gravity loading: the scene's own run had
+    not begun, so no state is saved (a checkpoint of the loading run would resume as the
+    scene's run, from stresses that are not its initial ones); the exception says so, and
+    its result is the record of a run interrupted at t = 0, with where the loading
+    stopped."""
+    loading = getattr(stop, "loading", {"step": stop.step, "t": stop.t})
+    by = "" if stop.signal == signal.SIGINT else f" by {signal.Signals(stop.signal).name}"
+    stop.args = (f"interrupted{by} during the gravity loading (its step {loading['step']}, "
+                 f"t = {loading['t']:g} s of its t_max = {loading.get('t_max', math.nan):g} s), "
+                 "before the scene's run began: no state saved (there is none to resume; "
+                 "rerun from the start)",)
+    stop.checkpoint = None
+    world = scene.world
+    stop.result = SceneResult(name=scene.name, path=scene.path, particles=world.n_particles,
+                              steps=0, dt=world.dt, t_end=0.0, compile_seconds=0.0,
+                              simulation_seconds=0.0, interrupted=True,
+                              summary={"interrupted_during": "gravity loading",
+                                       "gravity_loading": dict(loading)})
+    return stop
 
 
 def _frames_saved(scene, solver, run, checkpoint, movie, t_end, frames, **options):
