@@ -260,7 +260,9 @@ def _parser():
     cmp.add_argument("--plot", metavar="FILE.png")
     sub.add_parser("list", help="list problems, bases and demos")
     demo = sub.add_parser("demo", help="run a 2D demo scene and write it to an animated GIF")
-    demo.add_argument("name", help="one of: column-collapse, disks, dam-break")
+    from ..scenarios.demos import DEMOS
+
+    demo.add_argument("name", help=f"one of: {', '.join(DEMOS)}")
     demo.add_argument("--out", metavar="FILE.gif", help="animated GIF to write")
     demo.add_argument("--frames", type=positive_int, default=60, help="frames (default 60)")
     demo.add_argument("--fps", type=positive_int, default=None,

@@ -340,7 +340,10 @@ class SlopeFailure(Demo):
     weight 20 kN/m^3) with its strength divided by ``strength_factor`` (c / F, tan(phi) /
     F), past its factor of safety (1.4), so that it fails: the soil starts from the K0
     procedure's stress, a band of plastic strain forms from the toe to the crest and the
-    mass above it slides out over the firm base (Coulomb friction tan(phi'))."""
+    mass above it slides out over the firm base (Coulomb friction tan(phi')).  ``k0``: the
+    K0 procedure's sigma_h / sigma_v, in (0, 1] (None: Jaky's 1 - sin(phi) of the reduced
+    soil, nu / (1 - nu) at phi = 0); one the reduced soil cannot hold at the slope's base
+    is refused before any work, naming the least k0 that it can."""
 
     name = "slope"
     color = "plastic"
@@ -355,6 +358,7 @@ class SlopeFailure(Demo):
     friction_angle: float = 20.0
     cohesion: float = 10e3
     courant: float = 0.5
+    k0: float | None = None
 
     def soil(self):
         from ..materials import MohrCoulomb
@@ -367,7 +371,6 @@ class SlopeFailure(Demo):
 
     def world(self) -> World:
         from ..model.geometry import Polygon
-        from ..model.geostatic import K0
 
         H = _positive("H", self.H)
         h = H / self.cells_per_H
@@ -380,7 +383,42 @@ class SlopeFailure(Demo):
                      bodies=[Body(slope, self.soil(), ppc=self.ppc, name="slope")],
                      walls={"default": "roller", "bottom": Wall("friction", mu), "top": None,
                             "right": None},
-                     initial_stress=K0(), courant=self.courant, name=self.name)
+                     initial_stress=self.initial_stress(), courant=self.courant,
+                     name=self.name)
+
+    def buoyant_unit_weight(self) -> float:
+        """The unit weight the K0 procedure weighs the slope by (dry: its own)."""
+        return _positive("unit_weight", self.unit_weight)
+
+    def initial_stress(self):
+        """The K0 procedure at ``k0`` (None: each material's Jaky's), checked before any
+        work against the reduced soil's Mohr-Coulomb surface at the deepest point, under
+        the crest (sigma_v = gamma H; f is linear in sigma_v, so the whole slope holds
+        if that point does): the least k0 the soil holds there is named."""
+        from ..model.geostatic import K0, jaky_k0
+
+        if self.k0 is not None and (isinstance(self.k0, bool)
+                                    or not isinstance(self.k0, (int, float))
+                                    or not 0.0 < self.k0 <= 1.0):
+            raise ValueError(f"demo {self.name}: k0 (--param k0=K) must lie in (0, 1] "
+                             f"(sigma_h / sigma_v of ground at rest), got {self.k0!r}")
+        soil = self.soil()
+        k = jaky_k0(soil) if self.k0 is None else float(self.k0)
+        sv = self.buoyant_unit_weight() * _positive("H", self.H)
+        sin, cos = (f(math.radians(soil.friction_angle)) for f in (math.sin, math.cos))
+        need = ((1.0 - sin) * sv - 2.0 * soil.cohesion * cos) / ((1.0 + sin) * sv)
+        if sv > 0.0 and k < need * (1.0 + 1e-9):
+            given = ("Jaky's" if self.k0 is None and soil.friction_angle > 0 else
+                     "nu / (1 - nu), Jaky's without friction" if self.k0 is None else
+                     "given")
+            raise ValueError(
+                f"demo {self.name}: the K0 stress (K0 = {k:.4g}, {given}) lies outside the "
+                f"reduced soil's strength (phi = {soil.friction_angle:.4g} deg, c = "
+                f"{soil.cohesion:.4g} Pa: friction_angle and cohesion / strength_factor "
+                f"{self.strength_factor:g}) at the slope's base, sigma_v = {sv:.4g} Pa: give "
+                f"--param k0=K with K >= {min(need * (1 + 1e-6), 1.0):.4g} (at most 1), or "
+                f"raise cohesion or friction_angle, or lower strength_factor")
+        return K0(self.k0)
 
     def default_t_end(self) -> float:
         # the slide runs for some 10 times sqrt(H / g)
@@ -468,7 +506,6 @@ class SubmarineSlope(SlopeFailure):
     def world(self) -> World:
         from ..materials.pore_water import PoreWater
         from ..model.geometry import Polygon
-        from ..model.geostatic import K0
         from ..model.water import Water
 
         H = _positive("H", self.H)
@@ -485,8 +522,13 @@ class SubmarineSlope(SlopeFailure):
                      bodies=[Body(slope, self.soil(), ppc=self.ppc, name="slope", water=water)],
                      walls={"default": "roller", "bottom": Wall("friction", mu), "top": None,
                             "right": None},
-                     initial_stress=K0(), courant=self.courant, name=self.name,
+                     initial_stress=self.initial_stress(), courant=self.courant,
+                     name=self.name,
                      water=Water(self.analysis, level=self.level, smoothing=self.smoothing))
+
+    def buoyant_unit_weight(self) -> float:
+        """Submerged: gamma - gamma_w, the weight the K0 procedure takes below the level."""
+        return _positive("unit_weight", self.unit_weight) - 1000.0 * G
 
     def title(self) -> str:
         return f"submarine slope, strength / {self.strength_factor:g}"
