@@ -126,3 +126,85 @@ def test_a_cpu_request_is_checked_against_the_arch_taichi_started():
                        env=CHILD_ENV, timeout=120)
     assert "refused: timpm asked Taichi for the CPU and it started on " in p.stdout, \
         p.stdout + p.stderr
+
+
+# ---- item 7: small surfaces --------------------------------------------------------------
+def test_demo_help_names_every_demo():
+    from timpm.scenarios.demos import DEMOS
+
+    code, out = _timpm("demo", "--help")
+    assert code == 0
+    assert "slope" in DEMOS and "submarine-slope" in DEMOS
+    text = " ".join(out.split())  # argparse wraps the list
+    assert f"one of: {', '.join(DEMOS)}" in text
+
+
+def test_the_slope_demo_at_phi_0_names_the_k0_it_needs():
+    """``timpm demo slope --param friction_angle=0``: Jaky's K0 of a soil without friction
+    is nu / (1 - nu) = 0.43, beyond the reduced cohesion (5 kPa) under 10 m of soil; the
+    demo now takes k0 and the refusal names ``--param k0`` with the least value the soil
+    holds, 1 - 2 c / (gamma H) = 0.95."""
+    code, out = _timpm("demo", "slope", "--param", "friction_angle=0", "--t-end", "0.01")
+    assert code == 2, out
+    assert "--param k0=K with K >= 0.95" in out and "raise K0" not in out
+    assert "Traceback" not in out
+
+
+def test_the_slope_demo_takes_k0():
+    from timpm.scenarios.demos import get_demo
+
+    world = get_demo("slope", friction_angle=0.0, k0=1.0, cells_per_H=4).world()
+    s = world.model.initial_stress
+    np.testing.assert_allclose(s[:, 0, 0], s[:, 1, 1])  # K0 = 1: isotropic
+    with pytest.raises(ValueError, match=r"K >= 0\.95"):
+        get_demo("slope", friction_angle=0.0, k0=0.9, cells_per_H=4).world()
+    for bad in (0, 1.5, "abc", True):
+        with pytest.raises(ValueError, match=r"demo slope: k0 \(--param k0=K\) must lie in "
+                                             r"\(0, 1\]"):
+            get_demo("slope", k0=bad, cells_per_H=4).world()
+    # the default (Jaky's 1 - sin(phi) of the reduced soil) as before
+    default = get_demo("slope", cells_per_H=4).world().model.initial_stress
+    phi = np.degrees(np.arctan(np.tan(np.radians(20.0)) / 2.0))
+    deep = default[:, 1, 1] < -1e3
+    np.testing.assert_allclose(default[deep, 0, 0] / default[deep, 1, 1],
+                               1 - np.sin(np.radians(phi)))
+
+
+@pytest.mark.parametrize("edge", [4.25, 4.0])
+def test_a_box_and_a_polygon_sharing_an_edge_do_not_overlap(edge):
+    """A box under a polygon, the shared edge y = 4.25 on the particles' lattice (h = 1,
+    ppc 2: points at 0.25, 0.75, ...): refused as overlapping (the Box was closed, the
+    Polygon half-open), its points filled by both.  Both are half-open now: each lattice
+    point is one body's, the one above, the bodies touch and together fill the rectangle."""
+    from timpm import Polygon
+
+    soil = _soil(1800.0)
+    w = World(domain=(10.0, 10.0), cells=10, basis="linear", transfer="musl",
+              bodies=[Body(Box((0, 0), (10, edge)), soil),
+                      Body(Polygon([(0, edge), (10, edge), (10, 8), (0, 8)]), soil)])
+    x = w.model.positions
+    assert len(np.unique(x, axis=0)) == len(x) == 20 * 16
+    on_edge = np.abs(x[:, 1] - edge) < 1e-12
+    if edge == 4.25:
+        assert on_edge.sum() == 20 and np.all(w.model.body_index[on_edge] == 1)
+
+
+def test_two_boxes_and_two_prisms_sharing_a_face_do_not_overlap():
+    from timpm import Prism
+
+    soil = _soil(1800.0)
+    w = World(domain=(4.0, 4.0), cells=4, basis="linear", transfer="musl",
+              bodies=[Body(Box((0, 0), (4, 1.25)), soil), Body(Box((0, 1.25), (4, 3)), soil)])
+    assert len(w.model.positions) == 8 * 6
+    square = [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)]
+    w = World(domain=(2.0, 2.0, 2.0), cells=2, basis="linear", transfer="musl",
+              bodies=[Body(Prism(square, z=(0.0, 1.25)), soil),
+                      Body(Prism(square, z=(1.25, 2.0)), soil)])
+    assert len(w.model.positions) == 4 * 4 * 4
+
+
+def test_bodies_that_do_overlap_are_still_refused():
+    soil = _soil(1800.0)
+    with pytest.raises(ValueError, match="bodies 0 and 1 overlap"):
+        World(domain=(10.0, 10.0), cells=10, basis="linear", transfer="musl",
+              bodies=[Body(Box((0, 0), (10, 4.5)), soil), Body(Box((0, 4.25), (10, 8)), soil)])

@@ -123,7 +123,8 @@ def _vertices(owner, value):
 
 
 def _inside(vertices, points):
-    """Even-odd rule: the points (..., 2) inside the closed polygon (on an edge: either).
+    """Even-odd rule: the points (..., 2) inside the closed polygon (on an edge: the
+    region to its right, or above a horizontal one: half-open, as a Box's [lo, hi)).
     A horizontal ray from each point counts the edges it crosses; each edge meets only the
     points in its y range [min, max), found in the points sorted by y, so the work is the
     number of (edge, point) meetings, not edges times points."""
@@ -202,4 +203,5 @@ class Prism:
 
     def contains(self, x):
         x = np.asarray(x, dtype=np.float64)
-        return _inside(self._v, x[..., :2]) & (x[..., 2] >= self.z[0]) & (x[..., 2] <= self.z[1])
+        # half-open along z as in the plane ([z0, z1)), as a Box: faces shared, filled once
+        return _inside(self._v, x[..., :2]) & (x[..., 2] >= self.z[0]) & (x[..., 2] < self.z[1])

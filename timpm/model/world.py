@@ -56,7 +56,10 @@ def _preset(name):
 
 @dataclass(frozen=True)
 class Box:
-    """Axis-aligned box [lo, hi]."""
+    """Axis-aligned box [lo, hi), half-open as a :class:`~timpm.model.geometry.Polygon`:
+    a lattice point on a face shared with another box or a polygon's edge belongs to one
+    body only (the one above or to the right), so bodies that only touch are filled once
+    and do not overlap."""
 
     lo: tuple
     hi: tuple
@@ -77,7 +80,7 @@ class Box:
         return np.array(self.lo), np.array(self.hi)
 
     def contains(self, x):
-        return np.all((x >= np.array(self.lo)) & (x <= np.array(self.hi)), axis=-1)
+        return np.all((x >= np.array(self.lo)) & (x < np.array(self.hi)), axis=-1)
 
 
 @dataclass(frozen=True)
