@@ -57,11 +57,11 @@ def test_the_bisection_closes_on_the_factor(monkeypatch):
         fos.factor_of_safety(World, 1.0, low=2.0, high=3.0)
     with pytest.raises(ValueError, match="stands at the bracket's high end"):
         fos.factor_of_safety(World, 1.0, low=0.5, high=1.0)
-    with pytest.raises(ValueError, match="0 < low < high"):
+    with pytest.raises(ValueError, match="LOW must be below HIGH"):
         fos.factor_of_safety(World, 1.0, low=2.0, high=1.0)
     # what cannot give a factor is named, not met with "widen the bracket"
     for creep in (-1.0, math.nan, math.inf):
-        with pytest.raises(ValueError, match="creep must be a positive finite"):
+        with pytest.raises(ValueError, match="--creep .*: the failure criterion.s creep must lie in"):
             fos.factor_of_safety(World, 1.0, creep=creep)
     with pytest.raises(ValueError, match="run of positive length"):
         fos.factor_of_safety(World, 0.0)

@@ -104,16 +104,49 @@ def _read_record(path):
         raise ValueError(f"--resume {path}: not a JSON record ({exc})") from None
 
 
+#: the outputs of a scene's run that the study, many runs, does not write
+NOT_WRITTEN = {"gif": "movie", "vtk": "field files", "npz": "field files",
+               "landslide": "run-out measure"}
+
+
+def _scene_outputs(args, scene):
+    """The scene's ``[output]`` in the study: its ``json`` is the study's record where
+    --json is not given (checked as --json is); a movie, field files or a landslide
+    measure, outputs of one run, are refused naming the key (the study runs many)."""
+    from ..output.fields import check_output_file
+    from ..platform.files import check_distinct
+
+    for key, what in NOT_WRITTEN.items():
+        if scene.output.get(key) is not None:
+            raise scene.error(("output", key), f"the factor-of-safety study runs the scene many "
+                              f"times and writes no {what}: only its record (--json, else "
+                              "the scene's output.json) and the mechanism's plot (--plot); "
+                              f"remove output.{key} from the scene, or drop it for the "
+                              f"study with --set output.{key}=")
+    if args.json is None and scene.output.get("json") is not None:
+        try:
+            check_output_file(scene.output["json"], "output.json")
+            check_distinct({"output.json": scene.output["json"], "--plot": args.plot},
+                           {"the scene file": args.scene})
+        except ValueError as err:
+            raise scene.error(("output", "json"), str(err)) from None
+        args.json = scene.output["json"]
+
+
 def factor_of_safety(args) -> int:
     """``timpm study factor-of-safety FILE.toml``: the bisection, its record and plot."""
     from ..scenefile import load_scene
 
     try:
+        fos.check_settings(args.bracket[0], args.bracket[1], args.tolerance, args.creep)
         _check_outputs(args, {"the scene file": args.scene})
-        scene = load_scene(args.scene)
+        overrides = dict(args.settings)
+        scene = load_scene(args.scene, overrides or None)
         if scene.world is None:
             raise ValueError(f"{args.scene}: the factor of safety takes a world (a slope), "
                              "not a [problem]")
+        _scene_outputs(args, scene)
+        fos.check_reduced(scene.world, args.bracket[0], args.bracket[1])
         resume = None
         if args.resume:
             resume = _read_record(args.resume)
@@ -124,6 +157,8 @@ def factor_of_safety(args) -> int:
             progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
     except fos.StudyInterrupted as stop:  # the trials so far, resumable
         stop.partial["scene"] = args.scene
+        if overrides:
+            stop.partial["overrides"] = overrides
         kept = ""
         if args.json:
             try:
@@ -137,6 +172,8 @@ def factor_of_safety(args) -> int:
     except (ValueError, SimulationError) as exc:
         return _error(exc)
     record["scene"] = args.scene
+    if overrides:
+        record["overrides"] = overrides
     print(f"factor of safety {record['factor_of_safety']:.4f} (bracket "
           f"{record['bracket'][0]:.4f} to {record['bracket'][1]:.4f}, {len(record['trials'])} "
           f"runs, {record['wall_seconds']:.1f} s)")
@@ -155,6 +192,7 @@ def infinite_slope(args) -> int:
     from ..studies.infinite_slope import InfiniteSlope
 
     try:
+        fos.check_settings(args.bracket[0], args.bracket[1], args.tolerance, 1e-3)
         _check_outputs(args, {})
         slope = InfiniteSlope(beta=args.beta, friction_angle=args.phi, water=args.water,
                               dilation_angle=args.psi)

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..model.geostatic import GravityLoading
 
-__all__ = ["GravityLoading", "gravity_loading"]
+__all__ = ["GravityLoading", "gravity_loading", "check_gravity_loading", "NotAtRest"]
 
 
 def _stress3(solver, world):
@@ -95,18 +95,15 @@ def _check_length(t_max, dt, allow_many_steps, default):
                      "anyway")
 
 
-def gravity_loading(world, spec=None, progress=None, allow_many_steps=False):
-    """``world`` with the initial stress its gravity loading reaches (``spec``: a
-    :class:`GravityLoading`, default the world's own ``initial_stress`` or the defaults);
-    returns (that world, the loading's record: time, kinetic energy ratio, largest
-    settlement, whether it came to rest).  Refused before the loading runs: a gravity
-    without a downward y component, a body whose law takes no initial stress, a t_max of
-    fewer than 40 steps or (unless ``allow_many_steps``) more than 1e8.  Interrupted
-    (:class:`~timpm.platform.interrupt.RunInterrupted`), the exception's ``loading`` says
-    where: the loading run's step and time, and its t_max."""
-    from ..platform.interrupt import RunInterrupted
-    from .solver import Solver
+class NotAtRest(ValueError):
+    """The gravity loading ran to its t_max and the ground did not come to rest (it may not
+    stand as drawn): the one refusal that is the ground's answer, not a setting's (the
+    factor-of-safety study reads it as a failed trial)."""
 
+
+def _plan(world, spec, allow_many_steps):
+    """The loading's spec, world, t_max and the ground's height, every check made before
+    the loading runs."""
     spec = spec or (world.initial_stress if isinstance(world.initial_stress, GravityLoading)
                     else GravityLoading())
     _check_gravity(world)
@@ -120,13 +117,38 @@ def gravity_loading(world, spec=None, progress=None, allow_many_steps=False):
     loading = replace(world, transfer="musl", damping=spec.damping, pic_fraction=0.0,
                       transfer_params=None,
                       integrator="euler-cromer", initial_stress=start)
-    weight = float(np.sum(loading.model.mass_per_particle)) * abs(world.gravity[1]) * height
     if t_max < 40.0 * loading.dt:
         raise ValueError(f"gravity loading: t_max = {t_max:g} s is shorter than 40 time steps "
                          f"(dt = {loading.dt:.3g} s): the ground cannot be loaded and come to "
                          "rest in it; give a longer t_max (default: 40 times a P-wave's time "
                          "across the ground's height)")
     _check_length(t_max, loading.dt, allow_many_steps, default)
+    return spec, loading, t_max, height
+
+
+def check_gravity_loading(world, spec=None, allow_many_steps=False) -> float:
+    """The checks :func:`gravity_loading` makes before it runs (a ValueError naming what to
+    change), made alone: for a caller that loads the ground many times (a study) and
+    refuses a setting before its first run; returns the loading's t_max."""
+    return _plan(world, spec, allow_many_steps)[2]
+
+
+def gravity_loading(world, spec=None, progress=None, allow_many_steps=False):
+    """``world`` with the initial stress its gravity loading reaches (``spec``: a
+    :class:`GravityLoading`, default the world's own ``initial_stress`` or the defaults);
+    returns (that world, the loading's record: time, kinetic energy ratio, largest
+    settlement, whether it came to rest).  Refused before the loading runs
+    (:func:`check_gravity_loading`): a gravity without a downward y component, a body
+    whose law takes no initial stress, a t_max of fewer than 40 steps or (unless
+    ``allow_many_steps``) more than 1e8.  Ground that does not come to rest raises
+    :class:`NotAtRest`.  Interrupted (:class:`~timpm.platform.interrupt.RunInterrupted`),
+    the exception's ``loading`` says where: the loading run's step and time, and its
+    t_max."""
+    from ..platform.interrupt import RunInterrupted
+    from .solver import Solver
+
+    spec, loading, t_max, height = _plan(world, spec, allow_many_steps)
+    weight = float(np.sum(loading.model.mass_per_particle)) * abs(world.gravity[1]) * height
     s = Solver(loading, energies=True)
     X = loading.model.positions
     try:
@@ -153,7 +175,7 @@ def gravity_loading(world, spec=None, progress=None, allow_many_steps=False):
     finally:
         s.release()
     if not rest:
-        raise ValueError(f"gravity loading did not come to rest within t_max = {t_max:g} s "
+        raise NotAtRest(f"gravity loading did not come to rest within t_max = {t_max:g} s "
                          f"(kinetic energy {ratio:.2e} of the weight times the height, "
                          f"tolerance {spec.tolerance:g}): the ground may not stand as drawn, "
                          "or give a longer t_max")

@@ -23,6 +23,16 @@ failed too; one that stops for another reason (the energy guard: an instability)
 the study, since no factor can be read from it.  The bracket is reported with the
 factor, which is its midpoint.
 
+**Settings.**  The bracket lies in [0.01, 100] (``BRACKET``: the strength multiplied or
+divided by at most a hundred; a factor of safety outside it is no slope's, and at 1e-20
+the reduced friction angle is 90 degrees to the last digit), its ends given as
+LOW < HIGH; the tolerance is at least 1e-4 (the factor is printed to four decimals;
+the bisection then takes at most 20 trials); ``creep`` lies in (0, 0.1] (0 calls every
+slope that moves at all failed, and above a tenth of the height a sliding mass is taken
+for one that stands).  The scene built with its strength divided by each end of the
+bracket is checked before the first trial: an initial stress the reduced soil cannot
+hold (a given ``k0``) is refused naming k0 and the largest F that holds it.
+
 **Interrupted and resumed.**  Ctrl-C, SIGTERM or SIGHUP during a trial stops the study with
 :class:`StudyInterrupted`, whose ``partial`` record holds the trials finished and the
 bracket so far (``"interrupted": true``); given back as ``resume`` (``timpm study
@@ -39,7 +49,45 @@ import numpy as np
 from ..platform.errors import ErrorCode
 
 __all__ = ["reduced", "reduced_bodies", "trial", "factor_of_safety", "add_parser",
-           "add_bisection_arguments", "plot_mechanism", "StudyInterrupted", "resumable_trials"]
+           "add_bisection_arguments", "plot_mechanism", "StudyInterrupted", "resumable_trials",
+           "check_settings", "BRACKET", "MIN_TOLERANCE", "CREEP"]
+
+#: the factors a bracket may span: the strength multiplied or divided by at most 100
+BRACKET = (0.01, 100.0)
+#: the finest tolerance: the factor is printed to four decimals
+MIN_TOLERANCE = 1e-4
+#: the largest creep (a fraction of the ground's height; the default is 1e-3)
+CREEP = 0.1
+
+
+def _number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _shown(x) -> str:
+    return f"{x:g}" if isinstance(x, (int, float)) and not isinstance(x, bool) else repr(x)
+
+
+def check_settings(low, high, tolerance, creep):
+    """The bisection's settings in range, before any work (a ValueError naming the option:
+    the module's "Settings")."""
+    lo, hi = BRACKET
+    if not (_number(low) and _number(high) and lo <= low < high <= hi):
+        why = ("LOW must be below HIGH" if _number(low) and _number(high) and low >= high
+               else f"both ends must lie in [{lo:g}, {hi:g}]")
+        raise ValueError(f"--bracket {_shown(low)} {_shown(high)}: {why} (the factors where "
+                         f"the slope stands and fails, the strength multiplied or divided by "
+                         f"at most {hi:g}); e.g. --bracket 0.5 4 (the default)")
+    if not (_number(tolerance) and MIN_TOLERANCE <= tolerance < high - low):
+        raise ValueError(f"--tolerance {_shown(tolerance)}: the final bracket's width must lie in "
+                         f"[{MIN_TOLERANCE:g}, HIGH - LOW) = [{MIN_TOLERANCE:g}, "
+                         f"{high - low:g}) (the factor is printed to four decimals); the "
+                         "default is 0.02")
+    if not (_number(creep) and 0.0 < creep <= CREEP):
+        raise ValueError(f"--creep {_shown(creep)}: the failure criterion's creep must lie in (0, "
+                         f"{CREEP:g}] (a fraction of the ground's height moved over the last "
+                         "quarter of the run: 0 calls every slope that moves failed, above "
+                         f"{CREEP:g} a sliding mass passes for standing); the default is 1e-3")
 
 
 class StudyInterrupted(Exception):
@@ -121,15 +169,18 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     particles' plastic strain and positions at the end."""
     from ..platform.errors import SimulationError
     from ..model.geostatic import GravityLoading
-    from ..simulation.loading import gravity_loading
+    from ..simulation.loading import NotAtRest, gravity_loading
     from ..simulation.solver import Solver
 
     bodies = reduced_bodies(world, F)
-    w = replace(world, bodies=bodies)
+    try:
+        w = replace(world, bodies=bodies)
+    except ValueError as err:  # (an initial stress the reduced soil cannot hold)
+        raise ValueError(f"the trial at F = {F:g}: {err}") from None
     if isinstance(w.initial_stress, GravityLoading):
         try:  # the ground loaded under gravity with the reduced strength
             w, _ = gravity_loading(w)
-        except (ValueError, SimulationError) as err:
+        except (NotAtRest, SimulationError) as err:
             # it did not come to rest, or slid off the grid: it fails under its weight
             if isinstance(err, SimulationError) and err.code not in SLID:
                 raise SimulationError(f"the gravity loading at F = {F:g} stopped: {err}",
@@ -187,19 +238,14 @@ def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3
     ``bracket``, every trial) and the last failed trial (its mechanism).  ``resume``: an
     interrupted study's record, whose trials stand for the runs they were (the module);
     interrupted, raises :class:`StudyInterrupted` with the record so far."""
-    if not (0.0 < low < high) or not math.isfinite(high):
-        raise ValueError(f"the bracket must satisfy 0 < low < high, got [{low}, {high}]")
-    if not (0.0 < tolerance < high - low):
-        raise ValueError(f"tolerance must lie in (0, high - low), got {tolerance}")
-    if not (isinstance(creep, (int, float)) and math.isfinite(creep) and creep > 0.0):
-        raise ValueError(f"creep must be a positive finite fraction of the ground's height "
-                         f"(default 1e-3), got {creep!r}")
+    check_settings(low, high, tolerance, creep)
     if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0.0):
         raise ValueError(f"the factor of safety needs a run of positive length: t_end = "
                          f"{t_end!r}")
     if not any(world.model.gravity):
         raise ValueError("the slope has no weight (gravity is zero): it cannot fail, and no "
                          "factor of safety can be read")
+    check_reduced(world, low, high)
     t0 = time.perf_counter()
     trials = []
     settings = {"t_end": t_end, "creep": creep, "tolerance": tolerance,
@@ -253,6 +299,67 @@ def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3
     return record(low, high), failed
 
 
+def check_reduced(world, low, high):
+    """The scene built with its strength divided by each end of the bracket, before the
+    first trial (NumPy only): an initial stress the reduced soil cannot hold, a gravity
+    loading that cannot run (:func:`~timpm.simulation.loading.check_gravity_loading`),
+    refused naming the end's F.  A world the study does not build (a test's stand-in) is
+    taken as it is."""
+    from ..model.geostatic import GravityLoading
+    from ..model.world import World
+    from ..simulation.loading import check_gravity_loading
+
+    if not isinstance(world, World):
+        return
+    reduced_bodies(world, low)  # (a world without Mohr-Coulomb soil: named as such)
+    for end, F in (("low", low), ("high", high)):
+        try:
+            w = replace(world, bodies=reduced_bodies(world, F))
+            if isinstance(w.initial_stress, GravityLoading):
+                check_gravity_loading(w)
+        except ValueError as err:
+            raise ValueError(_unbuilt(world, F, end, err)) from None
+
+
+def _holds(world, F) -> bool:
+    """Whether the world's (given, F-independent) initial stress lies inside every
+    Mohr-Coulomb material's strength divided by F."""
+    from ..materials import MohrCoulomb
+
+    m = world.model
+    for k, mat in enumerate(m.materials):
+        rows = np.flatnonzero(m.material_index == k)
+        if len(rows) and isinstance(mat, MohrCoulomb):
+            try:
+                mat.reduced(F).initial_state(m.initial_stress[rows], world.dim)
+            except ValueError:
+                return False
+    return True
+
+
+def _unbuilt(world, F, end, err) -> str:
+    """The message of a scene that cannot be built with its strength divided by the
+    bracket's ``end`` F: a given k0 names k0 and the largest F that holds its stress."""
+    from ..model.geostatic import K0
+
+    where = f"the bracket's {end} end F = {F:g} (--bracket)"
+    spec = world.initial_stress
+    if not (isinstance(spec, K0) and spec.k0 is not None and F > 1.0
+            and world.model.initial_stress is not None and _holds(world, 1.0)):
+        return f"{where}: the scene cannot start with its soil's strength divided by F: {err}"
+    lo, hi = 1.0, F  # the K0 stress does not change with F; the surface shrinks as F grows
+    for _ in range(40):
+        mid = math.sqrt(lo * hi)
+        lo, hi = (mid, hi) if _holds(world, mid) else (lo, mid)
+    limit = math.floor(lo * 1000.0) / 1000.0
+    why = str(err).split(": raise K0")[0]  # (its advice is given below, with the others)
+    return (f"{where}: the initial stress of the given k0 = {spec.k0:g} ([initial_stress] k0) "
+            f"lies outside the soil's strength divided by F ({why}); the reduced soil holds "
+            f"it up to F = {limit:.3f}: give --bracket a HIGH of at most {limit:.3f} (no "
+            f"factor above it can be found from this k0), raise k0 toward 1, or drop k0 "
+            "(Jaky's K0 of each trial's reduced friction angle, which every F holds)")
+
+
 def plot_mechanism(world, failed, record, path):
     """The accumulated plastic strain at the smallest factor that failed: the mechanism."""
     import matplotlib
@@ -288,10 +395,11 @@ def plot_mechanism(world, failed, record, path):
 def add_bisection_arguments(p, bracket):
     """--bracket LOW HIGH (default ``bracket``) and --tolerance: the bisection's options."""
     p.add_argument("--bracket", type=float, nargs=2, default=bracket, metavar=("LOW", "HIGH"),
-                   help=f"factors where the slope stands and fails (default {bracket[0]:g} "
-                        f"{bracket[1]:g})")
+                   help=f"factors where the slope stands and fails, {BRACKET[0]:g} <= LOW < "
+                        f"HIGH <= {BRACKET[1]:g} (default {bracket[0]:g} {bracket[1]:g})")
     p.add_argument("--tolerance", type=float, default=0.02,
-                   help="width of the final bracket (default 0.02)")
+                   help=f"width of the final bracket, at least {MIN_TOLERANCE:g} (default "
+                        "0.02)")
 
 
 def add_parser(subparsers):
@@ -306,9 +414,17 @@ def add_parser(subparsers):
     add_bisection_arguments(p, bracket=(0.5, 4.0))
     p.add_argument("--creep", type=float, default=1e-3,
                    help="failure: the largest displacement grows over the last quarter of "
-                        "the run by more than CREEP x the ground's height (default 1e-3)")
+                        f"the run by more than CREEP x the ground's height, in (0, {CREEP:g}]"
+                        " (default 1e-3)")
     p.add_argument("--json", metavar="FILE", help="write the factor, bracket and trials "
-                   "(interrupted: the trials so far)")
+                   "(interrupted: the trials so far); default: the scene's output.json, if "
+                   "it has one (its gif, vtk, npz and landslide are refused: one run's "
+                   "outputs)")
+    from ..scenefile.command import _setting
+
+    p.add_argument("--set", type=_setting, action="append", default=[], metavar="KEY=VALUE",
+                   dest="settings", help="set a key of the scene file, as timpm run's --set "
+                   "(domain.cells=60; KEY= removes it, e.g. output.gif=)")
     p.add_argument("--resume", metavar="FILE.json", help="go on from an interrupted "
                    "study's --json record: its trials stand for the runs they were")
     p.add_argument("--plot", metavar="FILE.png", help="draw the failure mechanism")
