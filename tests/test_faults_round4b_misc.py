@@ -208,3 +208,37 @@ def test_bodies_that_do_overlap_are_still_refused():
     with pytest.raises(ValueError, match="bodies 0 and 1 overlap"):
         World(domain=(10.0, 10.0), cells=10, basis="linear", transfer="musl",
               bodies=[Body(Box((0, 0), (10, 4.5)), soil), Body(Box((0, 4.25), (10, 8)), soil)])
+
+
+@pytest.mark.parametrize("setting, blamed", [
+    ("problem.params.E=-5", "problem.params.E (overridden): vibrating-string: parameter E "
+                            "must be positive, got -5"),
+    ("problem.params.L=0", "problem.params.L (overridden)"),
+])
+def test_a_set_value_out_of_range_is_blamed_on_the_override(setting, blamed, tmp_path):
+    """``timpm run examples/vibrating_string.toml --set problem.params.E=-5`` was blamed
+    on the file's line 18, the [problem.params] table, not the override."""
+    code, out = _timpm("run", ROOT / "examples" / "vibrating_string.toml", "--set", setting,
+                       cwd=tmp_path)
+    assert code == 2, out
+    assert blamed in out
+    assert "vibrating_string.toml:18" not in out and "Traceback" not in out
+
+
+def test_a_table_refused_as_a_whole_names_the_overrides_inside_it(tmp_path):
+    """An error about the whole [problem.params] table (a check that names no key) names
+    the override inside it besides the table's line; one that names its key blames it."""
+    from timpm.scenefile import load_scene
+
+    scene = tmp_path / "k0.toml"
+    scene.write_text('[problem]\nname = "k0-layer"\nelements = 4\n\n[problem.params]\n'
+                     'cohesion = 1000.0\n')
+    with pytest.raises(ValueError, match=r"problem\.params\.k0 \(overridden\): k0-layer: k0 "
+                                         r"must lie in \(0, 1\]"):
+        load_scene(scene, {"problem.params.k0": 3.0})
+    from timpm.scenefile.reader import Reader
+
+    reader = Reader(scene, {}, {}, {("problem", "params", "k0")})
+    assert reader.where(("problem", "params")) == \
+        f"{scene}: problem.params (with problem.params.k0 overridden)"
+    assert reader.where(("problem", "params", "k0")) == f"{scene}: problem.params.k0 (overridden)"

@@ -284,10 +284,12 @@ def test_wall_and_table_errors(tmp_path):
 
 def test_world_errors_and_overrides_name_the_file(tmp_path):
     path = write(tmp_path, SCENE)
-    # the world's own checks (a body outside the domain, dt) name the file and the key
+    # the world's own checks (a body outside the domain, dt) name the file and the key,
+    # and the override inside the body refused as a whole
     second = [k for k, line in enumerate(SCENE.splitlines(), 1) if line == "[[body]]"][1]
-    with pytest.raises(ValueError, match=f"scene.toml:{second}: " + r"body\[1\]: body 1 "
-                       r"\('right'\): Ball\(.*\) extends outside the domain"):
+    with pytest.raises(ValueError, match=f"scene.toml:{second}: " + r"body\[1\] \(with "
+                       r"body\[1\]\.center overridden\): body 1 \('right'\): Ball\(.*\) "
+                       r"extends outside the domain"):
         load_scene(path, {"body[1].center": [0.95, 0.5]})
     with pytest.raises(ValueError, match=r"scene.toml: simulation.dt \(overridden\): time step "
                        r"dt = 1 s exceeds the CFL limit"):

@@ -5,6 +5,7 @@ import numpy as np
 
 from ..bases import get_basis
 from ..platform.checks import check_size
+from ..platform.errors import InputError
 from ..model.model import CRITICAL_STEP_FACTOR, pic_applies
 from ..model.scene import Grid1D, Material, Scene, equidistant_particles
 
@@ -185,7 +186,8 @@ def check_positive(problem, *names):
     for name in names:
         value = getattr(problem, name)
         if isinstance(value, bool) or not np.isfinite(value) or value <= 0:
-            raise ValueError(f"{problem.name}: parameter {name} must be positive, got {value!r}")
+            raise InputError(f"{problem.name}: parameter {name} must be positive, got "
+                             f"{value!r}", name)
 
 
 def lattice(cells, ppc, h, placement):

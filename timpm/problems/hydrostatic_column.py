@@ -6,6 +6,7 @@ import numpy as np
 
 from ..materials.pore_water import PoreWater
 from ..model.water import ANALYSES, Water
+from ..platform.errors import InputError
 from .k0_layer import K0Layer
 
 __all__ = ["HydrostaticColumn"]
@@ -39,11 +40,11 @@ class HydrostaticColumn(K0Layer):
     def __post_init__(self):
         super().__post_init__()
         if self.analysis not in ANALYSES:
-            raise ValueError(f"{self.name}: analysis must be one of {', '.join(ANALYSES)}, "
-                             f"got {self.analysis!r}")
+            raise InputError(f"{self.name}: analysis must be one of {', '.join(ANALYSES)}, "
+                             f"got {self.analysis!r}", "analysis")
         if not (np.isfinite(self.water_depth) and self.water_depth >= 0.0):
-            raise ValueError(f"{self.name}: water_depth must be a depth >= 0 m (the still "
-                             f"water above the ground), got {self.water_depth!r}")
+            raise InputError(f"{self.name}: water_depth must be a depth >= 0 m (the still "
+                             f"water above the ground), got {self.water_depth!r}", "water_depth")
         self.pore_water  # its own checks: porosity in (0, 1), positive properties
 
     @property

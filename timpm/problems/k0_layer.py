@@ -4,6 +4,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..platform.checks import whole
+from ..platform.errors import InputError
 from .base import Problem, ProblemScene, check_positive, lattice
 
 
@@ -41,19 +42,19 @@ class K0Layer(Problem):
         check_positive(self, "density", "E", "H")
         if not (isinstance(self.cohesion, (int, float)) and not isinstance(self.cohesion, bool)
                 and np.isfinite(self.cohesion) and self.cohesion >= 0.0):
-            raise ValueError(f"{self.name}: parameter cohesion must be >= 0 (a cohesionless "
-                             f"soil: 0), got {self.cohesion!r}")
+            raise InputError(f"{self.name}: parameter cohesion must be >= 0 (a cohesionless "
+                             f"soil: 0), got {self.cohesion!r}", "cohesion")
         try:
             object.__setattr__(self, "width", whole("width", self.width))
         except ValueError:
-            raise ValueError(f"{self.name}: width must be a positive number of cells, got "
-                             f"{self.width!r}") from None
+            raise InputError(f"{self.name}: width must be a positive number of cells, got "
+                             f"{self.width!r}", "width") from None
         if not (self.gravity < 0.0):
-            raise ValueError(f"{self.name}: gravity must point down y (< 0), got "
-                             f"{self.gravity!r}")
+            raise InputError(f"{self.name}: gravity must point down y (< 0), got "
+                             f"{self.gravity!r}", "gravity")
         if not (0.0 <= self.k0 <= 1.0):
-            raise ValueError(f"{self.name}: k0 must lie in (0, 1], or be 0 for Jaky's 1 - sin "
-                             f"phi, got {self.k0!r}")
+            raise InputError(f"{self.name}: k0 must lie in (0, 1], or be 0 for Jaky's 1 - sin "
+                             f"phi, got {self.k0!r}", "k0")
 
     @property
     def dt_rule(self) -> str:

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.loads import BodyForce
+from ..platform.errors import InputError
 from ..materials import NeoHookean
 from ..model.model import Model, Wall, with_pic_fraction
 from ..model.scene import (PLACEMENTS, Material, consistent_mass_ratio,
@@ -60,7 +61,8 @@ class ManufacturedSolution(Problem):
         check_positive(self, "G", "E", "density")
         nu = self.poisson
         if not (-1.0 < nu < 0.5):
-            raise ValueError(f"{self.name}: parameter nu must lie in (-1, 0.5), got {nu!r}")
+            raise InputError(f"{self.name}: parameter nu must lie in (-1, 0.5), got {nu!r}",
+                             "nu")
 
     @property
     def dt_rule(self) -> str:

@@ -4,6 +4,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.scene import Constant, Ramp, Traction
+from ..platform.errors import InputError
 from .base import Problem, check_positive
 
 
@@ -50,10 +51,11 @@ class Oedometer(Problem):
     def __post_init__(self):
         check_positive(self, "density", "E", "H")
         if self.p0 < 0 or not np.isfinite(self.p0):
-            raise ValueError(f"load p0 must be a non-negative (compressive) load, got {self.p0!r}")
+            raise InputError(f"{self.name}: parameter p0 must be a non-negative (compressive) "
+                             f"load, got {self.p0!r}", "p0")
         if not (np.isfinite(self.ramp) and self.ramp >= 0):
-            raise ValueError(f"{self.name}: parameter ramp must be a duration >= 0 (0: a step "
-                             f"load), got {self.ramp!r}")
+            raise InputError(f"{self.name}: parameter ramp must be a duration >= 0 (0: a step "
+                             f"load), got {self.ramp!r}", "ramp")
 
 
     def domain_length(self):

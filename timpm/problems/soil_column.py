@@ -6,6 +6,7 @@ import numpy as np
 
 from ..model.scene import Constant, Traction
 from ..platform.checks import whole
+from ..platform.errors import InputError
 from .base import Problem, ProblemScene, check_positive, last_below, lattice
 
 #: the most terms of the series solution (default 4000): every evaluation sums them all
@@ -43,8 +44,9 @@ class SoilColumn(Problem):
         check_positive(self, "density", "E", "H")
         n_terms = whole(f"{self.name}: parameter n_terms", self.n_terms)
         if n_terms > MAX_TERMS:
-            raise ValueError(f"{self.name}: parameter n_terms must be at most {MAX_TERMS} (every "
-                             f"evaluation of the series sums them all), got {self.n_terms!r}")
+            raise InputError(f"{self.name}: parameter n_terms must be at most {MAX_TERMS} (every "
+                             f"evaluation of the series sums them all), got {self.n_terms!r}",
+                             "n_terms")
         object.__setattr__(self, "n_terms", n_terms)
 
     def domain_length(self):
@@ -139,8 +141,8 @@ class SoilColumn2D(SoilColumn):
         try:
             object.__setattr__(self, "width", whole("width", self.width))
         except ValueError:
-            raise ValueError(f"{self.name}: width must be a positive number of cells, got "
-                             f"{self.width!r}") from None
+            raise InputError(f"{self.name}: width must be a positive number of cells, got "
+                             f"{self.width!r}", "width") from None
         if self.p0 != 0.0:
             raise ValueError(f"{self.name}: the top load p0 acts in 1D only (soil-column)")
 

@@ -101,8 +101,10 @@ def _problem_scene(reader, data, path) -> SceneFile:
                                f"expected a number, got {describe(value)}")
     try:
         cls().with_params(**params)
-    except (ValueError, TypeError) as err:
-        raise reader.error(("problem", "params"), str(err)) from None
+    except (ValueError, TypeError) as err:  # a parameter's error names it (InputError.key)
+        key = getattr(err, "key", None)
+        raise reader.error(("problem", "params") + ((key,) if key in params else ()),
+                           str(err)) from None
     if "basis" in opts:  # checked by the schema: its class from here on
         opts["basis"] = get_basis(opts["basis"])
     kwargs = dict(opts, params=params)

@@ -36,11 +36,21 @@ class Reader:
         self.path, self.data, self.lines, self.overridden = str(path), data, lines, overridden
 
     def where(self, path) -> str:
+        """``file:line: key.path``; a key the overrides set (``--set``), or one inside a
+        table they set, as ``file: key.path (overridden)``: its line is not the value's.
+        An error about a whole table names the overrides inside it too (a value given on
+        the command line, refused by a check of the whole table)."""
+        path = tuple(path)
         for k in range(len(path), 0, -1):
-            if tuple(path[:k]) in self.overridden:
+            if path[:k] in self.overridden:
                 return f"{self.path}: {dotted(path)} (overridden)"
+        inside = sorted((p for p in self.overridden if len(p) > len(path)
+                         and tuple(p[:len(path)]) == path), key=dotted)
+        note = (f" (with {', '.join(dotted(p) for p in inside)} overridden)"
+                if inside else "")
         line = line_of(self.lines, path)
-        return f"{self.path}:{line}: {dotted(path)}" if line else f"{self.path}: {dotted(path)}"
+        return (f"{self.path}:{line}: {dotted(path)}{note}" if line else
+                f"{self.path}: {dotted(path)}{note}")
 
     def error(self, path, message) -> ValueError:
         return ValueError(f"{self.where(path)}: {message}")
