@@ -242,3 +242,26 @@ def test_a_table_refused_as_a_whole_names_the_overrides_inside_it(tmp_path):
     assert reader.where(("problem", "params")) == \
         f"{scene}: problem.params (with problem.params.k0 overridden)"
     assert reader.where(("problem", "params", "k0")) == f"{scene}: problem.params.k0 (overridden)"
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_a_non_finite_write_is_refused_naming_the_field(bad):
+    """``solver.write('sigma', nan)`` was accepted and the next run stopped blaming the time
+    step; now the write is refused, naming the field, and the state is as it was."""
+    from timpm.simulation.solver import Solver
+
+    w = World(domain=(1.0, 1.0), cells=4, bodies=[Body(Box((0.25, 0.25), (0.75, 0.75)),
+                                                       "rubber")], gravity=(0, -9.81))
+    s = Solver(w)
+    sigma = s.read("sigma")
+    sigma[3, 0, 1] = bad
+    with pytest.raises(ValueError, match=r"write\('sigma'\): 1 of the \d+ values are not "
+                                         r"finite \(NaN or infinity\), the first at index "
+                                         r"\(3, 0, 1\)"):
+        s.write("sigma", sigma)
+    assert np.all(np.isfinite(s.read("sigma")))
+    with pytest.raises(ValueError, match=r"write\('x'\): the values must be numbers"):
+        s.write("x", np.full(s.read("x").shape, "a"))
+    s.run(0.001)  # the run goes on
+    assert np.all(np.isfinite(s.read("x")))
+    s.release()

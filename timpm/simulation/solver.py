@@ -199,12 +199,28 @@ class Solver:
             return self.state.read(prog, name)
 
     def write(self, name: str, values):
-        """Set the live values of state field ``name`` (for tests and inspection)."""
+        """Set the live values of state field ``name`` (for tests and inspection): finite
+        numbers only (a NaN or an infinity written would stop the next step, blamed on
+        the time step)."""
         prog = self.program()
         if not hasattr(prog, name) or name.startswith("_"):
             raise KeyError(f"this solver has no state field {name!r}")
         try:
-            self.state.write(prog, name, np.asarray(values))
+            values = np.asarray(values)
+        except (TypeError, ValueError) as exc:  # a ragged list
+            raise ValueError(f"write({name!r}): the values must be an array of numbers "
+                             f"({exc})") from None
+        if values.dtype.kind not in "biuf":
+            raise ValueError(f"write({name!r}): the values must be numbers, got an array of "
+                             f"dtype {values.dtype}")
+        if values.dtype.kind == "f" and not np.all(np.isfinite(values)):
+            bad = ~np.isfinite(values)
+            first = np.unravel_index(int(np.flatnonzero(bad)[0]), values.shape)
+            raise ValueError(f"write({name!r}): {int(bad.sum())} of the {values.size} values "
+                             f"are not finite (NaN or infinity), the first at index "
+                             f"{tuple(int(i) for i in first)}: write finite numbers")
+        try:
+            self.state.write(prog, name, values)
         except ValueError as exc:  # a wrong shape: NumPy's reshape names both
             raise ValueError(f"write({name!r}): {exc}") from None
 
