@@ -146,7 +146,10 @@ def factor_of_safety(args) -> int:
             raise ValueError(f"{args.scene}: the factor of safety takes a world (a slope), "
                              "not a [problem]")
         _scene_outputs(args, scene)
-        fos.check_reduced(scene.world, args.bracket[0], args.bracket[1])
+        try:
+            fos.check_reduced(scene.world, args.bracket[0], args.bracket[1])
+        except ValueError as err:
+            raise ValueError(f"{args.scene}: {err}") from None
         resume = None
         if args.resume:
             resume = _read_record(args.resume)

@@ -77,7 +77,7 @@ def check_settings(low, high, tolerance, creep):
                else f"both ends must lie in [{lo:g}, {hi:g}]")
         raise ValueError(f"--bracket {_shown(low)} {_shown(high)}: {why} (the factors where "
                          f"the slope stands and fails, the strength multiplied or divided by "
-                         f"at most {hi:g}); e.g. --bracket 0.5 4 (the default)")
+                         f"at most {hi:g}); e.g. --bracket 0.5 4")
     if not (_number(tolerance) and MIN_TOLERANCE <= tolerance < high - low):
         raise ValueError(f"--tolerance {_shown(tolerance)}: the final bracket's width must lie in "
                          f"[{MIN_TOLERANCE:g}, HIGH - LOW) = [{MIN_TOLERANCE:g}, "
@@ -312,11 +312,11 @@ def check_reduced(world, low, high):
     if not isinstance(world, World):
         return
     reduced_bodies(world, low)  # (a world without Mohr-Coulomb soil: named as such)
+    if isinstance(world.initial_stress, GravityLoading):
+        check_gravity_loading(world)  # (gravity, the laws, t_max: the same at every F)
     for end, F in (("low", low), ("high", high)):
         try:
-            w = replace(world, bodies=reduced_bodies(world, F))
-            if isinstance(w.initial_stress, GravityLoading):
-                check_gravity_loading(w)
+            replace(world, bodies=reduced_bodies(world, F))
         except ValueError as err:
             raise ValueError(_unbuilt(world, F, end, err)) from None
 
