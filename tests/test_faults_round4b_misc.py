@@ -3,8 +3,11 @@ leftovers: the K0 weight of overlapping bodies as placed, TI_ARCH against --arch
 small surfaces (demo help, the slope demo's advice, shared edges, --set blamed, non-finite
 writes, element tests at zero strength, huge increment counts).  The commands are the
 issues', small and fast."""
+import json
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -265,3 +268,61 @@ def test_a_non_finite_write_is_refused_naming_the_field(bad):
     s.run(0.001)  # the run goes on
     assert np.all(np.isfinite(s.read("x")))
     s.release()
+
+
+@pytest.mark.parametrize("test", ["biaxial-mc", "triaxial-mc"])
+def test_an_element_test_without_strength_gives_its_result_and_record(test, tmp_path):
+    """``timpm run biaxial-mc --param confinement=0 --param cohesion=0 --json r.json``
+    ended in a TypeError (a relative error of 0 / 0, None, formatted) and lost its
+    record.  The sample has no strength: its deviator stays 0, the closed form's; the line
+    gives the absolute error and the record is written."""
+    out_json = tmp_path / "r.json"
+    code, out = _timpm("run", test, "--param", "confinement=0", "--param", "cohesion=0",
+                       "--param", "increments=20", "--json", out_json)
+    assert code == 0, out
+    assert "Traceback" not in out
+    assert "closed form 0 (error 0 Pa: no strength, c = 0 with p = 0 or phi = 0)" in out
+    run = json.loads(out_json.read_text())["runs"][0]
+    assert run["peak_deviator"] == 0.0 and run["exact_peak_deviator"] == 0.0
+    assert run["peak_relative_error"] is None and run["peak_absolute_error"] == 0.0
+    assert run["increments_done"] == 20
+
+
+def test_a_long_element_test_says_how_long_and_keeps_its_increments_on_sigterm(tmp_path):
+    """``timpm run biaxial-mc --param increments=1e6`` ran for half an hour with no word
+    and kept nothing when stopped.  Now it says how long it will take after its first
+    second, and SIGTERM stops it after the increment it is in: the record holds the
+    increments done, marked interrupted, and the exit status is 143."""
+    out_json = tmp_path / "r.json"
+    p = subprocess.Popen([sys.executable, "-m", "timpm", "run", "biaxial-mc", "--param",
+                          "increments=1e6", "--json", str(out_json)], cwd=tmp_path,
+                         env=CHILD_ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, preexec_fn=default_signals)
+    deadline = time.monotonic() + 60
+    line = ""
+    while time.monotonic() < deadline:  # the estimate comes after the first second
+        line = p.stderr.readline()
+        if "increments take about" in line or not line:
+            break
+    assert "timpm: biaxial-mc: 1000000 increments take about" in line
+    assert "Ctrl-C stops the test and keeps the increments done" in line
+    p.send_signal(signal.SIGTERM)
+    stdout, stderr = p.communicate(timeout=60)
+    assert p.returncode == 128 + signal.SIGTERM, stdout + stderr
+    assert "Traceback" not in stderr
+    assert "interrupted after" in stderr and f"the increments done in {out_json}" in stderr
+    assert "the peak so far, after" in stdout
+    run = json.loads(out_json.read_text())["runs"][0]
+    done = run["increments_done"]
+    assert 0 < done < 1_000_000 and run["interrupted"].startswith("biaxial-mc interrupted "
+                                                                  f"after {done} of 1000000")
+    assert len(run["series"]["deviator"]) == done + 1
+
+
+def test_an_element_test_reports_progress():
+    from timpm.studies.element_test import run_element_test
+
+    calls = []
+    r = run_element_test("biaxial-mc", increments=50, progress=lambda d, n: calls.append((d, n)))
+    assert calls[-1] == (50, 50) and len(calls) == 50
+    assert r["increments_done"] == 50 and "interrupted" not in r

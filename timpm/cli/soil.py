@@ -5,6 +5,7 @@ Each checks its outputs before any work, prints ``timpm: error: ...`` and return
 bad input, and writes its record before its plot."""
 import argparse
 import sys
+import time
 
 from ..platform import interrupt, runtime
 from ..platform.errors import SimulationError
@@ -68,19 +69,23 @@ def element_test(argv) -> int:
     ap.add_argument("--json", metavar="FILE", help="write the record as JSON")
     ap.add_argument("--plot", metavar="FILE.png", help="draw the deviator and the volume")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                    help="progress bar (default: on a terminal, for tests over 2 s)")
     args = ap.parse_args(argv)
     try:
         _check_outputs(args)
         runtime.init(precision="f64")
-        record = elements.run_element_test(args.test, law=args.law, **dict(args.param))
+        progress = _ElementProgress(args)
+        with interrupt.deferred_sigint():  # a signal: the increments done kept
+            try:
+                record = elements.run_element_test(args.test, law=args.law,
+                                                   progress=progress, **dict(args.param))
+            finally:
+                progress.close()
     except (ValueError, RuntimeError) as exc:
         return _error(exc)
     if not args.quiet:
-        print(f"{args.test}: peak deviator {record['peak_deviator']:.6g}, closed form "
-              f"{record['exact_peak_deviator']:.6g} (relative error "
-              f"{record['peak_relative_error']:.2e}) at axial strain "
-              f"{100 * record['axial_strain_at_peak']:.3g}%; volumetric strain at the end "
-              f"{100 * record['final_volumetric_strain']:.3g}%")
+        print(elements.summary(record))
     try:
         if args.json:
             write_json(args.json, {"command": "run", "problem": args.test, "runs": [record]})
@@ -88,7 +93,39 @@ def element_test(argv) -> int:
             elements.plot_element_test(record, args.plot)
     except OSError as exc:
         return _error(exc)
+    if "interrupted" in record:
+        kept = f"; the increments done in {args.json}" if args.json else ""
+        print(f"timpm: {record['interrupted']}{kept}", file=sys.stderr)
+        return interrupt.exit_code()
     return 0
+
+
+class _ElementProgress:
+    """An element test's progress: after its first second, the time the whole test will
+    take where that is over 10 s (a line on stderr, unless --quiet), then the bar."""
+
+    def __init__(self, args):
+        self.args, self.bar, self.said = args, None, False
+        self.start = time.perf_counter()
+
+    def __call__(self, done, n):
+        from ..platform.progress import Progress
+
+        if self.bar is None:
+            self.bar = Progress(n, False if self.args.quiet else self.args.progress)
+        elapsed = time.perf_counter() - self.start
+        if not self.said and elapsed > 1.0 and done < n:
+            self.said = True
+            total = elapsed / done * n
+            if total > 10.0 and not self.args.quiet:
+                print(f"timpm: {self.args.test}: {n} increments take about {total:.0f} s "
+                      f"({1e3 * elapsed / done:.2g} ms each); Ctrl-C stops the test and keeps "
+                      "the increments done", file=sys.stderr, flush=True)
+        self.bar.update(done)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _read_record(path):

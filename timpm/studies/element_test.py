@@ -21,7 +21,7 @@ import time
 import numpy as np
 import taichi as ti
 
-__all__ = ["ELEMENT_TESTS", "ElementTest", "run_element_test", "plot_element_test"]
+__all__ = ["ELEMENT_TESTS", "ElementTest", "run_element_test", "plot_element_test", "summary"]
 
 #: test name -> dimension
 ELEMENT_TESTS = {"biaxial-mc": 2, "triaxial-mc": 3}
@@ -189,10 +189,16 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
     """Run an element test (``ELEMENT_TESTS``) of a sample of ``law`` (``LAWS``), ``params``
     overriding ``DEFAULTS`` (and setting the law's own parameters, ``Material.PARAMS``);
     returns the record (numbers, the stress path and the series of the scalar state the
-    law keeps: ``plastic``, a hardening variable)."""
+    law keeps: ``plastic``, a hardening variable).  ``progress(done, n)`` is called as the
+    increments go (about a thousand times).  Under ``deferred_sigint`` a Ctrl-C, SIGTERM
+    or SIGHUP stops the test after the increment it is in: the record then holds the
+    increments done (``increments_done``) and says so (``interrupted``).  A sample with
+    no strength (c = 0 and p = 0, or phi = 0) has a closed-form peak of 0 and no
+    relative error (None): ``peak_absolute_error`` is its error."""
     import inspect
 
     from ..materials import MATERIALS
+    from ..platform import interrupt
 
     if law not in LAWS:
         raise ValueError(f"unknown law {law!r}: an element test takes {', '.join(LAWS)}")
@@ -241,7 +247,12 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
     state_series = {name: [first[name]] for name in kept}
     plastic_axial, plastic_volume = [0.0], [0.0]
     tol = 1e-10 * max(confinement, material.cohesion, 1.0)
+    done, every = n, max(1, n // 1000)
     for k in range(n):
+        if interrupt.requested():  # a signal under deferred_sigint: keep what was done
+            done = k
+            break
+
         def residual(x):  # sigma_xx + p after the increment with lateral stretch x
             return point.trial(_increment(dim, stretch, lateral, x)) + confinement
 
@@ -266,16 +277,18 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
         plastic.append(state.get("plastic", 0.0))
         for name in kept:
             state_series[name].append(state[name])
-        if progress is not None and (k + 1) % max(1, n // 10) == 0:
+        if progress is not None and ((k + 1) % every == 0 or k + 1 == n):
             progress(k + 1, n)
     q_arr = np.array(q)
     peak = float(q_arr.max())
     exact = material.peak_deviator(confinement, dim)
-    return {
+    out = {
         "problem": test, "dim": dim, "material": law,
         "params": {k: (float(v) if k != "increments" else n) for k, v in p.items()},
+        "increments_done": done,
         "peak_deviator": peak, "exact_peak_deviator": exact,
         "peak_relative_error": abs(peak - exact) / exact if exact > 0 else None,
+        "peak_absolute_error": abs(peak - exact),
         "axial_strain_at_peak": float(eps_a[int(q_arr.argmax())]),
         "final_volumetric_strain": vol[-1], "final_plastic_strain": plastic[-1],
         "wall_seconds": time.perf_counter() - t0,
@@ -285,6 +298,26 @@ def run_element_test(test="biaxial-mc", progress=None, law="mohr-coulomb", **par
                    "plastic_volumetric_strain": plastic_volume,
                    "state": state_series},
     }
+    if done < n:
+        out["interrupted"] = (f"{test} interrupted after {done} of {n} increments (axial "
+                              f"strain {eps_a[-1]:.4g} of {axial:g})")
+    return out
+
+
+def summary(record) -> str:
+    """The record's line on the command line: the peak against the closed form (the
+    absolute error where the closed form is 0: a sample without strength)."""
+    peak, exact = record["peak_deviator"], record["exact_peak_deviator"]
+    err = record["peak_relative_error"]
+    how = (f"relative error {err:.2e}" if err is not None else
+           f"error {record['peak_absolute_error']:.3g} Pa: no strength, c = 0 with p = 0 or "
+           "phi = 0")
+    n = record["params"]["increments"]
+    if record["increments_done"] < n:  # interrupted: the peak so far
+        how = f"the peak so far, after {record['increments_done']} of {n} increments"
+    return (f"{record['problem']}: peak deviator {peak:.6g}, closed form {exact:.6g} ({how}) "
+            f"at axial strain {100 * record['axial_strain_at_peak']:.3g}%; volumetric strain "
+            f"at the end {100 * record['final_volumetric_strain']:.3g}%")
 
 
 def _root(fn, x0, slope, tol, where):
