@@ -326,3 +326,57 @@ def test_an_element_test_reports_progress():
     r = run_element_test("biaxial-mc", increments=50, progress=lambda d, n: calls.append((d, n)))
     assert calls[-1] == (50, 50) and len(calls) == 50
     assert r["increments_done"] == 50 and "interrupted" not in r
+
+
+# ---- issue 45 item 9 (c): output.frames without any output written frame by frame ---------
+_FRAMES_WORLD = """[simulation]
+t_end = 0.01
+
+[domain]
+size = [1.0, 1.0]
+cells = 4
+
+[[body]]
+shape = "box"
+lo = [0.25, 0.25]
+hi = [0.75, 0.75]
+material = "rubber"
+
+[output]
+frames = 5
+"""
+
+
+def test_a_scene_files_frames_without_frame_outputs_is_refused(tmp_path):
+    """``[output] frames = 5`` with no vtk, npz, gif or landslide ran and did nothing with
+    it, exit 0, while the command line refuses ``--frames`` without ``--vtk``/``--npz``;
+    now refused the same way before any work, naming the key and its line."""
+    path = tmp_path / "f.toml"
+    path.write_text(_FRAMES_WORLD)
+    code, out = _timpm("run", path, cwd=tmp_path)
+    assert code == 2, out
+    assert (f"{path}:15: output.frames: frames spaces the outputs written frame by frame, "
+            "and the scene asks for none: give output.vtk, output.npz, output.gif or "
+            "output.landslide too (or leave frames out)") in out
+    assert "Starting on arch" not in out  # refused before Taichi starts
+    # with an output that is written by frames it runs; a problem scene names its own
+    code, out = _timpm("run", path, "--npz", tmp_path / "fr", cwd=tmp_path)
+    assert code == 0, out
+    assert len(list((tmp_path / "fr").glob("particles_*.npz"))) == 6
+    problem = tmp_path / "p.toml"
+    problem.write_text('[problem]\nname = "vibrating-string"\n\n[output]\nframes = 3\n')
+    code, out = _timpm("run", problem, cwd=tmp_path)
+    assert code == 2 and "give output.vtk or output.npz too" in out, out
+
+
+def test_frames_from_the_command_line_or_python_are_refused_alike(tmp_path):
+    from timpm.scenefile import load_scene
+
+    path = tmp_path / "f.toml"
+    path.write_text(_FRAMES_WORLD.replace("frames = 5\n", ""))
+    load_scene(path)  # no frames: fine
+    with pytest.raises(ValueError, match=r"output\.frames \(overridden\): frames spaces"):
+        load_scene(path, {"output.frames": 3})
+    code, out = _timpm("run", path, "--frames", "3", cwd=tmp_path)
+    assert code == 2 and "output.frames (overridden): frames spaces" in out, out
+    load_scene(path, {"output.frames": 3, "output.gif": str(tmp_path / "a.gif")})

@@ -67,11 +67,26 @@ def _top_level(reader, data, tables, form):
                                f"scene has {', '.join(f'[{t}]' for t in tables)}{hint}")
 
 
+def _check_frames(reader, given, keys):
+    """``output.frames`` spaces the outputs written frame by frame (the field files, the
+    GIF, the landslide's measures): given without any of them it would do nothing, so it is
+    refused, as the command line refuses ``--frames`` without ``--vtk`` or ``--npz``."""
+    outputs = [k for k in ("vtk", "npz", "gif", "landslide") if k in keys]
+    if "frames" in given and not any(given.get(k) is not None for k in outputs):
+        names = [f"output.{k}" for k in outputs]
+        listed = ", ".join(names[:-1]) + " or " + names[-1]
+        raise reader.error(("output", "frames"), "frames spaces the outputs written frame by "
+                           f"frame, and the scene asks for none: give {listed} too (or "
+                           "leave frames out)")
+
+
 def _output(reader, data, keys):
     schema = {k: OUTPUT[k] for k in keys}
     out = reader.table(("output",), data.get("output", {}), schema, skip=("landslide",))
     if out.get("vtk") is not None and out.get("npz") is not None:
         raise reader.error(("output", "npz"), "give vtk or npz, not both: one field format")
+    _check_frames(reader, {**out, "landslide": data.get("output", {}).get("landslide")},
+                  keys)
     out = {**{k: OUTPUT[k].default for k in keys}, **out}
     spec = data.get("output", {}).get("landslide")
     if spec is not None:  # (a world's: a problem's schema has no such key)
