@@ -380,3 +380,47 @@ def test_frames_from_the_command_line_or_python_are_refused_alike(tmp_path):
     code, out = _timpm("run", path, "--frames", "3", cwd=tmp_path)
     assert code == 2 and "output.frames (overridden): frames spaces" in out, out
     load_scene(path, {"output.frames": 3, "output.gif": str(tmp_path / "a.gif")})
+
+
+# ---- issue 45 item 9 (b): a full disk during periodic checkpoints -------------------------
+def test_a_full_disk_at_a_periodic_checkpoint_stops_cleanly_keeping_the_last_one(
+        tmp_path, monkeypatch, capsys):
+    """ENOSPC injected into the checkpoint writer at its third save (after part of the
+    file is written): the run stops at that step (exit 2), the message says the disk is
+    full, where it stopped and which checkpoint the file still holds; that checkpoint is
+    whole and resumable, no temporary file stays, and --json holds the record to the step
+    it stopped at, marked checkpoint_failed."""
+    import errno
+    import os
+
+    from timpm.cli.main import main
+    from timpm.simulation.checkpoint import load_checkpoint
+
+    real, calls = np.savez, []
+
+    def savez(fh, **arrays):
+        calls.append(1)
+        if len(calls) >= 3:
+            fh.write(b"PK\x03\x04 half a file")
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real(fh, **arrays)
+
+    monkeypatch.setattr(np, "savez", savez)
+    monkeypatch.chdir(tmp_path)
+    code = main(["run", "vibrating-string", "--elements", "8", "--checkpoint", "c.npz",
+                 "--checkpoint-every", "100", "--json", "r.json"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert ("could not write c.npz: No space left on device (the disk is full): the periodic "
+            "checkpoint of step 300 (t = 0.03 s) failed and the run stopped there; c.npz "
+            "still holds the checkpoint of step 200, whole (timpm resume c.npz --t-end T, "
+            "once there is room); the record is in r.json") in err
+    assert "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.npz", "r.json"]  # no temp file
+    assert load_checkpoint(tmp_path / "c.npz")["step"] == 200
+    run = json.loads((tmp_path / "r.json").read_text())["runs"][0]
+    assert run["checkpoint_failed"]["step"] == 300 and run["checkpoint_failed"]["kept_step"] == 200
+    assert run["steps"] == 300
+    monkeypatch.setattr(np, "savez", real)
+    assert main(["resume", "c.npz", "--t-end", "0.05", "--json", "r2.json"]) == 0
+    assert json.loads((tmp_path / "r2.json").read_text())["runs"][0]["steps"] == 500

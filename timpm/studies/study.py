@@ -1,7 +1,9 @@
 """Drivers: run a benchmark problem, compare with its exact solution, study convergence."""
 from collections import OrderedDict
 from dataclasses import dataclass, field
+import errno
 import inspect
+import os
 import time
 
 import numpy as np
@@ -120,6 +122,7 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
         if checkpoint_every is not None:
             saves = set(range(solver.step + checkpoint_every, steps, checkpoint_every))
             stops.update(saves)
+        saved = None  # the step of the last checkpoint this run wrote
         try:
             for stop in sorted(s for s in stops if s > solver.step):
                 solver.run(n_steps=stop - solver.step, progress=progress,
@@ -127,7 +130,12 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
                 if fields is not None:
                     fields.write(solver)
                 if checkpoint is not None and stop in saves:
-                    save_checkpoint(checkpoint, solver, description)
+                    try:
+                        save_checkpoint(checkpoint, solver, description)
+                    except OSError as err:  # a full disk: stop here, the last one kept
+                        raise _checkpoint_failed(err, checkpoint, solver, saved,
+                                                 run.result(solver, build_seconds)) from None
+                    saved = solver.step
         except SimulationError as err:  # a physics failure: the record of the run to there
             try:
                 err.result = run.result(solver, build_seconds)
@@ -152,6 +160,29 @@ def run_problem(problem="vibrating-string", *, elements=None, ppc=None, basis="l
         return run.result(solver, build_seconds)
     finally:
         solver.release()
+
+
+def _checkpoint_failed(err, path, solver, saved, result):
+    """A periodic checkpoint that could not be written (a full disk: ENOSPC): the run stops
+    at that step rather than go on without a state to restart from (the next saves, and
+    the outputs at the end, would meet the same disk).  The file keeps the last checkpoint
+    written whole (``saved``: its step; the writer replaces the file only once the new one
+    is complete), and the error carries the record of the run to the step it stopped at
+    (``result``, marked ``checkpoint_failed``) for the caller to write."""
+    from ..platform.files import OutputError
+
+    kept = (f"{path} still holds the checkpoint of step {saved}, whole (timpm resume "
+            f"{path} --t-end T, once there is room)" if saved is not None else
+            f"this run wrote no checkpoint before it: {path} is as it was")
+    reason = f"{err.strerror or err}" + (" (the disk is full)"
+                                         if err.errno == errno.ENOSPC else "")
+    message = (f"{reason}: the periodic checkpoint of step {solver.step} (t = {solver.t:g} s) "
+               f"failed and the run stopped there; {kept}")
+    result.record["checkpoint_failed"] = {"error": message, "step": int(solver.step),
+                                          "kept_step": saved}
+    out = OutputError(err.errno, message, os.fspath(path))
+    out.result = result
+    return out
 
 
 def resume_problem(path, t_end, saved=None, **options) -> RunResult:
