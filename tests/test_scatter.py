@@ -175,7 +175,7 @@ def test_team_stops_at_a_nan_naming_step_and_particle():
         x = s.positions()
         v = s.velocities()
         v[k, 0] = np.nan
-        s.write("v", v)
+        s.state.write(s.program(), "v", v)  # past write()'s check, which refuses a NaN
         with pytest.raises(SimulationError, match=r"step 4 \(t = .*\): particle \d+ has a "
                                                   r"non-finite") as err:
             s.run(n_steps=10)
