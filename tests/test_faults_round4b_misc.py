@@ -424,3 +424,45 @@ def test_a_full_disk_at_a_periodic_checkpoint_stops_cleanly_keeping_the_last_one
     monkeypatch.setattr(np, "savez", real)
     assert main(["resume", "c.npz", "--t-end", "0.05", "--json", "r2.json"]) == 0
     assert json.loads((tmp_path / "r2.json").read_text())["runs"][0]["steps"] == 500
+
+
+# ---- issue 45 item 9 (a): a huge value that overflows later, blamed on its own key --------
+def _scene_file(tmp_path):
+    from test_scenefile import SCENE
+
+    path = tmp_path / "scene.toml"
+    path.write_text(SCENE)
+    return path
+
+
+@pytest.mark.parametrize("setting, blamed", [
+    # E near the float's limit: lambda + 2 mu overflowed, the CFL limit gave dt = 0, and the
+    # error blamed simulation.dt, a key the file does not give
+    ("material.jelly.E=1.7e308", "material.jelly.E (overridden): neo-hookean: E = 1.7e+308 "
+                                 "with density = 1000 gives a wave speed of inf m/s"),
+    ("body[0].velocity=[1e300, 0.0]", "body[0] (with body[0].velocity overridden): body 0: "
+                                      "its initial speed overflows a float"),
+    ("loads.gravity=[0.0, -1e300]", "loads.gravity (overridden): gravity (0.0, -1e+300) "
+                                    "overflows a float in the free fall"),
+])
+def test_a_huge_value_is_blamed_on_its_own_key(setting, blamed, tmp_path):
+    code, out = _timpm("run", _scene_file(tmp_path), "--set", setting, cwd=tmp_path)
+    assert code == 2, out
+    assert blamed in out, out
+    assert "simulation.dt" not in out and "Traceback" not in out
+
+
+def test_python_refuses_the_same_overflowing_values():
+    from timpm import NeoHookean, WeaklyCompressibleFluid
+
+    with pytest.raises(ValueError, match="E = 1.7e\\+308 with density = 1000") as err:
+        NeoHookean(E=1.7e308, nu=0.3, density=1000.0)
+    assert err.value.key == "E"
+    with pytest.raises(ValueError, match="bulk_modulus = 1e\\+308 with density = 1e-10"):
+        WeaklyCompressibleFluid(bulk_modulus=1e308, density=1e-10)
+    with pytest.raises(ValueError, match="a wave speed of 0 m/s"):  # underflows to 0
+        NeoHookean(E=1e-300, nu=0.3, density=1e300)
+    with pytest.raises(ValueError, match="body 0: its initial speed overflows") as err:
+        World(domain=(1.0, 1.0), cells=4, bodies=[Body(Box((0.25, 0.25), (0.75, 0.75)),
+                                                       "rubber", velocity=(1e300, 1e300))])
+    assert err.value.key == "bodies[0]"

@@ -41,6 +41,7 @@ import math
 import taichi as ti
 
 from ..platform.declare import Field, Param
+from ..platform.errors import InputError
 
 __all__ = ["Material", "SolidMaterial", "MAX_INITIAL_LOG_STRAIN"]
 
@@ -81,6 +82,22 @@ class Material:
 
     def __init__(self, density):
         self.density = self.checked("density", density)
+
+    def speed_of(self, modulus: str, value: float) -> float:
+        """The wave speed sqrt(``value`` / density), ``value`` the modulus it comes from
+        (parameter ``modulus``, or a combination of it): one a float cannot hold (a
+        modulus near 1e308, a ratio that overflows or underflows to 0) is refused naming
+        ``modulus``, as the CFL limit would turn it into a time step of 0 or NaN blamed on
+        dt."""
+        with_ratio = value / self.density if math.isfinite(value) else math.inf
+        c = math.sqrt(with_ratio) if math.isfinite(with_ratio) else math.inf
+        if not (math.isfinite(c) and c > 0.0):
+            raise InputError(f"{self.name}: {modulus} = {getattr(self, modulus):g} with "
+                             f"density = {self.density:g} gives a wave speed of {c:g} m/s, "
+                             f"which the time step cannot follow (a float overflows or "
+                             f"underflows): give {modulus} and density of physical size (SI "
+                             f"units)", modulus)
+        return c
 
     @classmethod
     def checked(cls, name: str, value):
@@ -185,7 +202,7 @@ class SolidMaterial(Material):
         self.mu = self.E / (2.0 * (1.0 + nu))
         self.lam = self.E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
         # P-wave speed sqrt((lambda + 2 mu) / rho)
-        self.wave_speed = math.sqrt((self.lam + 2.0 * self.mu) / self.density)
+        self.wave_speed = self.speed_of("E", self.lam + 2.0 * self.mu)
 
     def parameters(self) -> dict:
         return {"E": self.E, "nu": self.nu, "density": self.density}

@@ -1,5 +1,4 @@
 """Weakly compressible (Tait) fluid."""
-import math
 
 import taichi as ti
 
@@ -32,7 +31,7 @@ class WeaklyCompressibleFluid(Material):
         self.gamma = self.checked("gamma", gamma)
         self.viscosity = self.checked("viscosity", viscosity)
         self.tension = self.checked("tension", tension)
-        self.wave_speed = math.sqrt(self.bulk_modulus / self.density)
+        self.wave_speed = self.speed_of("bulk_modulus", self.bulk_modulus)
 
     def parameters(self) -> dict:
         return {"bulk_modulus": self.bulk_modulus, "density": self.density,

@@ -1,5 +1,4 @@
 """The study's 1D law."""
-import math
 
 import taichi as ti
 
@@ -41,7 +40,7 @@ class Hypoelastic1D(Material):
         self.E, self.study = self.checked("E", E), self.checked("study", study)
         self.exact = self.checked("exact", exact)
         self.stress_from_F = self.exact  # exactly integrated: sigma(F), F = V / V0
-        self.wave_speed = math.sqrt(self.E / self.density)
+        self.wave_speed = self.speed_of("E", self.E)
 
     @classmethod
     def particle_fields(cls, dim):

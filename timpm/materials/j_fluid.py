@@ -1,5 +1,4 @@
 """The fluid of Taichi's mpm88."""
-import math
 
 import taichi as ti
 
@@ -27,7 +26,7 @@ class JFluid(Material):
     def __init__(self, bulk_modulus, density):
         super().__init__(density)
         self.bulk_modulus = self.checked("bulk_modulus", bulk_modulus)
-        self.wave_speed = math.sqrt(self.bulk_modulus / self.density)
+        self.wave_speed = self.speed_of("bulk_modulus", self.bulk_modulus)
 
     @classmethod
     def particle_fields(cls, dim):

@@ -552,10 +552,12 @@ class World:
 
     def _check_dt(self, h, g, domain):
         c = max(self._wave_speed(b) for b in self.bodies)
-        v0 = float(np.max(np.linalg.norm(self.velocity, axis=1)))
-        g_norm = float(np.linalg.norm(g))
-        height = float(np.abs(g) @ domain) / g_norm if g_norm > 0 else 0.0  # along gravity
-        v_fall = math.sqrt(2.0 * g_norm * height)
+        with np.errstate(over="ignore", invalid="ignore"):
+            v0 = float(np.max(np.linalg.norm(self.velocity, axis=1)))
+            g_norm = float(np.linalg.norm(g))
+            height = float(np.abs(g) @ domain) / g_norm if g_norm > 0 else 0.0  # along g
+            v_fall = math.sqrt(2.0 * g_norm * height) if math.isfinite(g_norm) else math.inf
+        self._check_speeds(g_norm, v0, v_fall)
         limit = h / (c + v0 + v_fall)
         object.__setattr__(self, "_cfl", dict(c=c, v=v0 + v_fall, limit=limit))
         if self.courant is None:
@@ -576,6 +578,32 @@ class World:
                 f"(h = {h:g} m, wave speed c = {c:g} m/s of the stiffest material, |v| <= "
                 f"{v0 + v_fall:g} m/s: initial speed plus free fall over the domain height); "
                 "choose a smaller dt, leave dt=None, or pass allow_unstable_dt=True", "dt")
+
+    def _check_speeds(self, g_norm, v0, v_fall):
+        """The speeds the CFL limit adds up, each finite: a value so large that a speed
+        overflows (a modulus near the float's limit, a velocity or a gravity of 1e300) is
+        refused naming its own key, not the time step it would make 0 or NaN."""
+        for k, body in enumerate(self.bodies):
+            label = f"body {k}" + (f" ({body.name!r})" if body.name else "")
+            c = self._wave_speed(body)
+            if not (math.isfinite(c) and c > 0.0):
+                raise InputError(
+                    f"{label}: the {body.material.name} material's wave speed is {c:g} m/s "
+                    f"(its moduli over its density overflow a float): give moduli and a "
+                    f"density of physical size (SI units)", f"bodies[{k}]")
+        for k, body in enumerate(self.bodies if not math.isfinite(v0) else ()):
+            with np.errstate(over="ignore", invalid="ignore"):
+                v = np.asarray(body.velocity if body.velocity is not None else 0.0, float)
+                speed = float(np.linalg.norm(v))
+            if not math.isfinite(speed):
+                raise InputError(f"body {k}: its initial speed overflows a float (velocity "
+                                 f"{tuple(float(c) for c in np.ravel(v))}): give a velocity "
+                                 "of physical size (m/s)", f"bodies[{k}]")
+        if not (math.isfinite(g_norm) and math.isfinite(v_fall)):
+            raise InputError(f"gravity {tuple(float(v) for v in np.ravel(self.gravity))} "
+                             "overflows a float in the free fall over the domain (the CFL "
+                             "limit's sqrt(2 |g| H)): give a gravity of physical size (m/s^2)",
+                             "gravity")
 
     def _wave_speed(self, body):
         """The fastest wave in a body: its law's, or with pore water that moves with the
