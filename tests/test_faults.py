@@ -120,7 +120,7 @@ def test_a_resume_may_not_overwrite_its_checkpoint_with_the_record(tmp_path, cap
 ])
 def test_huge_step_counts_are_refused_before_taichi(key, value, message, capsys, kernel_calls):
     assert _cli("run", ROOT / "examples" / "disks.toml", "--set", f"{key}={value!r}",
-                "--set", "domain.cells=16", "--set", "output.gif=") == 2, key
+                "--set", "domain.cells=16", "--set", "output.gif=", "--set", "output.frames=") == 2, key
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err and "set_arg_int" not in err
     assert "--allow-many-steps" in err
@@ -130,13 +130,13 @@ def test_huge_step_counts_are_refused_before_taichi(key, value, message, capsys,
 def test_the_scene_file_command_takes_allow_many_steps(capsys):
     # accepted as an option (the run itself is then refused as zero-length, not parsed away)
     assert _cli("run", ROOT / "examples" / "disks.toml", "--allow-many-steps", "--t-end",
-                1e-12, "--set", "output.gif=") == 2
+                1e-12, "--set", "output.gif=", "--set", "output.frames=") == 2
     assert "the run would take no step" in capsys.readouterr().err
 
 
 def test_a_zero_step_world_run_is_refused(capsys):
     assert _cli("run", ROOT / "examples" / "disks.toml", "--t-end", 1e-12,
-                "--set", "output.gif=") == 2
+                "--set", "output.gif=", "--set", "output.frames=") == 2
     err = capsys.readouterr().err
     assert "shorter than half a step" in err and "t_end = 1e-12 s" in err
 
@@ -569,7 +569,7 @@ def test_a_scene_files_checkpoint_that_fails_keeps_its_record(tmp_path, capsys, 
     monkeypatch.setattr("timpm.scenefile.runner.save_checkpoint", full)
     record, saved = tmp_path / "r.json", tmp_path / "c.npz"
     assert _cli("run", ROOT / "examples" / "disks.toml", "--set", "domain.cells=16",
-                "--t-end", 0.02, "--set", "output.gif=", "--json", record,
+                "--t-end", 0.02, "--set", "output.gif=", "--set", "output.frames=", "--json", record,
                 "--checkpoint", saved) == 2
     err = capsys.readouterr().err
     assert f"could not write {saved}: No space left on device; the record is in {record}" in err
