@@ -42,6 +42,7 @@ import taichi as ti
 
 from ..platform.declare import Field, Param
 from ..platform.errors import InputError
+from .svd import svd
 
 __all__ = ["Material", "SolidMaterial", "MAX_INITIAL_LOG_STRAIN"]
 
@@ -280,7 +281,7 @@ class SolidMaterial(Material):
     def _principal_log_strains(self, s: ti.template(), F, n: ti.template()):
         """F = U diag(S) V^T: U, V and the logarithms of S as the first ``s.dim`` of ``n``
         entries (n > dim: room for a plane-strain law's out-of-plane strain)."""
-        U, S, V = ti.svd(F)
+        U, S, V = svd(F)  # (not ti.svd: it drops shears under 1e-5, materials/svd.py)
         eps = ti.Vector.zero(float, n)
         for k in ti.static(range(s.dim)):
             eps[k] = ti.log(ti.max(ti.abs(S[k, k]), 1e-12))
