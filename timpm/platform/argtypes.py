@@ -43,6 +43,25 @@ def setting(text):
     return name, value
 
 
+def scene_setting(text):
+    """KEY=VALUE of a scene file's --set: the value read as TOML (a number, true, [1, 2],
+    "text"), else as a bare string; empty removes the key."""
+    try:  # Python 3.11+; before, the tomli backport (scenefile/toml.py)
+        import tomllib
+    except ModuleNotFoundError:  # pragma: no cover
+        import tomli as tomllib
+
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    if not value:
+        return key, None
+    try:
+        return key, tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError:
+        return key, value
+
+
 def positive_int(text):
     try:
         value = int(text)

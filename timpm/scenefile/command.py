@@ -12,7 +12,6 @@ from .build import load_scene
 from .reader import read_toml
 from .runner import run_scene
 from .schema import MODES
-from .toml import tomllib
 
 
 def is_scene_argument(argv) -> bool:
@@ -24,22 +23,9 @@ def is_scene_argument(argv) -> bool:
     return argv[0].endswith(".toml") or (argv[0] not in PROBLEMS and os.path.isfile(argv[0]))
 
 
-def _setting(text):
-    """KEY=VALUE: the value read as TOML (a number, true, [1, 2], "text"), else as a bare
-    string; empty removes the key."""
-    key, sep, value = text.partition("=")
-    if not sep or not key:
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
-    if not value:
-        return key, None
-    try:
-        return key, tomllib.loads(f"v = {value}")["v"]
-    except tomllib.TOMLDecodeError:
-        return key, value
-
-
 def _parser():
-    from ..platform.argtypes import add_runtime_arguments, positive_float, positive_int
+    from ..platform.argtypes import (add_runtime_arguments, positive_float, positive_int,
+                                     scene_setting)
 
     p = argparse.ArgumentParser(prog="timpm run", description="Run a scene file (TOML): a "
                                 "world of bodies or a benchmark problem; see "
@@ -60,7 +46,7 @@ def _parser():
                    "the end and on Ctrl-C; continue with: timpm resume FILE --t-end T")
     p.add_argument("--allow-many-steps", action="store_true",
                    help="run more than 1e8 steps (refused by default)")
-    p.add_argument("--set", type=_setting, action="append", default=[], metavar="KEY=VALUE",
+    p.add_argument("--set", type=scene_setting, action="append", default=[], metavar="KEY=VALUE",
                    dest="settings", help="set any key, e.g. domain.cells=64, body[0].ppc=3, "
                    "simulation.transfer=musl; KEY= removes it")
     add_runtime_arguments(p)

@@ -420,9 +420,9 @@ def add_parser(subparsers):
                    "(interrupted: the trials so far); default: the scene's output.json, if "
                    "it has one (its gif, vtk, npz and landslide are refused: one run's "
                    "outputs)")
-    from ..scenefile.command import _setting
+    from ..platform.argtypes import scene_setting
 
-    p.add_argument("--set", type=_setting, action="append", default=[], metavar="KEY=VALUE",
+    p.add_argument("--set", type=scene_setting, action="append", default=[], metavar="KEY=VALUE",
                    dest="settings", help="set a key of the scene file, as timpm run's --set "
                    "(domain.cells=60; KEY= removes it, e.g. output.gif=)")
     p.add_argument("--resume", metavar="FILE.json", help="go on from an interrupted "
