@@ -11,8 +11,8 @@ at every step, and in 3D its fixed iterations reconstruct F to a relative 1e-5 a
 - 2D in closed form: the rotation of the polar decomposition from atan2, the symmetric
   stretch's principal axes from atan2 (no threshold), its principal values exactly;
 - 3D by cyclic Jacobi rotations on C = F^T F (each angle from atan2, so a tiny off-diagonal
-  entry is rotated away, not dropped), a fixed number of sweeps, S = sqrt(eig C),
-  U = F V / S.
+  entry is rotated away, not dropped), a fixed number of sweeps, U's columns F v_k made
+  orthonormal (Gram-Schmidt, the third a cross product) and S_k = u_k . F v_k.
 """
 import taichi as ti
 

@@ -65,8 +65,8 @@ stiffened by K_w / n, grows a particle-scale checkerboard in a large deformation
 mean is the part the nodes see.  With the linear basis in 1D the strain is constant over
 a cell and the two agree; the cubic B-splines are refused (their Terzaghi consolidation
 drifted from the series under the cell mean, docs/results.md).  Measured sound on the
-submarine slope with K_w = 0.1 GPa; with water's own 2.2 GPa a 10 m undrained slope grew a
-motion along its base under it (docs/results.md, open).
+submarine slope with K_w = 0.1 GPa, and with water's own 2.2 GPa on Griffiths & Lane's
+undrained slope (linear basis: at rest to 3 um; docs/results.md).
 """
 import math
 from dataclasses import dataclass
