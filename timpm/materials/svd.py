@@ -8,8 +8,9 @@ at every step, and in 3D its fixed iterations reconstruct F to a relative 1e-5 a
 1e-5.  A soil then creeps at a rate that grows with the number of steps (docs/results.md,
 "A time step that changed the factor of safety").  Here:
 
-- 2D in closed form: the rotation of the polar decomposition from atan2, the symmetric
-  stretch's principal axes from atan2 (no threshold), its principal values exactly;
+- 2D in closed form: the rotation of the polar decomposition and the symmetric stretch's
+  principal axes without a threshold or trigonometry (square roots and divisions), its
+  principal values exactly;
 - 3D by cyclic Jacobi rotations on C = F^T F (each angle from atan2, so a tiny off-diagonal
   entry is rotated away, not dropped), a fixed number of sweeps, U's columns F v_k made
   orthonormal (Gram-Schmidt, the third a cross product) and S_k = u_k . F v_k.
@@ -36,17 +37,29 @@ def svd(F):
 
 @ti.func
 def _svd2(F):
-    # the polar rotation R (angle atan2(F10 - F01, F00 + F11)), P = R^T F symmetric; P's
-    # principal axes at phi = atan2(2 p01, p00 - p11) / 2 and its principal values
-    theta = ti.atan2(F[1, 0] - F[0, 1], F[0, 0] + F[1, 1])
-    c, s = ti.cos(theta), ti.sin(theta)
+    # the polar rotation R: (cos, sin) the normalised (F00 + F11, F10 - F01); P = R^T F
+    # symmetric; its principal axes at half the angle of (p00 - p11, 2 p01), the half angle
+    # by a square root and a division (no trigonometry, no cancellation); its principal
+    # values mean +- radius
+    r = ti.sqrt((F[0, 0] + F[1, 1]) ** 2 + (F[1, 0] - F[0, 1]) ** 2)
+    c, s = 1.0, 0.0
+    if r > 0.0:
+        c, s = (F[0, 0] + F[1, 1]) / r, (F[1, 0] - F[0, 1]) / r
     R = ti.Matrix([[c, -s], [s, c]])
     P = R.transpose() @ F
     a, b, d = P[0, 0], 0.5 * (P[0, 1] + P[1, 0]), P[1, 1]
-    phi = 0.5 * ti.atan2(2.0 * b, a - d)
-    cp, sp = ti.cos(phi), ti.sin(phi)
+    half, radius = 0.5 * (a - d), ti.sqrt(0.25 * (a - d) ** 2 + b * b)
+    cp, sp = 1.0, 0.0
+    if radius > 0.0:
+        c2, s2 = half / radius, b / radius  # cos and sin of twice the axes' angle
+        if c2 >= 0.0:
+            cp = ti.sqrt(0.5 * (1.0 + c2))
+            sp = s2 / (2.0 * cp)
+        else:
+            sp = ti.sqrt(0.5 * (1.0 - c2))
+            cp = s2 / (2.0 * sp)
     V = ti.Matrix([[cp, -sp], [sp, cp]])
-    mean, radius = 0.5 * (a + d), ti.sqrt(0.25 * (a - d) ** 2 + b * b)
+    mean = 0.5 * (a + d)
     S = ti.Matrix([[mean + radius, 0.0], [0.0, mean - radius]])
     return R @ V, S, V
 
