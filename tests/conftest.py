@@ -160,3 +160,19 @@ def study_table_3_2():
     from timpm.studies.study import convergence
 
     return convergence("vibrating-string", elements=(4, 8, 16, 32, 64))
+
+
+@pytest.fixture
+def kernel_calls(monkeypatch):
+    """The names of the Taichi kernels called during the test (a refusal comes before any:
+    nothing compiled, nothing run)."""
+    from taichi.lang import kernel_impl
+
+    calls, real = [], kernel_impl.Kernel.__call__
+
+    def call(self, *args, **kwargs):
+        calls.append(self.func.__qualname__)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(kernel_impl.Kernel, "__call__", call)
+    return calls

@@ -27,22 +27,6 @@ def _cli(*args):
     return main([str(a) for a in args])
 
 
-@pytest.fixture
-def kernel_calls(monkeypatch):
-    """The names of the Taichi kernels called during the test (a refusal comes before any:
-    nothing compiled, nothing run)."""
-    from taichi.lang import kernel_impl
-
-    calls, real = [], kernel_impl.Kernel.__call__
-
-    def call(self, *args, **kwargs):
-        calls.append(self.func.__qualname__)
-        return real(self, *args, **kwargs)
-
-    monkeypatch.setattr(kernel_impl.Kernel, "__call__", call)
-    return calls
-
-
 # ---- outputs checked before any work -----------------------------------------------------
 @pytest.mark.parametrize("args, message", [
     (["run", "vibrating-string", "--csv", "/proc/x.csv"], "--csv /proc/x.csv: no file can be written in /proc"),

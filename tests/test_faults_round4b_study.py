@@ -45,21 +45,6 @@ def slope(tmp_path):
     return write
 
 
-@pytest.fixture
-def kernel_calls(monkeypatch):
-    """The Taichi kernels called during the test (a refusal before any work calls none)."""
-    from taichi.lang import kernel_impl
-
-    calls, real = [], kernel_impl.Kernel.__call__
-
-    def call(self, *args, **kwargs):
-        calls.append(self.func.__qualname__)
-        return real(self, *args, **kwargs)
-
-    monkeypatch.setattr(kernel_impl.Kernel, "__call__", call)
-    return calls
-
-
 def _refused(out, *words):
     assert out.returncode == 2, (out.stdout, out.stderr)
     assert "Traceback" not in out.stderr
