@@ -70,17 +70,56 @@ class _ClampedBSpline(Basis):
     def stencil_func(cls):
         degree = cls.degree
 
+        cardinal = {2: _cardinal_quadratic, 3: _cardinal_cubic}.get(degree)
+        closed_form = cardinal is not None
+
         @ti.func
         def stencil(xi, n_elements):
             e = ti.min(ti.max(ti.floor(xi, ti.i32), 0), n_elements - 1)
-            # knots t_{e+k} of the clamped vector t_j = clamp(j - p, 0, n), k = 0 .. 2p + 1
-            knot = ti.Vector.zero(float, 2 * degree + 2)
-            for k in ti.static(range(2 * degree + 2)):
-                knot[k] = ti.cast(ti.min(ti.max(e + k - degree, 0), n_elements), float)
-            w, dw = _de_boor(xi, knot, degree)
+            w = ti.Vector.zero(float, degree + 1)
+            dw = ti.Vector.zero(float, degree + 1)
+            if ti.static(closed_form):
+                # a span whose 2p + 2 knots are all distinct (p <= e <= n - p - 1) carries
+                # the cardinal B-splines: their closed form, without de Boor's divisions
+                if e >= degree and e <= n_elements - degree - 1:
+                    w, dw = cardinal(xi - e)
+                else:
+                    w, dw = _clamped_span(xi, e, n_elements, degree)
+            else:
+                w, dw = _clamped_span(xi, e, n_elements, degree)
             return e, w, dw
 
         return stencil
+
+
+@ti.func
+def _clamped_span(xi, e, n_elements, degree: ti.template()):
+    """De Boor's values and derivatives on span e of the clamped knot vector t_j = clamp(j -
+    p, 0, n) (its knots t_{e+k}, k = 0 .. 2p + 1)."""
+    knot = ti.Vector.zero(float, 2 * degree + 2)
+    for k in ti.static(range(2 * degree + 2)):
+        knot[k] = ti.cast(ti.min(ti.max(e + k - degree, 0), n_elements), float)
+    return _de_boor(xi, knot, degree)
+
+
+@ti.func
+def _cardinal_quadratic(t):
+    """The three quadratic cardinal B-splines non-zero on a unit span, at t in [0, 1)."""
+    s = 1.0 - t
+    w = ti.Vector([0.5 * s * s, 0.5 + t * s, 0.5 * t * t])
+    dw = ti.Vector([-s, s - t, t])
+    return w, dw
+
+
+@ti.func
+def _cardinal_cubic(t):
+    """The four cubic cardinal B-splines non-zero on a unit span, at t in [0, 1)."""
+    t2 = t * t
+    t3 = t2 * t
+    w = ti.Vector([(1.0 - t) ** 3 / 6.0, (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0,
+                   (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0, t3 / 6.0])
+    dw = ti.Vector([-0.5 * (1.0 - t) ** 2, 1.5 * t2 - 2.0 * t, -1.5 * t2 + t + 0.5, 0.5 * t2])
+    return w, dw
 
 
 class _UniformBSpline(Basis):
@@ -152,15 +191,10 @@ def _uniform_quadratic(xi, n_elements):
 
 @ti.func
 def _uniform_cubic(xi, n_elements):
-    # closed form of the cubic cardinal B-spline (node j at xi = j - 1): nodes b..b+3,
-    # t = xi - b - 1 in [0, 1)
+    # the cubic cardinal B-splines (node j at xi = j - 1): nodes b..b+3, t = xi - b - 1 in
+    # [0, 1)
     b = ti.floor(xi - 1.0, ti.i32)
-    t = xi - b - 1.0
-    t2 = t * t
-    t3 = t2 * t
-    w = ti.Vector([(1.0 - t) ** 3 / 6.0, (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0,
-                   (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0, t3 / 6.0])
-    dw = ti.Vector([-0.5 * (1.0 - t) ** 2, 1.5 * t2 - 2.0 * t, -1.5 * t2 + t + 0.5, 0.5 * t2])
+    w, dw = _cardinal_cubic(xi - b - 1.0)
     return b + 1, w, dw
 
 

@@ -6,6 +6,7 @@ import taichi as ti
 
 from ..platform.declare import Field, Param
 from .base import SolidMaterial
+from .svd import principal_log_stretch, spectral
 
 __all__ = ["MohrCoulomb", "principal_return"]
 
@@ -172,18 +173,47 @@ class MohrCoulomb(SolidMaterial):
     @ti.func
     def update(self, s: ti.template(), p, grad_du, sigma_old):
         d = ti.static(s.dim)
-        # principal elastic log strains; [2]: zz in 2D
-        U, eps, V = self._principal_log_strains(s, self._trial_F(s, p, grad_du), 3)
+        # the trial state: F_trial = (I + grad du) F_e, its principal elastic log strains
+        # (of the left stretch) and their frame; [2]: zz in 2D
+        F_trial = self._trial_F(s, p, grad_du)
+        e, frame = principal_log_stretch(F_trial)
+        eps = ti.Vector.zero(float, 3)
+        for k in ti.static(range(d)):
+            eps[k] = e[k]
         if ti.static(d == 2):
             eps[2] = s.ezz[p]
-        eps_new = self.returned(s, p, eps)
-        plastic = eps - eps_new
-        dev = plastic - plastic.sum() / 3.0
-        s.accumulate(s.plastic[p], dev.norm())
-        self.after_return(s, p, plastic)
-        if ti.static(d == 2):
-            s.ezz[p] = eps_new[2]
-        return self._hencky_stress(s, p, U, V, eps_new, eps_new.sum())
+        eps_new = eps
+        if self.elastic(s, p, eps):
+            s.F[p] = F_trial  # inside the surface: the trial state is the elastic one
+        else:
+            # the return to the surface: eps_new, the step's plastic strain, and F_e =
+            # U exp(eps_new) V^T = U exp(eps_new - eps) U^T F_trial
+            eps_new = self.returned(s, p, eps)
+            plastic = eps - eps_new
+            dev = plastic - plastic.sum() / 3.0
+            s.accumulate(s.plastic[p], dev.norm())
+            self.after_return(s, p, plastic)
+            if ti.static(d == 2):
+                s.ezz[p] = eps_new[2]
+            stretch = ti.Vector.zero(float, d)
+            for k in ti.static(range(d)):
+                stretch[k] = ti.exp(eps_new[k] - eps[k])
+            s.F[p] = spectral(frame, stretch) @ F_trial
+        # the Cauchy stress: the principal Kirchhoff stresses lam tr(eps) + 2 mu eps_k in
+        # the frame, times V0 / V
+        tau = self.c.lam() * eps_new.sum() + self.c.two_mu() * eps_new
+        return spectral(frame, tau) * self._initial_over_current_volume(s, p)
+
+    @ti.func
+    def elastic(self, s: ti.template(), p, eps):
+        """Whether the trial principal log strains ``eps`` lie inside the surface of
+        particle ``p`` (:meth:`strength`) and below its tension cut-off: f <= 0 on the
+        largest and the smallest principal Kirchhoff stress, as the return tests them."""
+        sin_phi, sin_psi, two_c_cos_phi, apex, tension = self.strength(s, p)
+        t = self.c.lam() * eps.sum() + self.c.two_mu() * eps
+        t1 = ti.max(t[0], t[1], t[2])
+        t3 = ti.min(t[0], t[1], t[2])
+        return (t1 - t3) + (t1 + t3) * sin_phi - two_c_cos_phi <= 0.0 and t1 <= tension
 
 
 @ti.func

@@ -17,7 +17,7 @@ at every step, and in 3D its fixed iterations reconstruct F to a relative 1e-5 a
 """
 import taichi as ti
 
-__all__ = ["svd"]
+__all__ = ["svd", "principal_log_stretch", "spectral"]
 
 #: Jacobi sweeps in 3D: quadratic convergence takes an off-diagonal of 1 to below 1e-16 of
 #: the diagonal within five sweeps for a 3x3 matrix; six for margin
@@ -33,6 +33,48 @@ def svd(F):
     else:
         U, S, V = _svd3(F)
     return U, S, V
+
+
+@ti.func
+def principal_log_stretch(F):
+    """The principal logarithmic strains of F's left stretch (F F^T = U diag(e^(2 eps))
+    U^T) and its principal frame, for :func:`spectral`: in 2D the frame is N = U diag(1,
+    -1) U^T, in closed form without U (b = F F^T = m I + r N: one square root, one
+    division); in 3D it is U, from :func:`svd`."""
+    eps = ti.Vector.zero(float, F.n)
+    frame = F
+    if ti.static(F.n == 2):
+        b = F @ F.transpose()
+        mean, half, shear = 0.5 * (b[0, 0] + b[1, 1]), 0.5 * (b[0, 0] - b[1, 1]), b[0, 1]
+        radius = ti.sqrt(half * half + shear * shear)
+        frame = ti.Matrix([[1.0, 0.0], [0.0, -1.0]])  # b isotropic: any frame
+        if radius > 0.0:
+            frame = ti.Matrix([[half, shear], [shear, -half]]) / radius
+        # the larger eigenvalue mean + radius, the smaller from the product det(F)^2 (no
+        # cancellation)
+        eps[0] = 0.5 * ti.log(mean + radius)
+        eps[1] = ti.log(ti.max(ti.abs(F.determinant()), 1e-300)) - eps[0]
+    else:
+        U, S, V = _svd3(F)
+        for k in ti.static(range(3)):
+            eps[k] = ti.log(ti.max(ti.abs(S[k, k]), 1e-12))
+        frame = U
+    return eps, frame
+
+
+@ti.func
+def spectral(frame, a):
+    """U diag(a) U^T in the principal frame of :func:`principal_log_stretch` (the first
+    F.n entries of ``a``): in 2D (a_0 + a_1) / 2 I + (a_0 - a_1) / 2 N."""
+    out = frame
+    if ti.static(frame.n == 2):
+        out = 0.5 * (a[0] + a[1]) * ti.Matrix.identity(float, 2) + 0.5 * (a[0] - a[1]) * frame
+    else:
+        D = ti.Matrix.zero(float, 3, 3)
+        for k in ti.static(range(3)):
+            D[k, k] = a[k]
+        out = frame @ D @ frame.transpose()
+    return out
 
 
 @ti.func
