@@ -217,32 +217,21 @@ class MohrCoulomb(SolidMaterial):
 
 
 @ti.func
-def _swap(i: ti.template(), j: ti.template()):
-    """The permutation matrix exchanging entries i and j of a 3-vector."""
-    P = ti.Matrix.identity(float, 3)
-    P[i, i] = 0.0
-    P[j, j] = 0.0
-    P[i, j] = 1.0
-    P[j, i] = 1.0
-    return P
-
-
-@ti.func
 def principal_return(eps, lam, two_mu, bulk3, sin_phi, sin_psi, two_c_cos_phi, apex,
                      tension):
     """The elastic principal log strains after the Mohr-Coulomb return and the tension
     cut-off, from the trial ones (any order; returned in the same order)."""
-    # principal Kirchhoff stresses t = lam tr(eps) + 2 mu eps, sorted t1 >= t2 >= t3 by a
-    # permutation P (sorted = P unsorted)
-    P = ti.Matrix.identity(float, 3)
+    # principal Kirchhoff stresses t = lam tr(eps) + 2 mu eps, sorted t1 >= t2 >= t3 by up
+    # to three exchanges (undone at the end)
     e = eps
     t = lam * e.sum() + two_mu * e
-    for i, j in ti.static(((0, 1), (1, 2), (0, 1))):
+    exchanged = ti.Vector([0, 0, 0])
+    for k, i, j in ti.static(SORT):
         if t[i] < t[j]:
-            Q = _swap(i, j)
-            P = Q @ P
-            e = Q @ e
-            t = Q @ t
+            ti_, ei = t[i], e[i]
+            t[i], e[i] = t[j], e[j]
+            t[j], e[j] = ti_, ei
+            exchanged[k] = 1
     # the elastic matrix in principal axes: D = lam 1 1^T + 2 mu I
     D = lam * ti.Matrix([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0], [1.0, 1.0, 1.0]]) \
         + two_mu * ti.Matrix.identity(float, 3)
@@ -305,4 +294,14 @@ def principal_return(eps, lam, two_mu, bulk3, sin_phi, sin_psi, two_c_cos_phi, a
                     e = ti.Vector([1.0, 1.0, 1.0]) * (tension / bulk3)
             else:
                 e[0] -= d1
-    return P.transpose() @ e
+    # back to the order of eps
+    for k, i, j in ti.static(SORT[::-1]):
+        if exchanged[k]:
+            ei = e[i]
+            e[i] = e[j]
+            e[j] = ei
+    return e
+
+
+#: the exchanges that sort three values (step, i, j): (0, 1), (1, 2), (0, 1)
+SORT = ((0, 0, 1), (1, 1, 2), (2, 0, 1))
