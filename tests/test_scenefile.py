@@ -37,6 +37,7 @@ TINY = {
     # loading is refused; under still water it stands (F = 1.59)
     "infinite_slope.toml": {"water.seepage": "none", "simulation.t_end": 0.02},
     "submarine_slope.toml": {"domain.cells": 40, "simulation.t_end": 0.02},
+    "large_slope.toml": {"domain.cells": 40, "simulation.t_end": 0.2},
 }
 
 
@@ -110,6 +111,11 @@ def test_every_example_runs_at_a_tiny_size(path, tmp_path):
     assert doc["files"] == [str(out)]
     if scene.world is not None:
         assert result.particles == scene.world.n_particles <= 400
+        # what the run cost: the fields' bytes, the process's peak, the simulated speed
+        assert doc["memory"]["particles"] == result.particles
+        assert doc["memory"]["particle_bytes"] > 0 and doc["memory"]["process_peak_mb"] > 0
+        assert doc["simulated_per_wall_second"] == pytest.approx(
+            result.t_end / result.simulation_seconds)
         energies = doc["series"]
         assert energies["t"][0] == 0.0 and energies["t"][-1] == pytest.approx(result.t_end)
     else:

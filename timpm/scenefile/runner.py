@@ -4,6 +4,7 @@ run's checkpoint continued (:func:`resume_scene`)."""
 import math
 import os
 import signal
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,13 +35,21 @@ class SceneResult:
     interrupted: bool = False
     #: what the run measured (``landslide``: its run-out and retrogressions)
     summary: dict = field(default_factory=dict)
+    #: the bytes per particle and per node, the fields (``Solver.memory()``)
+    memory: dict = field(default_factory=dict)
+
+    @property
+    def simulated_per_wall_second(self) -> float:
+        """Simulated seconds per second of stepping."""
+        return self.t_end / self.simulation_seconds if self.simulation_seconds > 0 else 0.0
 
     def report(self) -> str:
         rate = self.particles * self.steps / max(self.simulation_seconds, 1e-12) / 1e6
         lines = [f"{self.name} ({self.path}): {self.particles} particles, {self.steps} steps "
                  f"of dt = {self.dt:.3g} s to t = {self.t_end:.4g} s",
                  f"  compile {self.compile_seconds:.2f} s, simulation "
-                 f"{self.simulation_seconds:.2f} s ({rate:.2f} M particle-steps/s)"
+                 f"{self.simulation_seconds:.2f} s ({self.simulated_per_wall_second:.3g} "
+                 f"simulated s per wall s, {rate:.2f} M particle-steps/s)"
                  + (f", rendering {self.render_seconds:.2f} s" if self.render_seconds else "")]
         if self.record is not None and self.record.get("rms_error") is not None:
             lines.append(f"  e_RMS = {self.record['rms_error']:.4e} ({self.record['elements']} "
@@ -59,6 +68,9 @@ class SceneResult:
         doc = {k: getattr(self, k) for k in ("name", "path", "particles", "steps", "dt",
                                             "t_end", "compile_seconds", "simulation_seconds",
                                             "render_seconds", "files")}
+        doc["simulated_per_wall_second"] = self.simulated_per_wall_second
+        if self.memory:
+            doc["memory"] = self.memory
         if self.record is not None:
             doc["record"] = self.record
         if self.interrupted:
@@ -388,4 +400,16 @@ def _world_result(scene, solver, movie) -> SceneResult:
                        compile_seconds=solver.compile_seconds,
                        simulation_seconds=solver.run_seconds,
                        render_seconds=movie.seconds if movie is not None else 0.0,
-                       series=solver.energies())
+                       series=solver.energies(),
+                       memory=dict(solver.memory(), process_peak_mb=_peak_memory_mb()))
+
+
+def _peak_memory_mb():
+    """The process's peak resident memory so far, in MiB (None where the platform does
+    not say: the resource module is POSIX's)."""
+    try:
+        import resource
+    except ImportError:
+        return None
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux, B on macOS
+    return peak / 1024.0 / (1024.0 if sys.platform == "darwin" else 1.0)
