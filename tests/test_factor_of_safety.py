@@ -70,6 +70,81 @@ def test_the_bisection_closes_on_the_factor(monkeypatch):
         fos.factor_of_safety(World, 1.0)
 
 
+class _InProcessPool:
+    """TrialPool's stand-in: the (stubbed) trials in this process, each call's factors kept."""
+    calls = []
+
+    def __init__(self, world, t_end, creep, workers, mode="auto"):
+        self.workers, self.world, self.t_end = workers, world, t_end
+        _InProcessPool.calls = []
+
+    def run(self, factors):
+        assert 1 <= len(factors) <= self.workers
+        _InProcessPool.calls.append(list(factors))
+        return [fos.trial(self.world, F, self.t_end) for F in factors]
+
+    def close(self, wait=True):
+        pass
+
+
+@pytest.mark.parametrize("workers", [2, 3])
+def test_trials_side_by_side_close_on_the_factor(monkeypatch, workers):
+    """Issue 46 item 3: ``workers`` trials a round at the points that split the bracket
+    into workers + 1 parts narrow it (workers + 1)-fold a round around a sharp F*; the
+    bracket's ends are run only where the search never left them, and a bracket that does
+    not hold is still refused."""
+    from timpm.studies import trial_pool
+
+    true = 1.2345
+
+    def stub(world, F, t_end, creep=1e-3, mode="auto"):
+        return {"F": F, "failed": F > true, "displacement_end": 0.0, "creep": 0.0,
+                "creep_limit": 0.0, "plastic": None, "positions": None}
+
+    monkeypatch.setattr(fos, "trial", stub)
+    monkeypatch.setattr(trial_pool, "TrialPool", _InProcessPool)
+    World = _stub_world()
+    record, failed = fos.factor_of_safety(World, 1.0, low=0.5, high=3.0, tolerance=0.01,
+                                          workers=workers)
+    lo, hi = record["bracket"]
+    assert lo <= true < hi and hi - lo <= 0.01 and failed["F"] == hi
+    assert record["workers"] == workers
+    rounds = _InProcessPool.calls
+    assert all(len(c) == workers for c in rounds)  # the factor is inside: no end was run
+    assert 0.5 not in sum(rounds, []) and 3.0 not in sum(rounds, [])
+    assert len(rounds) == math.ceil(math.log(2.5 / 0.01) / math.log(workers + 1))
+    # a factor below the bracket: every point fails, then the low end is run and refused
+    with pytest.raises(ValueError, match="fails at the bracket's low end F = 2"):
+        fos.factor_of_safety(World, 1.0, low=2.0, high=3.0, tolerance=0.5, workers=workers)
+    assert _InProcessPool.calls[-1] == [2.0]
+    with pytest.raises(ValueError, match="stands at the bracket's high end F = 1"):
+        fos.factor_of_safety(World, 1.0, low=0.5, high=1.0, tolerance=0.2, workers=workers)
+    for bad in (0, -1, 1.5, True, "2"):
+        with pytest.raises(ValueError, match="--workers must be a whole number"):
+            fos.factor_of_safety(World, 1.0, workers=bad)
+
+
+def test_the_workers_option(capsys):
+    """``--workers auto`` runs two trials at once on a CPU of two cores or more for a slope
+    of at most SMALL particles, one above; N is taken as given; anything else is refused
+    by the command line before any work."""
+    from timpm.cli.main import main
+
+    World = _stub_world()
+    cores = len(__import__("os").sched_getaffinity(0))
+    assert fos.workers_for("auto", World) == (2 if cores >= 2 else 1)
+    assert fos.workers_for(3, World) == 3
+    World.model.n_particles = fos.SMALL + 1
+    assert fos.workers_for("auto", World) == 1
+    for bad in ("0", "-2", "two", "1.5"):
+        with pytest.raises(SystemExit) as stop:
+            main(["study", "factor-of-safety", str(ROOT / "examples" / "slope_griffiths_lane.toml"),
+                  "--workers", bad])
+        assert stop.value.code == 2
+        assert f"N must be a whole number of processes, at least 1, or auto: got '{bad}'" \
+            in capsys.readouterr().err
+
+
 @pytest.fixture(scope="module")
 def coarse_slope():
     from timpm.scenefile import load_scene
@@ -92,6 +167,39 @@ def test_griffiths_and_lane_slope_on_a_coarse_grid(coarse_slope):
     assert failed["failed"] and failed["plastic"].max() > 0.01  # a mechanism formed
     assert not fos.trial(scene.world, F - 2 * tol, scene.t_end, creep=1e-2)["failed"]
     assert fos.trial(scene.world, F + 2 * tol, scene.t_end, creep=1e-2)["failed"]
+
+
+def test_a_failing_trial_stops_once_decided_and_decides_as_the_whole_run(coarse_slope,
+                                                                       monkeypatch):
+    """Issue 46 item 3: a trial well past the factor is decided in the first part of its
+    last quarter (its ``decided_at``) and fails as the run to t_end does; one that stands
+    runs to t_end."""
+    scene = coarse_slope
+    early = fos.trial(scene.world, 2.0, scene.t_end)
+    stands = fos.trial(scene.world, 1.0, scene.t_end)
+    monkeypatch.setattr(fos, "LAST_QUARTER_PARTS", 1)  # the whole last quarter at once
+    whole = fos.trial(scene.world, 2.0, scene.t_end)
+    assert early["failed"] and whole["failed"] and "decided_at" not in whole
+    assert early["decided_at"] == pytest.approx(scene.t_end * (0.75 + 0.25 / 8), rel=1e-3)
+    assert early["creep"] > early["creep_limit"]
+    assert early["creep"] < whole["creep"]  # the mass slides on: the rest was not needed
+    assert not stands["failed"] and "decided_at" not in stands
+
+
+def test_trials_in_worker_processes_find_the_serial_factor(coarse_slope):
+    """Two worker processes of one thread each (the trial pool) and the serial bisection
+    on the same slope: brackets that overlap, factors within the tolerance."""
+    scene = coarse_slope
+    tol = 0.05
+    serial, _ = fos.factor_of_safety(scene.world, scene.t_end, low=1.0, high=2.0,
+                                     tolerance=tol)
+    side, failed = fos.factor_of_safety(scene.world, scene.t_end, low=1.0, high=2.0,
+                                        tolerance=tol, workers=2)
+    (a, b), (c, d) = serial["bracket"], side["bracket"]
+    assert max(a, c) < min(b, d)
+    assert abs(serial["factor_of_safety"] - side["factor_of_safety"]) <= tol
+    assert failed["failed"] and failed["plastic"].max() > 0.01  # its mechanism came back
+    assert side["workers"] == 2 and all(t["wall_seconds"] > 0 for t in side["trials"])
 
 
 def test_the_study_refuses_what_it_cannot_reduce(tmp_path, capsys):
@@ -221,7 +329,7 @@ def test_sigterm_to_the_study_writes_the_trials_so_far_and_it_resumes(tmp_path):
     assert "interrupted" not in resumed
     whole, _ = fos.factor_of_safety(
         __import__("timpm.scenefile", fromlist=["load_scene"]).load_scene(scene).world,
-        resumed["t_end"], low=1.0, high=2.0, tolerance=0.1)
+        resumed["t_end"], low=1.0, high=2.0, tolerance=0.1, workers=resumed["workers"])
     assert resumed["factor_of_safety"] == whole["factor_of_safety"]
     assert len(resumed["trials"]) == len(whole["trials"])
 

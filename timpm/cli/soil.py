@@ -194,6 +194,7 @@ def factor_of_safety(args) -> int:
         record, failed = fos.factor_of_safety(
             scene.world, scene.t_end, low=args.bracket[0], high=args.bracket[1],
             tolerance=args.tolerance, creep=args.creep, mode=scene.mode, resume=resume,
+            workers=fos.workers_for(args.workers, scene.world),
             progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
     except fos.StudyInterrupted as stop:  # the trials so far, resumable
         stop.partial["scene"] = args.scene

@@ -41,6 +41,7 @@ factor-of-safety FILE.toml --resume F.json``) its trials are taken for the runs 
 at the factor it would have found.
 """
 import math
+import os
 import time
 from dataclasses import replace
 
@@ -48,7 +49,7 @@ import numpy as np
 
 from ..platform.errors import ErrorCode
 
-__all__ = ["reduced", "reduced_bodies", "trial", "factor_of_safety", "add_parser",
+__all__ = ["reduced", "reduced_bodies", "trial", "factor_of_safety", "add_parser", "workers_for",
            "add_bisection_arguments", "plot_mechanism", "StudyInterrupted", "resumable_trials",
            "check_settings", "BRACKET", "MIN_TOLERANCE", "CREEP"]
 
@@ -154,6 +155,16 @@ def reduced_bodies(world, F):
                  if isinstance(b.material, MohrCoulomb) else b for b in world.bodies)
 
 
+#: the parts of a trial's last quarter after each of which its motion is read (a failing
+#: trial stops at the first part that decides it)
+LAST_QUARTER_PARTS = 8
+
+#: a trial records its energies every this many steps: the energy guard reads them (an
+#: instability grows over many more steps), nothing else does (Griffiths & Lane's slope
+#: at F = 1.2, a trial to t_end warm: 3.93 s recording every step, 2.10 s every 10th;
+#: python /tmp/onetrial.py-style timing of fos.trial, 2026-12-03)
+RECORD_EVERY = 10
+
 #: the stops of a run whose mass slid away (off the grid) or was crushed: it failed
 SLID = (ErrorCode.OFF_GRID, ErrorCode.VOLUME_RANGE, ErrorCode.INVERTED)
 
@@ -172,6 +183,7 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     from ..simulation.loading import NotAtRest, gravity_loading
     from ..simulation.solver import Solver
 
+    start = time.perf_counter()
     bodies = reduced_bodies(world, F)
     try:
         w = replace(world, bodies=bodies)
@@ -187,13 +199,27 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
                                       err.code, err.step, err.particle, err.node) from None
             return {"F": float(F), "stopped": str(err), "failed": True,
                     "displacement_three_quarters": math.inf, "displacement_end": math.inf,
-                    "creep": math.inf, "creep_limit": creep * _height(world)}
-    s = Solver(w, energies=True, mode=mode)
+                    "creep": math.inf, "creep_limit": creep * _height(world),
+                    "wall_seconds": time.perf_counter() - start}
+    s = Solver(w, energies=True, record_every=RECORD_EVERY, mode=mode)
     out = {"F": float(F), "stopped": None}
     displacement = _Displacement(w, s)
+    limit = creep * _height(world)
     try:
         d1 = displacement.run_to(0.75 * t_end)
-        d2 = displacement.run_to(t_end) if math.isfinite(d1) else math.inf
+        d2 = d1
+        # the last quarter in parts: decided as soon as the mass has moved on by more
+        # than the limit (see the module: a failing trial stops there)
+        for k in range(1, LAST_QUARTER_PARTS + 1):
+            if not math.isfinite(d2):
+                break
+            t = t_end
+            if k < LAST_QUARTER_PARTS:
+                t = (0.75 + 0.25 * k / LAST_QUARTER_PARTS) * t_end
+            d2 = displacement.run_to(t)
+            if d2 - d1 > limit and k < LAST_QUARTER_PARTS:
+                out["decided_at"] = float(s.t)
+                break
     except SimulationError as err:
         if err.code not in SLID:
             s.release()  # an instability, not a slope that slid away: no factor from it
@@ -201,7 +227,6 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
                                   err.particle, err.node) from None
         out["stopped"] = str(err)  # the mass ran off the grid or crushed: it failed
         d1 = d2 = math.inf
-    limit = creep * _height(world)
     out.update(displacement_three_quarters=d1, displacement_end=d2,
                creep=d2 - d1 if math.isfinite(d2) else math.inf, creep_limit=limit,
                failed=bool(out["stopped"]) or not math.isfinite(d2) or (d2 - d1) > limit)
@@ -209,6 +234,7 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
         out["positions"] = s.positions()
         out["plastic"] = s.read("plastic")
     s.release()
+    out["wall_seconds"] = time.perf_counter() - start
     return out
 
 
@@ -232,13 +258,19 @@ class _Displacement:
 
 
 def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3,
-                     mode="auto", progress=None, resume=None):
+                     mode="auto", progress=None, resume=None, workers=1):
     """Bisect on F between ``low`` (the slope must stand) and ``high`` (it must fail) until
     the bracket is at most ``tolerance`` wide; returns the record (``factor_of_safety``,
-    ``bracket``, every trial) and the last failed trial (its mechanism).  ``resume``: an
-    interrupted study's record, whose trials stand for the runs they were (the module);
-    interrupted, raises :class:`StudyInterrupted` with the record so far."""
+    ``bracket``, every trial) and the last failed trial (its mechanism).  ``workers`` > 1:
+    that many trials at once, each in a worker process of one thread
+    (:class:`~timpm.studies.trial_pool.TrialPool`), at the points that split the bracket
+    into ``workers`` + 1 equal parts (two workers: a third of the bracket per round).
+    ``resume``: an interrupted study's record, whose trials stand for the runs they were
+    (the module); interrupted, raises :class:`StudyInterrupted` with the record so far."""
     check_settings(low, high, tolerance, creep)
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"--workers must be a whole number of processes, at least 1, got "
+                         f"{workers!r}")
     if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0.0):
         raise ValueError(f"the factor of safety needs a run of positive length: t_end = "
                          f"{t_end!r}")
@@ -252,25 +284,31 @@ def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3
                 "particles": world.model.n_particles, "h": world.h, "basis": world.basis.name,
                 "transfer": world.transfer}
     done = {} if resume is None else resumable_trials(resume, settings)
+    pool = None
 
-    def run(F):
-        r = done.get(F)
-        if r is None:
-            r = trial(world, F, t_end, creep, mode)
-        elif progress is not None:
-            progress(f"F = {F:.4f}: {'fails' if r['failed'] else 'stands'} (from the "
-                     "resumed record)")
-        trials.append(r)
-        if progress is not None and F not in done:
-            progress(f"F = {F:.4f}: {'fails' if r['failed'] else 'stands'} (largest "
-                     f"displacement {r['displacement_end']:.3g} m, {r['creep']:.3g} m in the "
-                     f"last quarter; limit {r['creep_limit']:.3g} m)")
-        return r
+    def run_many(factors):
+        todo = [F for F in factors if F not in done]
+        if pool is not None and todo:  # (one at a time too: compiled there)
+            ran = dict(zip(todo, pool.run(todo)))
+        else:
+            ran = {F: trial(world, F, t_end, creep, mode) for F in todo}
+        out = []
+        for F in factors:
+            r = done.get(F) or ran[F]
+            trials.append(r)
+            if progress is not None:
+                progress(f"F = {F:.4f}: {'fails' if r['failed'] else 'stands'} (from the "
+                         "resumed record)" if F in done else
+                         f"F = {F:.4f}: {'fails' if r['failed'] else 'stands'} (largest "
+                         f"displacement {r['displacement_end']:.3g} m, {r['creep']:.3g} m in "
+                         f"the last quarter; limit {r['creep_limit']:.3g} m)")
+            out.append(r)
+        return out
 
     def record(low, high):
         return {
             "study": "factor-of-safety", "factor_of_safety": 0.5 * (low + high),
-            "bracket": [low, high], **settings,
+            "bracket": [low, high], **settings, "workers": workers,
             "criterion": f"failed where the largest particle displacement grows by more "
                          f"than {creep:g} x the ground's height over the last quarter of "
                          f"the run",
@@ -278,24 +316,51 @@ def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3
             "trials": [{k: v for k, v in r.items() if k not in ("positions", "plastic")}
                        for r in trials]}
 
-    try:
-        for F, should_fail in ((low, False), (high, True)):
-            if run(F)["failed"] != should_fail:
+    def check_ends(ends, results):
+        for (F, should_fail), r in zip(ends, results):
+            if r["failed"] != should_fail:
                 raise ValueError(f"the slope {'fails' if not should_fail else 'stands'} at "
                                  f"the bracket's {'low' if not should_fail else 'high'} end F "
                                  f"= {F:g}: widen the bracket (--bracket LOW HIGH)")
-        failed = trials[-1]
+
+    failed = None
+    try:
+        if workers == 1:  # the low end first: a bracket that does not hold stops after one trial
+            check_ends([(low, False)], run_many([low]))
+            failed = run_many([high])[0]
+            check_ends([(high, True)], [failed])
+        else:
+            from .trial_pool import TrialPool
+
+            pool = TrialPool(world, t_end, creep, workers, mode)
+        low0, high0 = low, high
         while high - low > tolerance:
-            mid = 0.5 * (low + high)
-            r = run(mid)
-            if r["failed"]:
-                high, failed = mid, r
+            if workers == 1:
+                points = [0.5 * (low + high)]
             else:
-                low = mid
+                points = [low + (high - low) * k / (workers + 1) for k in range(1, workers + 1)]
+            # the first point that fails bounds the factor above, the one before it below
+            for F, r in zip(points, run_many(points)):
+                if r["failed"]:
+                    high, failed = F, r
+                    break
+                low = F
+        if workers > 1:  # the ends the search never left: run them now, they must hold
+            ends = [(F, fails) for F, fails, kept in ((low0, False, low == low0),
+                                                       (high0, True, high == high0)) if kept]
+            results = run_many([F for F, _ in ends])
+            check_ends(ends, results)
+            failed = failed or results[-1]
     except KeyboardInterrupt:  # Ctrl-C, SIGTERM, SIGHUP: the trials so far, resumable
+        if pool is not None:
+            pool.close(wait=False)
+            pool = None
         partial = record(low, high)
         partial["interrupted"] = True
         raise StudyInterrupted(partial) from None
+    finally:
+        if pool is not None:
+            pool.close()
     return record(low, high), failed
 
 
@@ -392,6 +457,38 @@ def plot_mechanism(world, failed, record, path):
     plt.close(fig)
 
 
+#: the particles up to which ``--workers auto`` runs two one-thread trials at once
+SMALL = 20_000
+
+
+def _workers_option(text):
+    if text == "auto":
+        return text
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        import argparse
+
+        raise argparse.ArgumentTypeError(f"N must be a whole number of processes, at least "
+                                         f"1, or auto: got {text!r}")
+    return n
+
+
+def workers_for(option, world) -> int:
+    """The trials a study runs at once for ``--workers`` ``option`` (see its help)."""
+    from ..platform import runtime
+
+    if option != "auto":
+        return option
+    if not runtime.on_cpu():  # (one device: its trials one after another)
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else \
+        (os.cpu_count() or 1)
+    return 2 if cores >= 2 and world.model.n_particles <= SMALL else 1
+
+
 def add_bisection_arguments(p, bracket):
     """--bracket LOW HIGH (default ``bracket``) and --tolerance: the bisection's options."""
     p.add_argument("--bracket", type=float, nargs=2, default=bracket, metavar=("LOW", "HIGH"),
@@ -425,6 +522,11 @@ def add_parser(subparsers):
     p.add_argument("--set", type=scene_setting, action="append", default=[], metavar="KEY=VALUE",
                    dest="settings", help="set a key of the scene file, as timpm run's --set "
                    "(domain.cells=60; KEY= removes it, e.g. output.gif=)")
+    p.add_argument("--workers", type=_workers_option, default="auto", metavar="N|auto",
+                   help="trials at once, each in a process of one thread (auto: 2 where "
+                        f"Taichi runs on a CPU of two cores or more and the slope has at most "
+                        f"{SMALL:,} particles, whose step two threads do not speed up; "
+                        "else 1)")
     p.add_argument("--resume", metavar="FILE.json", help="go on from an interrupted "
                    "study's --json record: its trials stand for the runs they were")
     p.add_argument("--plot", metavar="FILE.png", help="draw the failure mechanism")
