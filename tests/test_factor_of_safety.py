@@ -353,3 +353,27 @@ def test_a_slope_on_an_elastic_base_reduces_only_its_soil():
                  bodies=[Body(Box((0.0, 0.0), (20.0, 2.0)), base, name="base")])
     with pytest.raises(ValueError, match=r"no body is of it: base \(linear-elastic\)"):
         fos.reduced_bodies(rock, 2.0)
+
+
+def test_a_script_without_a_main_guard_is_told_not_left_waiting(tmp_path):
+    """A script that runs a study with workers at its top level: each spawned worker
+    imports it and dies starting the study again; the study says so in seconds (it waited
+    for ever while the world went through the pipe that starts a worker)."""
+    import subprocess
+    import sys
+
+    from conftest import CHILD_ENV
+
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        "from timpm.scenefile import load_scene\n"
+        "from timpm.studies import factor_of_safety as fos\n"
+        f"scene = load_scene({str(ROOT / 'examples' / 'slope_griffiths_lane.toml')!r}, "
+        "overrides={'domain.cells': 30})\n"
+        "fos.factor_of_safety(scene.world, scene.t_end, low=1.0, high=2.0, tolerance=0.5, "
+        "workers=2)\n")
+    done = subprocess.run([sys.executable, str(script)], env=CHILD_ENV, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode != 0
+    assert "a worker process of the study died" in done.stderr
+    assert 'if __name__ == "__main__":' in done.stderr

@@ -316,9 +316,13 @@ def _dask_client(distributed, stack, address, timeout, n_calls):
         # its worker processes start here; an interrupted sweep stops them, so their
         # own warnings then (a cancelled task, a lost heartbeat) are not shown
         with _environment({**_WORKER_ENV, "DASK_LOGGING__DISTRIBUTED": "critical"}):
+            # (dashboard_address=None still serves the scheduler's HTTP routes on 8787: a
+            # second local cluster at the same time, another study's, warned that the
+            # port was taken; any free port instead)
             target = stack.enter_context(distributed.LocalCluster(
                 n_workers=min(_cores(), n_calls), threads_per_worker=1,
-                processes=True, dashboard_address=None))
+                processes=True, dashboard_address=None,
+                scheduler_kwargs={"dashboard_address": ":0"}))
     try:
         client = stack.enter_context(distributed.Client(
             target, timeout=f"{timeout}s", set_as_default=False))

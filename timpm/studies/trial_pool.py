@@ -11,21 +11,30 @@ it is handed; each worker compiles its program once and reuses it for every tria
 """
 import os
 import pickle
+import tempfile
 
 from .sweep import _WORKER_ENV, _environment, _stop_workers, die_with_parent
 
 __all__ = ["TrialPool"]
 
+#: a worker that died: what to do about it
+_DIED = ("a worker process of the study died {}; run it with --workers 1 (Python: "
+         "workers=1) to see why.  A script that runs a study with workers must start it "
+         "under `if __name__ == \"__main__\":` (the workers are spawned: each imports the "
+         "script, whose top level would start the study again)")
+
 #: the world and the trial's settings in a worker (set by its initializer)
 _STUDY = {}
 
 
-def _start(parent_pid, settings, world_bytes, t_end, creep, mode):
+def _start(parent_pid, settings, world_file, t_end, creep, mode):
     from ..platform import runtime
 
     die_with_parent(parent_pid)
     runtime.init(**settings)  # the caller's precision, backend and fast math; one thread
-    _STUDY.update(world=pickle.loads(world_bytes), t_end=t_end, creep=creep, mode=mode)
+    with open(world_file, "rb") as f:
+        world = pickle.load(f)
+    _STUDY.update(world=world, t_end=t_end, creep=creep, mode=mode)
 
 
 def _trial(F):
@@ -46,31 +55,66 @@ class TrialPool:
 
         self.workers = workers
         settings = dict(runtime.settings(), threads=1)
+        # the world goes by a file, not through the pipe that starts a process: a worker
+        # that dies as it starts (a script without a main guard) would leave a large
+        # write to it blocked for ever
+        fd, self.world_file = tempfile.mkstemp(prefix="timpm-world-", suffix=".pickle")
+        with os.fdopen(fd, "wb") as f:
+            pickle.dump(world, f, protocol=pickle.HIGHEST_PROTOCOL)
         with _environment({**_WORKER_ENV, "TIMPM_THREADS": "1"}):
             self.pool = ProcessPoolExecutor(
                 max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
                 initializer=_start,
-                initargs=(os.getpid(), settings, pickle.dumps(world), t_end, creep, mode))
+                initargs=(os.getpid(), settings, self.world_file, t_end, creep, mode))
             # the processes start as work is submitted: start them all now, here, with
             # the environment above (each builds its world; the first trial compiles)
-            for future in [self.pool.submit(os.getpid) for _ in range(workers)]:
-                future.result()
+            try:
+                self.wait([self.pool.submit(os.getpid) for _ in range(workers)])
+            except BaseException:  # (a worker that died, an interrupt: nothing left over)
+                self.close(wait=False)
+                raise
+
+    def wait(self, futures, first=False):
+        """Wait for ``futures`` (``first``: for one of them; returns (done, pending)),
+        watching the worker processes: one that died is a RuntimeError, not a wait
+        without end (a worker that dies while it starts leaves the executor waiting)."""
+        from concurrent.futures import FIRST_COMPLETED, ALL_COMPLETED
+        from concurrent.futures import wait as wait_for
+        from concurrent.futures.process import BrokenProcessPool
+
+        pending = set(futures)
+        while True:
+            done, pending = wait_for(pending, timeout=0.5, return_when=FIRST_COMPLETED
+                                     if first else ALL_COMPLETED)
+            for f in done:
+                if isinstance(f.exception(), BrokenProcessPool):
+                    raise RuntimeError(_DIED.format(f"({f.exception()})")) from None
+            if first and done or not pending:
+                return done, pending
+            dead = [p.exitcode for p in (getattr(self.pool, "_processes", None) or {}).values()
+                    if p.exitcode is not None]
+            if dead:
+                raise RuntimeError(_DIED.format(f"(exit code {dead[0]})"))
+
+    def submit(self, fn, *args):
+        """``fn(*args)`` in a worker (a module-level function; it reads the worker's
+        world and settings from ``_STUDY``): a Future."""
+        return self.pool.submit(fn, *args)
 
     def run(self, factors) -> list:
         """The trials at ``factors``, in their order (the first failing one raises)."""
-        from concurrent.futures.process import BrokenProcessPool
-
         futures = [self.pool.submit(_trial, F) for F in factors]
-        try:
-            return [f.result() for f in futures]
-        except BrokenProcessPool as exc:
-            raise RuntimeError(f"a trial's worker process died ({exc}); run the study with "
-                               "--workers 1 to see why") from None
+        self.wait(futures)
+        return [f.result() for f in futures]
 
     def close(self, wait=True):
         if not wait:
             _stop_workers(self.pool)
         self.pool.shutdown(wait=True, cancel_futures=True)
+        try:
+            os.unlink(self.world_file)
+        except OSError:
+            pass
 
     def __enter__(self):
         return self
