@@ -78,8 +78,8 @@ class _InProcessPool:
         self.workers, self.world, self.t_end = workers, world, t_end
         _InProcessPool.calls = []
 
-    def run(self, factors):
-        assert 1 <= len(factors) <= self.workers
+    def map(self, fn, factors):
+        assert fn is fos.pool_trial and 1 <= len(factors) <= self.workers
         _InProcessPool.calls.append(list(factors))
         return [fos.trial(self.world, F, self.t_end) for F in factors]
 
@@ -93,8 +93,6 @@ def test_trials_side_by_side_close_on_the_factor(monkeypatch, workers):
     into workers + 1 parts narrow it (workers + 1)-fold a round around a sharp F*; the
     bracket's ends are run only where the search never left them, and a bracket that does
     not hold is still refused."""
-    from timpm.studies import trial_pool
-
     true = 1.2345
 
     def stub(world, F, t_end, creep=1e-3, mode="auto"):
@@ -102,7 +100,7 @@ def test_trials_side_by_side_close_on_the_factor(monkeypatch, workers):
                 "creep_limit": 0.0, "plastic": None, "positions": None}
 
     monkeypatch.setattr(fos, "trial", stub)
-    monkeypatch.setattr(trial_pool, "TrialPool", _InProcessPool)
+    monkeypatch.setattr(fos, "TrialPool", _InProcessPool)
     World = _stub_world()
     record, failed = fos.factor_of_safety(World, 1.0, low=0.5, high=3.0, tolerance=0.01,
                                           workers=workers)

@@ -38,6 +38,8 @@ TINY = {
     "infinite_slope.toml": {"water.seepage": "none", "simulation.t_end": 0.02},
     "submarine_slope.toml": {"domain.cells": 40, "simulation.t_end": 0.02},
     "large_slope.toml": {"domain.cells": 40, "simulation.t_end": 0.2},
+    "slope_undrained_random.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
+    "slope_griffiths_lane_random.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
 }
 
 

@@ -33,6 +33,7 @@ from .model.geostatic import K0, GravityLoading
 from .simulation.loading import gravity_loading
 from .model.model import Model
 from .model.water import Water
+from .model.random_field import RandomField
 
 from .platform.version import __version__
 
@@ -43,4 +44,5 @@ __all__ = [
     "SimulationError", "Solver", "Batch", "__version__", "World", "Body", "Box", "Ball", "Wall",
     "Points", "Polygon", "Prism", "K0", "GravityLoading", "gravity_loading", "Model", "LinearElastic", "NeoHookean", "DruckerPrager", "MohrCoulomb",
     "MohrCoulombSoftening", "WeaklyCompressibleFluid", "get_material", "PoreWater", "Water",
+    "RandomField",
 ]

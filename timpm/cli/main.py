@@ -25,7 +25,7 @@ from ..platform.runtime import exit_process
 from ..model.scene import PLACEMENTS, PROJECTIONS, STRESS_UPDATES
 from ..simulation.solver import SimulationError
 from . import soil as soil_commands
-from ..studies import factor_of_safety, infinite_slope, speed_error, sweep
+from ..studies import factor_of_safety, infinite_slope, monte_carlo, speed_error, sweep
 
 __all__ = ["main", "entry", "demo_script"]
 
@@ -284,11 +284,12 @@ def _parser():
     demo.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                       help="progress bar (default: on a terminal, for runs over 2 s)")
     study = sub.add_parser("study", help="studies over many runs: speed-error, "
-                           "factor-of-safety, infinite-slope")
+                           "factor-of-safety, infinite-slope, monte-carlo")
     studies = study.add_subparsers(dest="study", required=True)
     speed_error.add_parser(studies).set_defaults(func=_speed_error)
     factor_of_safety.add_parser(studies).set_defaults(func=soil_commands.factor_of_safety)
     infinite_slope.add_parser(studies).set_defaults(func=soil_commands.infinite_slope)
+    monte_carlo.add_parser(studies).set_defaults(func=soil_commands.monte_carlo)
     for parser in (ap, *sub.choices.values(), *studies.choices.values()):
         numbers_as_values(parser)
     return ap

@@ -13,7 +13,7 @@ from ..platform.files import check_distinct, check_output, write_json
 from ..studies import element_test as elements
 from ..studies import factor_of_safety as fos
 
-__all__ = ["element_test", "factor_of_safety", "infinite_slope", "listing"]
+__all__ = ["element_test", "factor_of_safety", "infinite_slope", "monte_carlo", "listing"]
 
 
 def listing() -> list:
@@ -146,7 +146,7 @@ NOT_WRITTEN = {"gif": "movie", "vtk": "field files", "npz": "field files",
                "landslide": "run-out measure"}
 
 
-def _scene_outputs(args, scene):
+def _scene_outputs(args, scene, study="factor-of-safety"):
     """The scene's ``[output]`` in the study: its ``json`` is the study's record where
     --json is not given (checked as --json is); a movie, field files or a landslide
     measure, outputs of one run, are refused naming the key (the study runs many)."""
@@ -155,9 +155,9 @@ def _scene_outputs(args, scene):
 
     for key, what in NOT_WRITTEN.items():
         if scene.output.get(key) is not None:
-            raise scene.error(("output", key), f"the factor-of-safety study runs the scene many "
+            raise scene.error(("output", key), f"the {study} study runs the scene many "
                               f"times and writes no {what}: only its record (--json, else "
-                              "the scene's output.json) and the mechanism's plot (--plot); "
+                              "the scene's output.json) and its plots (--plot); "
                               f"remove output.{key} from the scene, or drop it for the "
                               f"study with --set output.{key}=")
     if args.json is None and scene.output.get("json") is not None:
@@ -223,6 +223,71 @@ def factor_of_safety(args) -> int:
             write_json(args.json, record)
         if args.plot:
             fos.plot_mechanism(scene.world, failed, record, args.plot)
+    except (OSError, ValueError) as exc:  # the record is written first: it is kept
+        return _error(exc)
+    return 0
+
+
+def monte_carlo(args) -> int:
+    """``timpm study monte-carlo FILE.toml``: the realisations, their record and plots."""
+    from ..scenefile import load_scene
+    from ..studies import monte_carlo as mc
+
+    overrides = dict(args.settings)
+    try:
+        fos.check_settings(args.bracket[0], args.bracket[1], args.tolerance, args.creep)
+        mc.check_numbers(args.realisations, args.factor, args.width)
+        _check_outputs(args, {"the scene file": args.scene})
+        if args.field is not None:
+            check_output(args.field, "--field", ("png",))
+            check_distinct({"--json": args.json, "--plot": args.plot, "--field": args.field},
+                           {"the scene file": args.scene})
+        scene = load_scene(args.scene, overrides or None)
+        if scene.world is None:
+            raise ValueError(f"{args.scene}: a Monte Carlo study takes a world (a slope), "
+                             "not a [problem]")
+        _scene_outputs(args, scene, "Monte Carlo")
+        resume = _read_record(args.resume) if args.resume else None
+        if args.dask is not None and args.threads is None:
+            args.threads = 1  # (the workers take this process's settings: one thread each)
+        _init(args, scene.precision)
+        workers = 1 if args.dask is not None else fos.workers_for(args.workers, scene.world)
+        record = mc.monte_carlo(
+            scene.world, scene.t_end, args.realisations, factor=args.factor, creep=args.creep,
+            mode=scene.mode, factor_of_safety=args.factor_of_safety,
+            bracket=tuple(args.bracket), tolerance=args.tolerance, run_on=args.run_on,
+            width=args.width, workers=workers, dask=args.dask, resume=resume,
+            progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
+    except mc.MonteCarloInterrupted as stop:  # the realisations so far, resumable
+        stop.partial["scene"] = args.scene
+        if overrides:
+            stop.partial["overrides"] = overrides
+        kept = ""
+        if args.json:
+            try:
+                write_json(args.json, stop.partial)
+                kept = (f"; the realisations so far in {args.json} (timpm study monte-carlo "
+                        f"{args.scene} --resume {args.json} ...)")
+            except (OSError, ValueError) as exc:
+                kept = f"; the record could not be written: {exc}"
+        print(f"timpm: {stop}{kept}", file=sys.stderr)
+        return interrupt.exit_code()
+    except (ValueError, SimulationError, RuntimeError) as exc:
+        return _error(exc)
+    record["scene"] = args.scene
+    if overrides:
+        record["overrides"] = overrides
+    lo, hi = record["wilson_95"]
+    print(f"probability of failure {record['probability_of_failure']:.4f} "
+          f"({record['failures']} of {record['realisations']} realisations; Wilson 95% "
+          f"[{lo:.4f}, {hi:.4f}]; {record['wall_seconds']:.1f} s)")
+    try:
+        if args.json:
+            write_json(args.json, record)
+        if args.plot:
+            mc.plot_study(record, args.plot)
+        if args.field:
+            mc.plot_field(scene.world, args.field)
     except (OSError, ValueError) as exc:  # the record is written first: it is kept
         return _error(exc)
     return 0

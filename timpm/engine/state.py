@@ -154,6 +154,8 @@ class State:
             elif fld.initial != 0.0:
                 values[name] = np.full((n,) + fld.entries(d), float(fld.initial))
         values.update(v=model.velocity, m=model.mass_per_particle, vol=model.volume)
+        if model.particle_values is not None:  # law fields given per particle (strength)
+            values.update(model.particle_values)
         if model.initial_displacement is not None:
             x = x + model.initial_displacement
             values["u"] = model.initial_displacement

@@ -108,10 +108,32 @@ class MohrCoulomb(SolidMaterial):
                              f"got {F!r}")
         phi = math.degrees(math.atan(math.tan(math.radians(self.friction_angle)) / F))
         st = self.tensile_strength
-        return MohrCoulomb(E=self.E, nu=self.nu, density=self.density, friction_angle=phi,
-                           cohesion=self.cohesion / F,
-                           dilation_angle=min(self.dilation_angle, phi),
-                           tensile_strength=None if st is None else st / F)
+        out = MohrCoulomb(E=self.E, nu=self.nu, density=self.density, friction_angle=phi,
+                          cohesion=self.cohesion / F,
+                          dilation_angle=min(self.dilation_angle, phi),
+                          tensile_strength=None if st is None else st / F)
+        # what it was reduced from, and by: a random field's strength is reduced particle
+        # by particle from its own values (model/random_field.py)
+        out.unreduced, out.factor = self.unreduced, self.factor * F
+        return out
+
+    @property
+    def unreduced(self) -> "MohrCoulomb":
+        """The soil this one was reduced from (:meth:`reduced`; itself if it was not)."""
+        return self.__dict__.get("_unreduced", self)
+
+    @unreduced.setter
+    def unreduced(self, soil):
+        self.__dict__["_unreduced"] = soil
+
+    @property
+    def factor(self) -> float:
+        """The factor its strength was divided by (:meth:`reduced`; 1 if it was not)."""
+        return self.__dict__.get("_factor", 1.0)
+
+    @factor.setter
+    def factor(self, F):
+        self.__dict__["_factor"] = float(F)
 
     def peak_deviator(self, confinement: float, dim: int = 3) -> float:
         """The deviator sigma_1 - sigma_3 at failure in compression under the confining

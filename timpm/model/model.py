@@ -200,6 +200,8 @@ class Model:
     (the saturated ones); ``initial_pore_pressure`` the (n,) excess pore pressures the
     particles start from (undrained and coupled analyses; default 0): the stress the grid
     sees starts at sigma' - p_e I, sigma' the initial stress (or zero).
+    ``particle_values`` the initial values of law fields per particle, name -> (n, ...)
+    array (a random field's strength, MohrCoulombField's ``strength``).
     """
 
     basis: "str | type[Basis]"  # a name or a Basis class; the class once checked
@@ -233,6 +235,7 @@ class Model:
     water: object = None
     pore_water: tuple | None = None
     initial_pore_pressure: np.ndarray | None = None
+    particle_values: dict | None = None
     name: str = "model"
 
     def __post_init__(self):
@@ -263,6 +266,8 @@ class Model:
                        np.prod([float(n) for n in self.nodes]), dim)
         with about("materials"):
             self._check_materials(dim)
+        with about("particle_values"):
+            self._check_particle_values()
         with about("initial_stress"):
             self._check_initial_stress(dim)
         self._check_scheme(dim, basis)
@@ -391,6 +396,33 @@ class Model:
         for key, arr in (("material_index", index), ("body_index", bodies), ("_mass", mass)):
             arr.setflags(write=False)
             set_(key, arr)
+
+    def _check_particle_values(self):
+        """``particle_values``: the initial values of law fields per particle (name -> (n,
+        ...) finite array), every field a law of the model must be given (``GIVEN``:
+        MohrCoulombField's strength) among them."""
+        values = {} if self.particle_values is None else self.particle_values
+        if not isinstance(values, dict):
+            raise ValueError(f"particle_values must be a dict of field name -> (n, ...) "
+                             f"array, got {type(values).__name__}")
+        n, out = len(self.positions), {}
+        for name, arr in values.items():
+            a = np.array(arr, dtype=np.float64)
+            if a.ndim < 1 or a.shape[0] != n:
+                raise ValueError(f"particle_values[{name!r}] must hold one entry per "
+                                 f"particle ({n}), got shape {a.shape}")
+            if not np.all(np.isfinite(a)):
+                bad = int(np.flatnonzero(~np.all(np.isfinite(a.reshape(n, -1)), axis=1))[0])
+                raise ValueError(f"particle_values[{name!r}] of particle {bad} is not finite")
+            a.setflags(write=False)
+            out[name] = a
+        for k, mat in enumerate(self.materials):
+            for name in getattr(mat, "GIVEN", ()):
+                if name not in out and np.any(self.material_index == k):
+                    raise ValueError(f"the {mat.name} law reads each particle's {name}: "
+                                     f"give it in particle_values[{name!r}] (a World does, "
+                                     f"from a body's random_field)")
+        object.__setattr__(self, "particle_values", out or None)
 
     def _check_initial_stress(self, dim):
         """The initial stresses (n, 3, 3), finite and symmetric, and the state each law

@@ -26,7 +26,9 @@ from ..platform.errors import InputError, about
 from .geostatic import K0, GravityLoading, geostatic_stress, jaky_k0
 from .loads import field_function
 from ..materials import MATERIALS, Material, get_material
+from ..materials.mohr_coulomb_field import MohrCoulombField
 from ..materials.pore_water import PoreWater
+from .random_field import RandomField
 from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Wall, check_scheme,
                     walls_from)
 
@@ -168,6 +170,7 @@ class Body:
     name: str = ""
     displacement: object = None
     water: object = None
+    random_field: object = None
 
     def __post_init__(self):
         mat = self.material
@@ -188,6 +191,12 @@ class Body:
         if self.water is not None and not isinstance(self.water, PoreWater):
             raise InputError(f"body water must be a timpm.PoreWater (the water in the "
                              f"body's pores) or None, got {self.water!r}", "water")
+        if self.random_field is not None:
+            if not isinstance(self.random_field, RandomField):
+                raise InputError(f"body random_field must be a timpm.RandomField (the "
+                                 f"strength's variation) or None, got {self.random_field!r}",
+                                 "random_field")
+            self.random_field.check_soil(mat, f"body {self.name!r}" if self.name else "body")
         if self.displacement is not None and not callable(self.displacement):
             raise ValueError("body displacement must be a function u0(X) of the body's (n, "
                              f"dim) reference positions, got {type(self.displacement).__name__}")
@@ -355,7 +364,8 @@ class World:
                                     else None),
                       initial_stress=initial_stress, water=self.water,
                       pore_water=part["pore_water"],
-                      initial_pore_pressure=self.initial_pore_pressure)
+                      initial_pore_pressure=self.initial_pore_pressure,
+                      particle_values=part["particle_values"])
 
     def _initial_stress(self, dim, g, domain):
         """The particles' initial stresses: a :class:`~timpm.model.geostatic.K0` procedure's
@@ -447,6 +457,7 @@ class World:
         self._check_size(dim, h, domain)
         xs, vs, vols, mats, ids = [], [], [], [], []
         materials = []
+        strength, realised = [], {}  # random fields: (first row, values), body -> realisation
         for k, body in enumerate(self.bodies):
             label = f"body {k}" + (f" ({body.name!r})" if body.name else "")
             if body.shape.dim != dim:
@@ -474,6 +485,13 @@ class World:
                 v = np.zeros(dim) if body.velocity is None else _vector(
                     f"{label} velocity", body.velocity, dim)
             slot = (body.material, body.water)  # a material slot: a law and its pore water
+            if body.random_field is not None:  # its own law, its strength per particle
+                law = MohrCoulombField.of(body.material)
+                slot = (law, body.water)
+                real = body.random_field.realise(body.material, pts, h, np.zeros(dim))
+                strength.append((sum(len(a) for a in xs), law.strength_values(
+                    real["cohesion"], real["friction_angle"], body.material.factor)))
+                realised[k] = real
             if slot not in materials:
                 materials.append(slot)
             xs.append(pts)
@@ -497,6 +515,13 @@ class World:
                    mass=density * vol, material_index=mat, body_index=np.concatenate(ids),
                    materials=tuple(m for m, _ in materials),
                    pore_water=tuple(w for _, w in materials))
+        values = None
+        if strength:  # the particles' strength where a body's varies (MohrCoulombField)
+            values = np.zeros((len(x), 5))
+            for first, block in strength:
+                values[first:first + len(block)] = block
+            values = {"strength": values}
+        out.update(particle_values=values, random_fields=realised)
         for key in ("positions", "velocity", "volume", "mass", "material_index", "body_index"):
             out[key].setflags(write=False)
         return out
@@ -639,6 +664,14 @@ class World:
     @property
     def body_index(self):
         return self._particles["body_index"]
+
+    @property
+    def random_fields(self) -> dict:
+        """Each random body's realisation (body index -> {"cohesion", "friction_angle": its
+        particles' values (in the body's particle order), "clipped", "cells"}): the
+        unreduced soil's (a strength-reduced body's particles hold them divided by its
+        factor, MohrCoulombField.strength_values)."""
+        return self._particles["random_fields"]
 
     @property
     def materials(self) -> tuple:

@@ -12,11 +12,12 @@ from ..problems import PROBLEMS
 from ..model.geostatic import K0, GravityLoading
 from ..model.water import Water
 from ..materials.pore_water import PoreWater
+from ..model.random_field import RandomField
 from ..model.world import PRESETS, Ball, Body, Box, Polygon, Prism, Wall, World
 from .keypaths import key_lines, parse_path
 from .reader import Reader, apply_overrides, describe, read_toml, suggest
 from ..studies.landslide import Landslide
-from .schema import (BODY, BODY_WATER, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
+from .schema import (BODY, BODY_WATER, RANDOM_FIELD, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
                      PROBLEM_OUTPUT, PROBLEM_TABLES, SHAPE_KEYS, SIMULATION, TRACTION, WALL,
                      WATER, WORLD_TABLES, material_schema)
 
@@ -223,6 +224,16 @@ def _bodies(reader, data, materials, dim):
                 key = getattr(err, "key", None)
                 raise reader.error(where + ("water",) + ((key,) if key in spec else ()),
                                    str(err)) from None
+        random_field = None
+        if b.get("random_field") is not None:
+            where_rf = where + ("random_field",)
+            spec = reader.table(where_rf, b["random_field"], RANDOM_FIELD)
+            try:
+                random_field = RandomField(**spec)
+            except ValueError as err:  # names its key (InputError.key)
+                key = getattr(err, "key", None)
+                raise reader.error(where_rf + ((key,) if key in spec else ()), str(err)) \
+                    from None
         try:
             if shape in ("polygon", "prism") and dim != (2 if shape == "polygon" else 3):
                 raise ValueError(f"a {shape} is a {'2D' if shape == 'polygon' else '3D'} "
@@ -232,7 +243,8 @@ def _bodies(reader, data, materials, dim):
                         else Polygon(b["vertices"]) if shape == "polygon"
                         else Prism(b["vertices"], b["z"]))
             bodies.append(Body(geometry, material, velocity=b.get("velocity"),
-                               ppc=b.get("ppc", 2), name=b.get("name", ""), water=water))
+                               ppc=b.get("ppc", 2), name=b.get("name", ""), water=water,
+                               random_field=random_field))
         except ValueError as err:
             raise reader.error(where, str(err)) from None
     return bodies

@@ -3,7 +3,7 @@ from ..materials import MATERIALS
 from ..materials.pore_water import PoreWater
 from ..schemes import TRANSFERS, scheme_params
 from .schema import (BODY, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
-                     REQUIRED, SIMULATION,
+                     RANDOM_FIELD, REQUIRED, SIMULATION,
                      TRACTION, TYPES, WALL, WATER, material_schema)
 
 
@@ -70,6 +70,7 @@ def schema_reference() -> str:
              _markdown(LOADS, "[loads]"), _markdown(TRACTION, "[[loads.traction]]"),
              _markdown(BODY, "[[body]]"),
              _parameters(PoreWater.PARAMS, "[body.water] (a body's pore water)"),
+             _markdown(RANDOM_FIELD, "[body.random_field] (a body's random strength)"),
              _markdown(WATER, "[water]"), _markdown(INITIAL_STRESS, "[initial_stress]")]
     for transfer in TRANSFERS:  # each scheme's own parameters, as it declares them
         if scheme_params(transfer):

@@ -12,6 +12,7 @@ from ..model.model import (INTEGRATORS, ND_BASES, SIDES, TRANSFERS, WALL_KINDS, 
                            PROJECTIONS)
 from ..problems import PROBLEMS
 from ..model.scene import PLACEMENTS, STRESS_UPDATES
+from ..model.random_field import CORRELATIONS, MARGINALS
 from ..model.water import ANALYSES, SEEPAGE, SMOOTHING
 from ..model.world import PRESETS
 
@@ -41,6 +42,13 @@ TYPES = {
                lambda v: isinstance(v, list) and all(
                    isinstance(p, list) and len(p) == 2 and all(_is_number(c) for c in p)
                    for p in v)),
+    "scale": ("a number > 0 or inf, or two [horizontal, vertical]",
+              lambda v: (isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0)
+              or (isinstance(v, list) and len(v) == 2 and all(
+                  isinstance(c, (int, float)) and not isinstance(c, bool) and c > 0
+                  for c in v))),
+    "whole": ("an integer >= 0", lambda v: isinstance(v, int) and not isinstance(v, bool)
+              and v >= 0),
     "range": ("two increasing numbers [low, high]",
               lambda v: isinstance(v, list) and len(v) == 2 and all(_is_number(c) for c in v)
               and v[0] < v[1]),
@@ -130,6 +138,10 @@ BODY = {
                  "conductivity = k (m/s) or permeability = kappa (m^2), viscosity, density, "
                  "bulk_modulus} (keys below: [body.water]); the scene's [water] says how it "
                  "is analysed"),
+    "random_field": Key("table", None, doc="the variation of a Mohr-Coulomb body's "
+                        "cohesion and friction angle about the material's values "
+                        "(keys below: [body.random_field]); timpm study monte-carlo draws "
+                        "one realisation after another"),
 }
 
 
@@ -144,6 +156,29 @@ def _pore_water_schema():
 
 #: the keys of a body's water table
 BODY_WATER = _pore_water_schema()
+
+#: the keys of a body's random field (timpm.model.random_field)
+RANDOM_FIELD = {
+    "cohesion_cov": Key("non-negative", 0.0, doc="coefficient of variation of the cohesion "
+                        "(its mean: the material's)"),
+    "friction_angle_cov": Key("non-negative", 0.0, doc="coefficient of variation of the "
+                              "friction angle (its mean: the material's)"),
+    "correlation_length": Key("scale", REQUIRED, "m", "the scale of fluctuation theta "
+                              "(Vanmarcke's; GSTools' len_scale is theta / 2): one (isotropic) "
+                              "or [horizontal, vertical]; inf: one value per realisation"),
+    "marginal": Key("string", "lognormal", doc="the distribution of each parameter",
+                    choices=MARGINALS),
+    "correlation": Key("string", "exponential", doc="the correlation function: exponential "
+                       "exp(-2 tau / theta), gaussian exp(-pi tau^2 / theta^2)",
+                       choices=CORRELATIONS),
+    "angle": Key("number", 0.0, "degrees", "rotation of the anisotropy's axes from x toward y "
+                 "(2D)"),
+    "cross_correlation": Key("number", 0.0, doc="correlation of the cohesion's and the "
+                             "friction angle's Gaussian fields, in [-1, 1]"),
+    "seed": Key("whole", 0, doc="the seed of the realisation (a Monte Carlo study draws "
+                "realisation k from seed + k)"),
+    "points": Key("count", 2, doc="points per cell and axis of each cell's local average"),
+}
 
 WATER = {
     "analysis": Key("string", "coupled", doc="drained: the buoyant weight under the "

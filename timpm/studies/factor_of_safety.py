@@ -48,6 +48,8 @@ from dataclasses import replace
 import numpy as np
 
 from ..platform.errors import ErrorCode
+from . import trial_pool
+from .trial_pool import TrialPool
 
 __all__ = ["reduced", "reduced_bodies", "trial", "factor_of_safety", "add_parser", "workers_for",
            "add_bisection_arguments", "plot_mechanism", "StudyInterrupted", "resumable_trials",
@@ -169,15 +171,17 @@ RECORD_EVERY = 10
 SLID = (ErrorCode.OFF_GRID, ErrorCode.VOLUME_RANGE, ErrorCode.INVERTED)
 
 
-def _height(world):
+def ground_height(world):
     y = world.model.positions[:, 1]
     return float(y.max() - y.min())
 
 
-def trial(world, F, t_end, creep=1e-3, mode="auto"):
+def trial(world, F, t_end, creep=1e-3, mode="auto", run_on=None):
     """Run ``world`` with its soil's strength divided by ``F`` to ``t_end``: whether it
     failed (see the module), the largest displacement at 3/4 and at the end, the
-    particles' plastic strain and positions at the end."""
+    particles' plastic strain and positions at the end.  ``run_on``: a failed run goes on
+    to that time (its run-out: ``displacement_run_on``, the positions and plastic strain
+    then; it stops early where its mass leaves the grid)."""
     from ..platform.errors import SimulationError
     from ..model.geostatic import GravityLoading
     from ..simulation.loading import NotAtRest, gravity_loading
@@ -199,12 +203,12 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
                                       err.code, err.step, err.particle, err.node) from None
             return {"F": float(F), "stopped": str(err), "failed": True,
                     "displacement_three_quarters": math.inf, "displacement_end": math.inf,
-                    "creep": math.inf, "creep_limit": creep * _height(world),
+                    "creep": math.inf, "creep_limit": creep * ground_height(world),
                     "wall_seconds": time.perf_counter() - start}
     s = Solver(w, energies=True, record_every=RECORD_EVERY, mode=mode)
     out = {"F": float(F), "stopped": None}
     displacement = _Displacement(w, s)
-    limit = creep * _height(world)
+    limit = creep * ground_height(world)
     try:
         d1 = displacement.run_to(0.75 * t_end)
         d2 = d1
@@ -230,12 +234,28 @@ def trial(world, F, t_end, creep=1e-3, mode="auto"):
     out.update(displacement_three_quarters=d1, displacement_end=d2,
                creep=d2 - d1 if math.isfinite(d2) else math.inf, creep_limit=limit,
                failed=bool(out["stopped"]) or not math.isfinite(d2) or (d2 - d1) > limit)
-    if out["stopped"] is None and math.isfinite(d2):
+    if run_on is not None and out["failed"] and out["stopped"] is None and run_on > s.t:
+        try:  # the failed mass runs on (a Monte Carlo study's run-out)
+            out["displacement_run_on"] = displacement.run_to(run_on)
+        except SimulationError as err:
+            if err.code not in SLID:
+                s.release()
+                raise SimulationError(f"the run at F = {F:g} stopped running on: {err}",
+                                      err.code, err.step, err.particle, err.node) from None
+            out["stopped_running_on"] = str(err)
+        out["run_on"] = float(s.t)
+    if out["stopped"] is None and math.isfinite(d2) and "stopped_running_on" not in out:
         out["positions"] = s.positions()
         out["plastic"] = s.read("plastic")
     s.release()
     out["wall_seconds"] = time.perf_counter() - start
     return out
+
+
+def pool_trial(F):
+    """:func:`trial` at ``F`` in a worker of the trial pool (its world and settings)."""
+    s = trial_pool.study()
+    return trial(s["world"], F, s["t_end"], s["creep"], s["mode"])
 
 
 class _Displacement:
@@ -289,7 +309,7 @@ def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3
     def run_many(factors):
         todo = [F for F in factors if F not in done]
         if pool is not None and todo:  # (one at a time too: compiled there)
-            ran = dict(zip(todo, pool.run(todo)))
+            ran = dict(zip(todo, pool.map(pool_trial, todo)))
         else:
             ran = {F: trial(world, F, t_end, creep, mode) for F in todo}
         out = []
@@ -312,7 +332,7 @@ def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3
             "criterion": f"failed where the largest particle displacement grows by more "
                          f"than {creep:g} x the ground's height over the last quarter of "
                          f"the run",
-            "height": _height(world), "wall_seconds": time.perf_counter() - t0,
+            "height": ground_height(world), "wall_seconds": time.perf_counter() - t0,
             "trials": [{k: v for k, v in r.items() if k not in ("positions", "plastic")}
                        for r in trials]}
 
@@ -330,8 +350,6 @@ def factor_of_safety(world, t_end, low=0.5, high=4.0, tolerance=0.02, creep=1e-3
             failed = run_many([high])[0]
             check_ends([(high, True)], [failed])
         else:
-            from .trial_pool import TrialPool
-
             pool = TrialPool(world, t_end, creep, workers, mode)
         low0, high0 = low, high
         while high - low > tolerance:
@@ -461,7 +479,7 @@ def plot_mechanism(world, failed, record, path):
 SMALL = 20_000
 
 
-def _workers_option(text):
+def workers_option(text):
     if text == "auto":
         return text
     try:
@@ -522,7 +540,7 @@ def add_parser(subparsers):
     p.add_argument("--set", type=scene_setting, action="append", default=[], metavar="KEY=VALUE",
                    dest="settings", help="set a key of the scene file, as timpm run's --set "
                    "(domain.cells=60; KEY= removes it, e.g. output.gif=)")
-    p.add_argument("--workers", type=_workers_option, default="auto", metavar="N|auto",
+    p.add_argument("--workers", type=workers_option, default="auto", metavar="N|auto",
                    help="trials at once, each in a process of one thread (auto: 2 where "
                         f"Taichi runs on a CPU of two cores or more and the slope has at most "
                         f"{SMALL:,} particles, whose step two threads do not speed up; "

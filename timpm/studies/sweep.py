@@ -34,13 +34,14 @@ import numpy as np
 from ..platform.argtypes import positive_int
 
 __all__ = ["SweepError", "SweepInterrupted", "interruptible", "check_executor", "map_runs",
+           "WORKER_ENV", "environment", "stop_workers", "die_with_parent",
            "add_arguments", "CONNECT_TIMEOUT", "DASK_INSTALL"]
 
 #: seconds to wait for a Dask scheduler to answer, and for its first worker
 CONNECT_TIMEOUT = 5.0
 DASK_INSTALL = "pip install 'timpm[dask]'"
 #: environment of the worker processes: no Taichi banner between the tables on stdout
-_WORKER_ENV = {"ENABLE_TAICHI_HEADER_PRINT": "false"}
+WORKER_ENV = {"ENABLE_TAICHI_HEADER_PRINT": "false"}
 
 
 class SweepError(RuntimeError):
@@ -209,7 +210,7 @@ def _plain(value):
 # ---- the executors --------------------------------------------------------------------------
 
 @contextlib.contextmanager
-def _environment(values):
+def environment(values):
     """``os.environ`` with ``values`` while processes are started, restored after."""
     saved = {k: os.environ.get(k) for k in values}
     os.environ.update(values)
@@ -276,7 +277,7 @@ def _on_pool(job, calls, start, workers, on_result) -> list:
                                initializer=die_with_parent, initargs=(os.getpid(),))
     done = False
     try:
-        with _environment(_WORKER_ENV):  # the processes start as the runs are submitted
+        with environment(WORKER_ENV):  # the processes start as the runs are submitted
             futures = [None] * len(calls)
             for i in start:
                 futures[i] = pool.submit(job, *calls[i])
@@ -291,11 +292,11 @@ def _on_pool(job, calls, start, workers, on_result) -> list:
         return results
     finally:
         if not done:  # an error or an interrupt: the other runs are not waited for
-            _stop_workers(pool)
+            stop_workers(pool)
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _stop_workers(pool) -> None:
+def stop_workers(pool) -> None:
     """Stop the pool's worker processes now (ours: started by this pool)."""
     terminate = getattr(pool, "terminate_workers", None)  # Python 3.14
     if terminate is not None:
@@ -315,7 +316,7 @@ def _dask_client(distributed, stack, address, timeout, n_calls):
     if address == "local":
         # its worker processes start here; an interrupted sweep stops them, so their
         # own warnings then (a cancelled task, a lost heartbeat) are not shown
-        with _environment({**_WORKER_ENV, "DASK_LOGGING__DISTRIBUTED": "critical"}):
+        with environment({**WORKER_ENV, "DASK_LOGGING__DISTRIBUTED": "critical"}):
             # (dashboard_address=None still serves the scheduler's HTTP routes on 8787: a
             # second local cluster at the same time, another study's, warned that the
             # port was taken; any free port instead)

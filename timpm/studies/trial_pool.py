@@ -13,9 +13,9 @@ import os
 import pickle
 import tempfile
 
-from .sweep import _WORKER_ENV, _environment, _stop_workers, die_with_parent
+from .sweep import WORKER_ENV, die_with_parent, environment, stop_workers
 
-__all__ = ["TrialPool"]
+__all__ = ["TrialPool", "study"]
 
 #: a worker that died: what to do about it
 _DIED = ("a worker process of the study died {}; run it with --workers 1 (Python: "
@@ -37,10 +37,10 @@ def _start(parent_pid, settings, world_file, t_end, creep, mode):
     _STUDY.update(world=world, t_end=t_end, creep=creep, mode=mode)
 
 
-def _trial(F):
-    from .factor_of_safety import trial
-
-    return trial(_STUDY["world"], F, _STUDY["t_end"], _STUDY["creep"], _STUDY["mode"])
+def study() -> dict:
+    """In a worker: its world and settings ("world", "t_end", "creep", "mode"), which the
+    tasks the pool runs read."""
+    return _STUDY
 
 
 class TrialPool:
@@ -61,7 +61,7 @@ class TrialPool:
         fd, self.world_file = tempfile.mkstemp(prefix="timpm-world-", suffix=".pickle")
         with os.fdopen(fd, "wb") as f:
             pickle.dump(world, f, protocol=pickle.HIGHEST_PROTOCOL)
-        with _environment({**_WORKER_ENV, "TIMPM_THREADS": "1"}):
+        with environment({**WORKER_ENV, "TIMPM_THREADS": "1"}):
             self.pool = ProcessPoolExecutor(
                 max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
                 initializer=_start,
@@ -101,15 +101,16 @@ class TrialPool:
         world and settings from ``_STUDY``): a Future."""
         return self.pool.submit(fn, *args)
 
-    def run(self, factors) -> list:
-        """The trials at ``factors``, in their order (the first failing one raises)."""
-        futures = [self.pool.submit(_trial, F) for F in factors]
+    def map(self, fn, items) -> list:
+        """``[fn(item) for item in items]`` in the workers (``fn`` a module-level function
+        reading :func:`study`), in their order (the first that raised raises)."""
+        futures = [self.pool.submit(fn, item) for item in items]
         self.wait(futures)
         return [f.result() for f in futures]
 
     def close(self, wait=True):
         if not wait:
-            _stop_workers(self.pool)
+            stop_workers(self.pool)
         self.pool.shutdown(wait=True, cancel_futures=True)
         try:
             os.unlink(self.world_file)
