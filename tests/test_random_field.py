@@ -129,7 +129,13 @@ def test_strength_values_reduce_each_particle():
     assert k[:, 2] == pytest.approx(2 * np.array([5e3, 10e3, 2.5e3]) * np.cos(phi))
     assert k[:2, 3] == pytest.approx([5e3 / math.tan(phi[0]), 10e3 / math.tan(phi[1])])
     assert k[2, 3] >= 1e300 and np.all(k[:, 4] == k[:, 3])
-    soil = MohrCoulomb(E=1e7, nu=0.3, density=2000.0, friction_angle=30.0, cohesion=10e3)
+    # the law of a reduced soil (a trial's) reduces from the unreduced psi and cut-off
+    soil = MohrCoulomb(E=1e7, nu=0.3, density=2000.0, friction_angle=30.0, cohesion=10e3,
+                       dilation_angle=10.0, tensile_strength=5e3)
+    c, phi = [10e3, 20e3], [30.0, 60.0]
+    assert np.array_equal(MohrCoulombField.of(soil.reduced(2.0)).strength_values(c, phi, 2.0),
+                          MohrCoulombField.of(soil).strength_values(c, phi, 2.0))
+    assert MohrCoulombField.of(soil).strength_values(c, phi, 2.0)[1, 4] == 2.5e3
     twice = soil.reduced(2.0).reduced(1.5)
     assert twice.unreduced is soil and twice.factor == pytest.approx(3.0)
 

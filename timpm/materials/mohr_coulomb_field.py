@@ -34,9 +34,11 @@ class MohrCoulombField(MohrCoulomb):
     @classmethod
     def of(cls, soil: MohrCoulomb) -> "MohrCoulombField":
         """The law of ``soil`` (its means) with its strength read per particle."""
-        return cls(E=soil.E, nu=soil.nu, density=soil.density,
-                   friction_angle=soil.friction_angle, cohesion=soil.cohesion,
-                   dilation_angle=soil.dilation_angle, tensile_strength=soil.tensile_strength)
+        out = cls(E=soil.E, nu=soil.nu, density=soil.density,
+                  friction_angle=soil.friction_angle, cohesion=soil.cohesion,
+                  dilation_angle=soil.dilation_angle, tensile_strength=soil.tensile_strength)
+        out.unreduced, out.factor = soil.unreduced, soil.factor  # (a reduced soil's)
+        return out
 
     @classmethod
     def particle_fields(cls, dim):
@@ -47,19 +49,21 @@ class MohrCoulombField(MohrCoulomb):
     def strength_values(self, cohesion, friction_angle, factor=1.0) -> np.ndarray:
         """The ``strength`` field (m, 5) of particles of ``cohesion`` (Pa) and
         ``friction_angle`` (degrees) with their strength divided by ``factor`` (strength
-        reduction: c / F, tan(phi) / F), psi = min(the material's psi, phi), the tension
-        cut-off at most the apex (the material's divided by F; none: the apex)."""
+        reduction: c / F, tan(phi) / F), psi = min(the unreduced material's psi, phi), the
+        tension cut-off at most the apex (the unreduced material's divided by F; none: the
+        apex)."""
+        base = self.unreduced
         c = np.asarray(cohesion, dtype=np.float64)
         phi = np.radians(np.asarray(friction_angle, dtype=np.float64))
         if factor != 1.0:  # (F = 1: the material's own arithmetic, MohrCoulomb.constants)
             c, phi = c / factor, np.arctan(np.tan(phi) / factor)
-        psi = np.minimum(math.radians(self.dilation_angle), phi)
+        psi = np.minimum(math.radians(base.dilation_angle), phi)
         sin_phi = np.sin(phi)
         with np.errstate(divide="ignore", invalid="ignore"):
             apex = np.where(sin_phi > 0.0, c * np.cos(phi) / np.where(sin_phi > 0, sin_phi, 1),
                             UNBOUNDED)
-        tension = apex if self.tensile_strength is None else np.minimum(
-            self.tensile_strength / factor, apex)
+        tension = apex if base.tensile_strength is None else np.minimum(
+            base.tensile_strength / factor, apex)
         return np.stack([sin_phi, np.sin(psi), 2.0 * c * np.cos(phi), apex, tension], axis=-1)
 
     def initial_state(self, stress, dim):
