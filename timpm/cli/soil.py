@@ -170,6 +170,24 @@ def _scene_outputs(args, scene, study="factor-of-safety"):
         args.json = scene.output["json"]
 
 
+def _interrupted(args, overrides, stop, what, study) -> int:
+    """An interrupted study (``stop.partial``: its record so far): the record written to
+    --json where given, with how to resume it, one line said; the interrupt's exit code."""
+    stop.partial["scene"] = args.scene
+    if overrides:
+        stop.partial["overrides"] = overrides
+    kept = ""
+    if args.json:
+        try:
+            write_json(args.json, stop.partial)
+            kept = (f"; the {what} so far in {args.json} (timpm study {study} "
+                    f"{args.scene} --resume {args.json} ...)")
+        except (OSError, ValueError) as exc:
+            kept = f"; the record could not be written: {exc}"
+    print(f"timpm: {stop}{kept}", file=sys.stderr)
+    return interrupt.exit_code()
+
+
 def factor_of_safety(args) -> int:
     """``timpm study factor-of-safety FILE.toml``: the bisection, its record and plot."""
     from ..scenefile import load_scene
@@ -197,19 +215,7 @@ def factor_of_safety(args) -> int:
             workers=fos.workers_for(args.workers, scene.world),
             progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
     except fos.StudyInterrupted as stop:  # the trials so far, resumable
-        stop.partial["scene"] = args.scene
-        if overrides:
-            stop.partial["overrides"] = overrides
-        kept = ""
-        if args.json:
-            try:
-                write_json(args.json, stop.partial)
-                kept = (f"; the trials so far in {args.json} (timpm study factor-of-safety "
-                        f"{args.scene} --resume {args.json} ...)")
-            except (OSError, ValueError) as exc:
-                kept = f"; the record could not be written: {exc}"
-        print(f"timpm: {stop}{kept}", file=sys.stderr)
-        return interrupt.exit_code()
+        return _interrupted(args, overrides, stop, "trials", "factor-of-safety")
     except (ValueError, SimulationError) as exc:
         return _error(exc)
     record["scene"] = args.scene
@@ -259,19 +265,7 @@ def monte_carlo(args) -> int:
             width=args.width, workers=workers, dask=args.dask, resume=resume,
             progress=None if args.quiet else lambda m: print(m, file=sys.stderr, flush=True))
     except mc.MonteCarloInterrupted as stop:  # the realisations so far, resumable
-        stop.partial["scene"] = args.scene
-        if overrides:
-            stop.partial["overrides"] = overrides
-        kept = ""
-        if args.json:
-            try:
-                write_json(args.json, stop.partial)
-                kept = (f"; the realisations so far in {args.json} (timpm study monte-carlo "
-                        f"{args.scene} --resume {args.json} ...)")
-            except (OSError, ValueError) as exc:
-                kept = f"; the record could not be written: {exc}"
-        print(f"timpm: {stop}{kept}", file=sys.stderr)
-        return interrupt.exit_code()
+        return _interrupted(args, overrides, stop, "realisations", "monte-carlo")
     except (ValueError, SimulationError, RuntimeError) as exc:
         return _error(exc)
     record["scene"] = args.scene

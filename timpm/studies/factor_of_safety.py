@@ -113,21 +113,30 @@ def resumable_trials(record, settings) -> dict:
     """The trials of an earlier (interrupted) study's ``record``, F -> trial, checked
     against this study's ``settings`` (``RESUME_KEYS``): a record of another scene or
     other settings is refused, naming what differs."""
-    if not isinstance(record, dict) or record.get("study") != "factor-of-safety" \
-            or not isinstance(record.get("trials"), list):
-        raise ValueError("--resume takes the JSON record of a factor-of-safety study (its "
-                         "--json file)")
-    for key in RESUME_KEYS:
+    return resumed_entries(record, settings, RESUME_KEYS, "factor-of-safety",
+                           "a factor-of-safety study", "trials", "F", float, "a trial")
+
+
+def resumed_entries(record, settings, keys, study, described, entries, index, kind,
+                    entry) -> dict:
+    """The entries (``record[entries]``, index -> entry by their ``index`` of type
+    ``kind``, each with its ``failed``) of an interrupted ``study``'s record, checked:
+    another study's record, or one whose ``keys`` differ from ``settings``, is refused,
+    naming what differs (the factor of safety's trials, the Monte Carlo realisations)."""
+    if not isinstance(record, dict) or record.get("study") != study \
+            or not isinstance(record.get(entries), list):
+        raise ValueError(f"--resume takes the JSON record of {described} (its --json file)")
+    for key in keys:
         if record.get(key) != settings[key]:
             raise ValueError(f"--resume: the record's {key} is {record.get(key)!r}, this "
                              f"study's {settings[key]!r}: it is another study's record")
     out = {}
-    for r in record["trials"]:
-        if not (isinstance(r, dict) and isinstance(r.get("F"), float)
+    for r in record[entries]:
+        if not (isinstance(r, dict) and isinstance(r.get(index), kind)
                 and isinstance(r.get("failed"), bool)):
-            raise ValueError(f"--resume: a trial of the record is not one this study wrote: "
+            raise ValueError(f"--resume: {entry} of the record is not one this study wrote: "
                              f"{r!r}")
-        out[r["F"]] = r
+        out[r[index]] = r
     return out
 
 

@@ -249,22 +249,10 @@ def _convergence(rows) -> list:
 
 
 def _resumable(record, settings) -> dict:
-    if not isinstance(record, dict) or record.get("study") != "monte-carlo" \
-            or not isinstance(record.get("results"), list):
-        raise ValueError("--resume takes the JSON record of a Monte Carlo study (its --json "
-                         "file)")
-    for key in RESUME_KEYS:
-        if record.get(key) != settings[key]:
-            raise ValueError(f"--resume: the record's {key} is {record.get(key)!r}, this "
-                             f"study's {settings[key]!r}: it is another study's record")
-    out = {}
-    for r in record["results"]:
-        if not (isinstance(r, dict) and isinstance(r.get("k"), int)
-                and isinstance(r.get("failed"), bool)):
-            raise ValueError(f"--resume: a realisation of the record is not one this study "
-                             f"wrote: {r!r}")
-        out[r["k"]] = r
-    return out
+    from .factor_of_safety import resumed_entries
+
+    return resumed_entries(record, settings, RESUME_KEYS, "monte-carlo",
+                           "a Monte Carlo study", "results", "k", int, "a realisation")
 
 
 def _on_pool(world, t_end, creep, mode, question, todo, workers, take, narrow_enough):
