@@ -73,6 +73,32 @@ def killed_at_exit(process):
             process.communicate()
 
 
+def sigterm_after(command, prefix, count, timeout=240):
+    """Run ``command`` (a timpm study), send it SIGTERM once ``count`` lines of its stderr
+    start with ``prefix`` (its progress), wait for it: (returncode, stderr)."""
+    import signal
+    import subprocess
+    import threading
+
+    run = subprocess.Popen(command, env=CHILD_ENV, stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True, preexec_fn=default_signals)
+    lines, enough = [], threading.Event()
+
+    def read():
+        for line in run.stderr:
+            lines.append(line)
+            if sum(line.startswith(prefix) for line in lines) >= count:
+                enough.set()
+    reader = threading.Thread(target=read, daemon=True)
+    with killed_at_exit(run):
+        reader.start()
+        assert enough.wait(timeout=timeout), "".join(lines)
+        run.send_signal(signal.SIGTERM)
+        run.wait(timeout=120)
+        reader.join(timeout=10)
+    return run.returncode, "".join(lines)
+
+
 def wait_until(process, ready, timeout=120):
     """Wait until ``ready()`` holds while ``process`` runs: it ending first, or the timeout
     (the process then killed, not waited for), is a test failure with its output."""

@@ -284,12 +284,10 @@ def test_sigterm_to_the_study_writes_the_trials_so_far_and_it_resumes(tmp_path):
     `--resume f.json` completes it to the factor of the whole study (the slope at h = 2 m,
     a bracket 0.1 wide: six trials)."""
     import json
-    import signal
     import subprocess
     import sys
-    import threading
 
-    from conftest import CHILD_ENV, default_signals, killed_at_exit
+    from conftest import CHILD_ENV, default_signals, sigterm_after
 
     text = (ROOT / "examples" / "slope_griffiths_lane.toml").read_text()
     scene = tmp_path / "slope.toml"
@@ -297,25 +295,8 @@ def test_sigterm_to_the_study_writes_the_trials_so_far_and_it_resumes(tmp_path):
     study = [sys.executable, "-m", "timpm", "study", "factor-of-safety", str(scene),
              "--bracket", "1", "2", "--tolerance", "0.1"]
     record = tmp_path / "f.json"
-    run = subprocess.Popen(study + ["--json", str(record)], env=CHILD_ENV,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                           preexec_fn=default_signals)
-    lines, third = [], threading.Event()
-
-    def read():
-        for line in run.stderr:
-            lines.append(line)
-            if sum(line.startswith("F = ") for line in lines) >= 3:
-                third.set()
-    reader = threading.Thread(target=read, daemon=True)
-    with killed_at_exit(run):
-        reader.start()
-        assert third.wait(timeout=240), "".join(lines)
-        run.send_signal(signal.SIGTERM)
-        run.wait(timeout=120)
-        reader.join(timeout=10)
-    err = "".join(lines)
-    assert run.returncode == 143, err
+    code, err = sigterm_after(study + ["--json", str(record)], "F = ", 3)
+    assert code == 143, err
     assert "Traceback" not in err and "interrupted after" in err and "--resume" in err
     partial = json.loads(record.read_text())
     assert partial["interrupted"] is True and len(partial["trials"]) >= 3

@@ -178,35 +178,16 @@ def test_sigterm_keeps_the_realisations_and_resume_completes_them(tmp_path):
     """Issue 47: SIGTERM to `timpm study monte-carlo` (two worker processes) writes the
     realisations finished, exit 143; --resume runs the rest, to the uninterrupted study's
     outcomes."""
-    import signal
     import subprocess
     import sys
-    import threading
 
-    from conftest import CHILD_ENV, default_signals, killed_at_exit
+    from conftest import CHILD_ENV, default_signals, sigterm_after
 
     study = [sys.executable, "-m", "timpm", "study", "monte-carlo", str(SCENE),
              "--realisations", "12", "--set", "domain.cells=30", "--workers", "2"]
     record = tmp_path / "mc.json"
-    run = subprocess.Popen(study + ["--json", str(record)], env=CHILD_ENV,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                           preexec_fn=default_signals)
-    lines, third = [], threading.Event()
-
-    def read():
-        for line in run.stderr:
-            lines.append(line)
-            if sum(line.startswith("realisation ") for line in lines) >= 3:
-                third.set()
-    reader = threading.Thread(target=read, daemon=True)
-    with killed_at_exit(run):
-        reader.start()
-        assert third.wait(timeout=240), "".join(lines)
-        run.send_signal(signal.SIGTERM)
-        run.wait(timeout=120)
-        reader.join(timeout=10)
-    err = "".join(lines)
-    assert run.returncode == 143, err
+    code, err = sigterm_after(study + ["--json", str(record)], "realisation ", 3)
+    assert code == 143, err
     assert "Traceback" not in err and "interrupted after" in err and "--resume" in err
     partial = json.loads(record.read_text())
     assert partial["interrupted"] is True and 3 <= partial["realisations"] < 12
