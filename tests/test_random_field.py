@@ -35,10 +35,30 @@ def test_lognormal_marginal_and_cross_correlation():
     r = np.corrcoef(np.log(real["cohesion"]), np.log(real["friction_angle"]))[0, 1]
     assert r == pytest.approx(-0.6, abs=0.05)
     assert real["clipped"] == 0 and real["cells"] == 20000
-    again = rf.realise(_Soil(), x, 2.0, np.zeros(2))
+    again = rf._realise(_Soil(), x, 2.0, np.zeros(2))  # generated again, not the memo's
     assert np.array_equal(again["cohesion"], real["cohesion"])  # seeded: reproducible
     other = replace(rf, seed=8).realise(_Soil(), x, 2.0, np.zeros(2))
     assert not np.array_equal(other["cohesion"], real["cohesion"])
+
+
+def test_a_world_built_again_from_the_same_particles_reuses_its_realisation():
+    """A strength-reduction trial's world (the same particles, the soil reduced) takes the
+    realisation and the vertical stress computed for the first one, read-only; another
+    seed is generated anew."""
+    from timpm.scenefile import load_scene
+    from timpm.studies.factor_of_safety import reduced_bodies
+
+    world = load_scene(ROOT / "examples" / "slope_griffiths_lane_random.toml",
+                       overrides={"domain.cells": 30}).world
+    trial = replace(world, bodies=reduced_bodies(world, 1.5))
+    first, again = world.random_fields[0], trial.random_fields[0]
+    assert again["cohesion"] is first["cohesion"] and not first["cohesion"].flags.writeable
+    # the same weight above each particle (K0 = 1 - sin(phi) is the reduced soil's)
+    assert np.array_equal(trial.model.initial_stress[:, 1, 1], world.model.initial_stress[:, 1, 1])
+    body = world.bodies[0]
+    other = replace(world, bodies=(replace(body, random_field=replace(
+        body.random_field, seed=body.random_field.seed + 1)),))
+    assert not np.array_equal(other.random_fields[0]["cohesion"], first["cohesion"])
 
 
 @pytest.mark.parametrize("correlation, rho", [("exponential", math.exp(-1.0)),

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..platform.memo import Memo, digest
+
 __all__ = ["K0", "GravityLoading", "geostatic_stress", "jaky_k0", "vertical_stress"]
 
 #: samples per column of the weight integral (midpoint rule between the top and the
@@ -79,6 +81,11 @@ def jaky_k0(material) -> float:
     return nu / (1.0 - nu)
 
 
+#: the last vertical stresses computed, kept for a World built again from the same
+#: particles and bodies (a strength-reduction trial's)
+_VERTICAL = Memo(kept=4)
+
+
 def vertical_stress(positions, bodies, g, top, level=None):
     """sigma_v (> 0) at each position (n, 2 or 3): g times the mass per area above it
     through the ``bodies`` (shape with ``contains``, density, and optionally the density
@@ -91,18 +98,26 @@ def vertical_stress(positions, bodies, g, top, level=None):
     density rho - rho_w: sigma_v is then the effective stress (the free water above the
     ground adds to the pore pressure, not to it)."""
     x = np.asarray(positions, dtype=np.float64)
+    key = (digest(x), tuple(tuple(b) for b in bodies), float(g), float(top), level)
+    return _VERTICAL.get(key, lambda: _vertical_stress(x, bodies, g, top, level))
+
+
+def _vertical_stress(x, bodies, g, top, level):
     n, dim = x.shape
     out = np.zeros(n)
     # points sharing a column (x, z) share one integral
     columns = np.delete(x, 1, axis=1)
     keys, where = np.unique(columns, axis=0, return_inverse=True)
     where = where.reshape(-1)
+    order = np.argsort(where, kind="stable")  # column c's points: order[starts[c]:starts[c + 1]]
+    starts = np.searchsorted(where[order], np.arange(len(keys) + 1))
     bottom = float(x[:, 1].min())
     ds = (top - bottom) / SAMPLES
     s = top - (np.arange(SAMPLES) + 0.5) * ds  # midpoints, top down
+    depth_edges = top - np.arange(SAMPLES + 1) * ds
+    pts = np.empty((SAMPLES, dim))
+    pts[:, 1] = s
     for c, key in enumerate(keys):
-        pts = np.empty((SAMPLES, dim))
-        pts[:, 1] = s
         pts[:, [0] + list(range(2, dim))] = key
         rho = np.zeros(SAMPLES)
         free = np.ones(SAMPLES, dtype=bool)
@@ -121,8 +136,7 @@ def vertical_stress(positions, bodies, g, top, level=None):
         weight = np.cumsum(rho) * ds * g
         weight -= np.maximum.accumulate(np.where(free, weight, 0.0))
         edges = np.concatenate([[0.0], weight])
-        depth_edges = top - np.arange(SAMPLES + 1) * ds
-        rows = np.flatnonzero(where == c)
+        rows = order[starts[c]:starts[c + 1]]
         out[rows] = np.interp(x[rows, 1], depth_edges[::-1], edges[::-1])
     return out
 

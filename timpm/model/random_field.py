@@ -46,6 +46,7 @@ import numpy as np
 
 from ..platform.declare import Param
 from ..platform.errors import InputError
+from ..platform.memo import Memo, digest
 
 __all__ = ["RandomField", "MARGINALS", "CORRELATIONS", "PARAMETERS"]
 
@@ -53,6 +54,10 @@ MARGINALS = ("lognormal", "normal")
 CORRELATIONS = ("exponential", "gaussian")
 #: the parameters a random field varies: the Mohr-Coulomb material's, and their range for
 #: a normal marginal's cut
+#: the last realisations generated (RandomField.realise), kept for the worlds built again
+#: from them (a trial's reduced soil)
+_REALISED = Memo(kept=4)
+
 PARAMETERS = {"cohesion": (0.0, math.inf), "friction_angle": (0.0, 89.0)}
 
 
@@ -184,7 +189,15 @@ class RandomField:
         from ``origin``: {"cohesion": (n,), "friction_angle": (n,), "clipped": count,
         "cells": the cells averaged}; the means are ``soil.unreduced``'s."""
         base = soil.unreduced
-        x = np.asarray(positions, dtype=np.float64)
+        x = np.ascontiguousarray(positions, dtype=np.float64)
+        n, dim = x.shape
+        # a strength-reduction trial builds its world again from the same particles: the
+        # same realisation, generated once (the key: what the values depend on)
+        key = (self, float(base.cohesion), float(base.friction_angle), float(h),
+               digest(np.asarray(origin, dtype=np.float64)), digest(x))
+        return dict(_REALISED.get(key, lambda: self._realise(base, x, h, origin)))
+
+    def _realise(self, base, x, h, origin) -> dict:
         n, dim = x.shape
         cell = np.floor((x - np.asarray(origin)) / h).astype(np.int64)
         cells, inverse = np.unique(cell, axis=0, return_inverse=True)
