@@ -10,6 +10,7 @@ import pytest
 import timpm
 from timpm.platform.errors import InputError
 from timpm.problems import get_problem
+from timpm.model.loads import SurfaceTraction
 from timpm.problems.terzaghi import consolidation_series, degree_of_consolidation
 
 
@@ -47,7 +48,11 @@ def test_pore_water_derived_numbers():
     (dict(analysis="drained", level=1.0, seepage="sideways"), "seepage"),
     (dict(analysis="undrained", level=1.0, seepage="parallel"), "seepage"),
     (dict(analysis="undrained", smoothing="node"), "smoothing"),
-    (dict(analysis="drained", level=1.0, smoothing="cell"), "smoothing")])
+    (dict(analysis="drained", level=1.0, smoothing="cell"), "smoothing"),
+    (dict(drained_sides=("base",)), "drained_sides"),
+    (dict(drained_sides=("top", "top")), "drained_sides"),
+    (dict(drained_sides=3), "drained_sides"),
+    (dict(analysis="undrained", drained_sides=("bottom",)), "drained_sides")])
 def test_water_refuses_bad_values(kwargs, key):
     with pytest.raises(InputError) as err:
         timpm.Water(**kwargs)
@@ -83,6 +88,9 @@ def _layer(water=None, pore=None, material=None, **world):
      "keeps no excess"),
     (lambda: _layer(water=timpm.Water("undrained"), pore=timpm.PoreWater(0.4),
                     initial_pore_pressure=np.zeros(3)), "initial_pore_pressure", "numbers"),
+    (lambda: _layer(water=timpm.Water("coupled", drained_sides=("front",)),
+                    pore=timpm.PoreWater(porosity=0.4, conductivity=1e-5)),
+     "water.drained_sides", "2D domain has no front side"),
     (lambda: _layer(water=timpm.Water("undrained", smoothing="cell"),
                     pore=timpm.PoreWater(0.4), basis="bspline3"), "water.smoothing",
      "quadratic basis, not bspline3")])
@@ -213,6 +221,81 @@ def test_terzaghi_follows_the_series(basis):
     exact = prob.displacement(x0, solver.t)
     below = x0 < prob.H - scene.grid.h  # the top element carries the point load's share
     assert np.max(np.abs(u[below] - exact[below])) < 0.02 * prob.p0 * prob.H / prob.E
+
+
+def test_terzaghi_drained_at_both_faces():
+    """drainage='both' (the base's Dirichlet node holds the skeleton, not the water): the
+    series on each half with H_d = H / 2, u/u0 within 0.02 at T = 0.1, 0.2, 0.5, 1 down to
+    the mid-plane, U within 1%, the pressure symmetric about the mid-plane, the settlement
+    profile the exact one; the base, impermeable in the plain layer, drained."""
+    prob = get_problem("terzaghi", drainage="both")
+    assert prob.drainage_length == 0.5 * prob.H
+    scene = prob.scene()
+    solver = timpm.Solver(scene, energies=False)
+    x0 = scene.positions.copy()
+    order = np.argsort(x0)
+    for T in (0.1, 0.2, 0.5, 1.0):
+        solver.run(t_end=T * prob.drainage_length ** 2 / prob.c_v)
+        rec = prob.summary(x0, solver, "small")
+        assert rec["time_factor"] == pytest.approx(T, rel=1e-4)
+        assert rec["u_over_u0_max_error"] < 0.02, (T, rec["u_over_u0"], rec["u_over_u0_exact"])
+        assert rec["degree_of_consolidation"] == pytest.approx(
+            rec["degree_of_consolidation_exact"], rel=0.01)
+        pw = solver.read("pw")[order] / prob.p0
+        assert np.max(np.abs(pw - pw[::-1])) < 0.02  # the mirror image about H / 2
+        if T == 0.1:  # the lowest particle drains as the top one does
+            assert pw[0] < 0.2 and abs(pw[0] - pw[-1]) < 0.02
+    u = solver.displacements()
+    exact = prob.displacement(x0, solver.t)
+    below = x0 < prob.H - scene.grid.h  # the top element carries the point load's share
+    assert np.max(np.abs(u[below] - exact[below])) < 0.02 * prob.p0 * prob.H / prob.E
+    plain = timpm.Solver(get_problem("terzaghi").scene(), energies=False).run(
+        t_end=0.1 * prob.drainage_length ** 2 / prob.c_v)
+    assert plain.read("pw")[np.argmin(x0)] / prob.p0 > 0.99  # (T = 0.025 of the plain layer)
+
+
+def _drained_column(sides, walls):
+    """A 2D saturated elastic column (2 x 16 cells, nu = 0, roller sides) under a 1 kPa
+    top load, no gravity, coupled, its water drained through ``sides``: Terzaghi's layer
+    in plane strain."""
+    prob = get_problem("terzaghi")
+    soil = timpm.LinearElastic(E=prob.E, nu=0.0, density=prob.density)
+    body = timpm.Body(timpm.Box((0.0, 0.0), (0.125, 1.0)), soil, ppc=2, water=prob.pore_water)
+    world = timpm.World(domain=(0.125, 1.0), cells=2, bodies=[body], transfer="musl",
+                        basis="linear", walls=walls, gravity=(0.0, 0.0),
+                        tractions=[SurfaceTraction(0, "top", (0.0, -prob.p0))],
+                        water=timpm.Water("coupled", drained_sides=sides),
+                        initial_pore_pressure=np.full(128, prob.p0))
+    return prob, world
+
+
+@pytest.mark.parametrize("bottom", ["sticky", "roller"])
+def test_a_drained_wall_lets_the_water_through(bottom):
+    """The 2D column on a wall that holds the skeleton (sticky or roller) and drains the
+    water (its corners' roller sides still impermeable): each cell's pore pressure (one
+    value: the linear basis' strain is constant over a cell) within 0.02 of the two-face
+    series (H_d = H / 2) averaged over the cell's particles at T = 0.1 and 0.5, the
+    profile symmetric about the mid-height; the same wall without drained_sides keeps the
+    base at u0."""
+    walls = {"left": "roller", "right": "roller", "bottom": bottom, "top": None}
+    prob, world = _drained_column(("bottom",), walls)
+    Hd = 0.5 * prob.H
+    solver = timpm.Solver(world, energies=False)
+    y0 = world.positions[:, 1]
+    row = np.floor(y0 / world.h).astype(int)  # each particle's cell row
+    for T in (0.1, 0.5):
+        solver.run(t_end=T * Hd ** 2 / prob.c_v)
+        exact = consolidation_series(np.minimum(y0, prob.H - y0) / Hd, T)
+        pw = solver.read("pw") / prob.p0
+        for r in range(16):
+            cell = row == r
+            assert np.ptp(pw[cell]) < 1e-9  # (x: the column is one-dimensional)
+            assert abs(pw[cell].mean() - exact[cell].mean()) < 0.02, (T, r)
+        means = np.array([pw[row == r].mean() for r in range(16)])
+        assert np.max(np.abs(means - means[::-1])) < 0.01
+    _, sealed = _drained_column((), walls)
+    pw = timpm.Solver(sealed, energies=False).run(t_end=0.1 * Hd ** 2 / prob.c_v).read("pw")
+    assert np.min(pw[y0 < 0.1]) / prob.p0 > 0.99
 
 
 def test_terzaghi_converges():
@@ -426,6 +509,8 @@ def test_a_scene_file_poses_a_submerged_layer(tmp_path):
     path.write_text(SCENE)
     world = load_scene(path).world
     assert world.water == timpm.Water("coupled", level=5.5)
+    drained = load_scene(path, overrides={"water.drained_sides": ["bottom"]}).world
+    assert drained.water.drained_sides == ("bottom",)
     assert world.bodies[0].water.conductivity == 1e-5
     # the K0 procedure on the buoyant weight: sigma_v' = (2000 - 1000) g (4 - y)
     y = world.positions[:, 1]
@@ -439,7 +524,10 @@ def test_a_scene_file_poses_a_submerged_layer(tmp_path):
     ("level = 5.5", "level = -5.5", 27, "water.level"),
     ('analysis = "coupled"', 'analysis = "soggy"', 26, "water.analysis"),
     ('analysis = "coupled"', 'analysis = "coupled"\nseepage = "up"', 27, "water.seepage"),
-    ("porosity = 0.4,", "porosty = 0.4,", 23, "body[0].water")])
+    ("porosity = 0.4,", "porosty = 0.4,", 23, "body[0].water"),
+    ("level = 5.5", 'level = 5.5\ndrained_sides = ["base"]', 28, "water.drained_sides"),
+    ("level = 5.5", 'level = 5.5\ndrained_sides = "bottom"', 28, "water.drained_sides"),
+    ("level = 5.5", 'level = 5.5\ndrained_sides = ["front"]', 28, "water.drained_sides")])
 def test_scene_file_water_errors_name_key_and_line(tmp_path, old, new, line, key):
     from timpm.scenefile import load_scene
     path = tmp_path / "layer.toml"

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model.model import Model
+from ..model.walls import SIDES
 from ..platform import runtime
 from ..schemes import INTEGRATORS, scheme_class
 
@@ -86,6 +87,7 @@ class FeatureSet:
     phreatic: int = 0            # vertices of a phreatic surface (Water.phreatic), 0: none
     pore_smoothing: bool = False  # the pore strain's cell mean drives p_e (Water.smoothing)
     drawdown: bool = False       # the still-water level moves in time (Water.final_level)
+    drained_sides: tuple = ()    # side indices (SIDES) the pore water flows through
 
     @property
     def pore_pressure(self) -> bool:
@@ -374,7 +376,9 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         phreatic=0 if model.water is None or model.water.phreatic is None
         else len(model.water.phreatic),
         pore_smoothing=model.water is not None and model.water.smoothing == "cell",
-        drawdown=model.water is not None and model.water.drawdown)
+        drawdown=model.water is not None and model.water.drawdown,
+        drained_sides=() if model.water is None else tuple(
+            SIDES.index(side) for side in model.water.drained_sides))
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
         per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))
@@ -405,6 +409,9 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     if features.drawdown:
         values.update(final_level=model.water.final_level,
                       drawdown_time=model.water.drawdown_time)
+    if features.drained_sides:  # per drained side its edge node (as a wall's, wall_nodes)
+        edges = [i for pair in model.wall_nodes() for i in pair]
+        values.update(drained_nodes=tuple(edges[side] for side in features.drained_sides))
     if features.phreatic:
         values.update(phreatic_x=tuple(x for x, _ in model.water.phreatic),
                       phreatic_y=tuple(y for _, y in model.water.phreatic))

@@ -48,7 +48,13 @@ class Boundary:
 
     @ti.func
     def apply_walls(self, I, v):
-        """Wall conditions on the velocity of node I (sides left/right, bottom/top, ...):
+        """The walls' conditions on the velocity of node I (see :meth:`walls_except`)."""
+        return self.walls_except(I, v, ())
+
+    @ti.func
+    def walls_except(self, I, v, skip: ti.template()):
+        """Wall conditions on the velocity of node I (sides left/right, bottom/top, ...;
+        those whose indices ``skip`` holds left out: a drained side's, for the water):
         sticky v = 0; driven (a moving sticky wall) v = v_wall f(t_n + dt); roller v_n = 0;
         slip removes the outward normal component; friction
         also slows the tangential velocity by mu |v_n| (Coulomb), down to rest.  A wall
@@ -56,7 +62,7 @@ class Boundary:
         behind the wall)."""
         for k in ti.static(range(self.dim)):
             for side in ti.static(range(2)):
-                if ti.static(self.walls[2 * k + side] != "open"):
+                if ti.static(self.walls[2 * k + side] != "open" and 2 * k + side not in skip):
                     edge = self.values.wall_nodes()[2 * k + side]
                     hit = I[k] <= edge if ti.static(side == 0) else I[k] >= edge
                     if hit:

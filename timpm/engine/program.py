@@ -60,6 +60,8 @@ def _param_spec(features, scheme_cls):
         spec.update(water_level="real")
     if features.drawdown:
         spec.update(final_level="real", drawdown_time="real")
+    if features.drained_sides:
+        spec.update(drained_nodes=("int", len(features.drained_sides)))
     if features.phreatic:
         spec.update(phreatic_x=("real", features.phreatic),
                     phreatic_y=("real", features.phreatic))

@@ -55,6 +55,14 @@ drains through the free surfaces, the water above the level carrying its weight.
 on layers, where the vertical unloading is the whole of it; on a 2D slope the undrained
 and coupled drawdowns did not yet give trustworthy factors, docs/results.md.)
 
+``drained_sides`` (coupled analyses): sides of the domain (``SIDES``: "left", "right",
+"bottom", ...; in 1D "left" is the base at x = 0) whose walls or Dirichlet nodes hold the
+skeleton only: the pore water flows through them, the excess pore pressure vanishing on
+them (the water's natural condition, as at a free surface).  The other sides' walls and
+Dirichlet nodes are impermeable (the water's normal velocity the skeleton's).  At a
+drained side's node the water's velocity solves its own balance with the skeleton's held
+one, (M_w / dt + Q) w+ = F_w + M_w w / dt + Q v+ (schemes/two_phase.py).
+
 ``smoothing`` (undrained and coupled analyses): ``"none"`` (each particle's excess pore
 pressure follows its own volumetric strain) or ``"cell"`` (the step's pore volumetric
 strain averaged over each grid cell, weighted by the particles' volumes, drives the
@@ -75,6 +83,7 @@ import numpy as np
 
 from ..materials.pore_water import PoreWater
 from ..platform.errors import InputError, about
+from .walls import SIDES
 
 __all__ = ["Water", "ANALYSES", "SEEPAGE", "SMOOTHING", "checked_water"]
 
@@ -98,6 +107,7 @@ class Water:
     smoothing: str = "none"
     final_level: float | None = None
     drawdown_time: float | None = None
+    drained_sides: tuple = ()
 
     def __post_init__(self):
         if self.analysis not in ANALYSES:
@@ -131,6 +141,7 @@ class Water:
             raise InputError("water: a drained analysis keeps no excess pore pressure to "
                              "smooth (smoothing is for analysis='undrained' or 'coupled')",
                              "smoothing")
+        self._check_drained_sides()
         if self.analysis == "drained" and self.level is None and self.phreatic is None:
             raise InputError("water: a drained analysis without a water level is a dry one: "
                              "give level= (the still-water level, m)", "level")
@@ -154,6 +165,31 @@ class Water:
                              "both (where the table stands above the ground it is the "
                              "free water's surface)", "phreatic")
         object.__setattr__(self, "phreatic", tuple((float(x), float(y)) for x, y in P))
+
+    def _check_drained_sides(self):
+        sides = self.drained_sides
+        if isinstance(sides, str):
+            sides = (sides,)
+        try:
+            sides = tuple(sides)
+        except TypeError:
+            sides = None
+        if sides is None or not all(isinstance(s, str) for s in sides):
+            raise InputError(f"water: drained_sides must be a list of sides of the domain "
+                             f"({', '.join(SIDES)}), got {self.drained_sides!r}",
+                             "drained_sides")
+        for s in sides:
+            if s not in SIDES:
+                raise InputError(f"water: unknown side {s!r} in drained_sides: choose from "
+                                 f"{', '.join(SIDES)}", "drained_sides")
+        if len(set(sides)) != len(sides):
+            raise InputError(f"water: drained_sides names a side twice: {list(sides)}",
+                             "drained_sides")
+        if sides and self.analysis != "coupled":
+            raise InputError("water: drained sides let the pore water flow out of the "
+                             "domain: a coupled analysis's (analysis='coupled'; drained has "
+                             "no excess pore pressure, undrained no flow)", "drained_sides")
+        object.__setattr__(self, "drained_sides", sides)
 
     def _check_drawdown(self):
         for key, value, positive in (("final_level", self.final_level, False),
@@ -279,6 +315,13 @@ def checked_water(model):
                          "drove Terzaghi's consolidation away from the series as the grid "
                          "was refined (U = 0.992 against 0.931 at T = 1, 32 elements; "
                          "docs/results.md)", "smoothing")
+    for side in water.drained_sides:
+        if SIDES.index(side) >= 2 * dim:
+            raise InputError(f"water: a {dim}D domain has no {side} side (its sides: "
+                             f"{', '.join(SIDES[:2 * dim])})", "drained_sides")
+        if model.periodic and side in ("left", "right"):
+            raise InputError(f"water: the {side} side is periodic, not a face the water "
+                             f"can drain through", "drained_sides")
     if water.analysis == "coupled":
         wrong = [what for what, bad in (
             (f"the {model.transfer} transfer (the two-phase step is MUSL's: "

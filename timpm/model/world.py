@@ -230,7 +230,7 @@ _WORLD_KEY_OF_MODEL = {"positions": "bodies", "materials": "bodies", "elements":
                        "projection": "transfer", "particle_force": "tractions",
                        "level": "water.level", "analysis": "water.analysis",
                        "seepage": "water.seepage", "phreatic": "water.phreatic",
-                       "smoothing": "water.smoothing",
+                       "smoothing": "water.smoothing", "drained_sides": "water.drained_sides",
                        "pore_water": "bodies", "conductivity": "bodies"}
 
 

@@ -15,7 +15,13 @@ displacement of a point at height x above the base is
     u_x = -(p0 / E_oed) [x - H sum_m (2 / M^2) cos(M Z) exp(-M^2 T)],
 
 and the degree of consolidation, the settlement over its final value, is U = 1 - sum_m
-(2 / M^2) exp(-M^2 T) (0.357, 0.504, 0.764, 0.931 at T = 0.1, 0.2, 0.5, 1).  The run is the
+(2 / M^2) exp(-M^2 T) (0.357, 0.504, 0.764, 0.931 at T = 0.1, 0.2, 0.5, 1).
+
+``drainage="both"``: the base drains too (``Water(drained_sides=("left",))``: its
+Dirichlet node holds the skeleton, not the water).  The drainage length is then H_d = H /
+2, Z the distance from the nearer face over H_d, T = c_v t / H_d^2: the same series on each
+half, and below the mid-plane u_x = -(p0 / E_oed) [x - H_d sum (2 / M^2) (1 - cos(M Z))
+exp(-M^2 T)], above it with 1 + cos(M Z).  The run is the
 coupled two-phase MUSL step (schemes/two_phase.py; ``Water(analysis="coupled")``): the
 water flows, Darcy's drag couples it to the skeleton, and the load is carried over from the
 water to the soil as it drains.  The solution is quasi-static; the run is dynamic, its time
@@ -36,7 +42,9 @@ __all__ = ["Terzaghi", "consolidation_series", "degree_of_consolidation"]
 
 #: terms of the series: the slowest neglected term is below 1e-12 of u0 for T >= 1e-4
 TERMS = 400
-#: the monitored depths Z = depth / H (1: the undrained base)
+#: the faces the water leaves by: the top (the base impermeable), or the top and the base
+DRAINAGE = ("top", "both")
+#: the monitored depths Z = depth / H_d (1: the undrained base, or the mid-plane)
 DEPTHS = (0.25, 0.5, 0.75, 1.0)
 
 
@@ -74,6 +82,7 @@ class Terzaghi(Problem):
     water_modulus: float = 2.2e9
     water_density: float = 1000.0
     time_factor: float = 1.0
+    drainage: str = "top"
 
     name = "terzaghi"
     title = "Terzaghi's one-dimensional consolidation"
@@ -86,6 +95,14 @@ class Terzaghi(Problem):
         check_positive(self, "E", "density", "H", "p0", "conductivity", "water_modulus",
                        "water_density", "time_factor")
         self.pore_water  # the water's own checks (porosity in (0, 1))
+        if self.drainage not in DRAINAGE:
+            raise ValueError(f"terzaghi: drainage must be one of {', '.join(DRAINAGE)} (the "
+                             f"faces the water leaves by), got {self.drainage!r}")
+
+    @property
+    def drainage_length(self) -> float:
+        """H_d: the layer drained at its top (H), or at its top and base (H / 2)."""
+        return self.H if self.drainage == "top" else 0.5 * self.H
 
     @property
     def pore_water(self) -> PoreWater:
@@ -118,14 +135,14 @@ class Terzaghi(Problem):
 
     @property
     def t_end(self) -> float:
-        return self.time_factor * self.H ** 2 / self.c_v
+        return self.time_factor * self.drainage_length ** 2 / self.c_v
 
     @property
     def dt_rule(self) -> str:
         return f"{self.courant:g} h / c_u"
 
     def time_factor_at(self, t) -> float:
-        return self.c_v * t / self.H ** 2
+        return self.c_v * t / self.drainage_length ** 2
 
     def domain_length(self):
         return self.H
@@ -141,14 +158,18 @@ class Terzaghi(Problem):
 
     def conditions(self, x0, basis, grid):
         n = len(x0)
+        sides = () if self.drainage == "top" else ("left",)  # (1D: the base at x = 0)
         return dict(fixed_nodes=basis.boundary_nodes(grid.n_elements)[0],
                     traction=Traction(int(np.argmax(x0)), -self.p0, Constant()),
-                    pore_water=self.pore_water, water=Water("coupled"),
+                    pore_water=self.pore_water, water=Water("coupled", drained_sides=sides),
                     initial_pore_pressure=np.full(n, self.p0))
 
     def depth(self, x):
-        """Z: the depth below the drained top over the drainage length."""
-        return (self.H - np.asarray(x, dtype=float)) / self.H
+        """Z: the distance from the nearest drained face over the drainage length."""
+        x = np.asarray(x, dtype=float)
+        if self.drainage == "both":
+            return np.minimum(x, self.H - x) / self.drainage_length
+        return (self.H - x) / self.H
 
     def pore_pressure(self, x0, t):
         """The exact excess pore pressure at heights ``x0`` and time ``t``."""
@@ -159,18 +180,25 @@ class Terzaghi(Problem):
         M = _modes()
         T = self.time_factor_at(t)
         Z = self.depth(x)
-        s = np.sum(2.0 / M ** 2 * np.cos(np.multiply.outer(Z, M)) * np.exp(-M * M * T),
-                   axis=-1)
-        return -(self.p0 / self.E) * (x - self.H * s)
+        cos = np.cos(np.multiply.outer(Z, M))
+        if self.drainage == "both":
+            # int_0^x u dx' / u0: below the mid-plane (2 H_d / M^2)(1 - cos(M Z)), above it
+            # the lower half's 2 H_d / M^2 plus (2 H_d / M^2) cos(M Z) (cos M = 0)
+            lower = (x <= 0.5 * self.H)[..., None]
+            cos = np.where(lower, 1.0 - cos, 1.0 + cos)
+        s = np.sum(2.0 / M ** 2 * cos * np.exp(-M * M * T), axis=-1)
+        return -(self.p0 / self.E) * (x - self.drainage_length * s)
 
     def velocity(self, x0, t):
         x = np.asarray(x0, dtype=float)
         M = _modes()
         T = self.time_factor_at(t)
-        dTdt = self.c_v / self.H ** 2
-        s = np.sum(-2.0 * np.cos(np.multiply.outer(self.depth(x), M)) * np.exp(-M * M * T),
-                   axis=-1)
-        return -(self.p0 / self.E) * (-self.H * s * dTdt)
+        dTdt = self.c_v / self.drainage_length ** 2
+        cos = np.cos(np.multiply.outer(self.depth(x), M))
+        if self.drainage == "both":
+            cos = np.where((x <= 0.5 * self.H)[..., None], 1.0 - cos, 1.0 + cos)
+        s = np.sum(-2.0 * cos * np.exp(-M * M * T), axis=-1)
+        return -(self.p0 / self.E) * (-self.drainage_length * s * dTdt)
 
     def monitored_particle(self, x0) -> int:
         return int(np.argmax(np.asarray(x0)))  # the top: the settlement
@@ -188,7 +216,9 @@ class Terzaghi(Problem):
         pw = solver.read("pw")
         order = np.argsort(x)
         depths = np.array(DEPTHS)
-        heights = self.H * (1.0 - depths)  # (at the base: below the lowest particle, its value)
+        # below the top (both faces drained: down to the mid-plane, Z = 1; one: to the
+        # base, where np.interp takes the lowest particle's value)
+        heights = self.H - self.drainage_length * depths
         numerical = np.interp(heights, x[order], pw[order]) / self.p0
         exact = consolidation_series(depths, T)
         vol = solver.read("vol")

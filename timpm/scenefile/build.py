@@ -335,7 +335,7 @@ def _world_scene(reader, data, path) -> SceneFile:
             water = Water(spec.get("analysis", "coupled"), spec.get("level"),
                           spec.get("seepage", "none"), spec.get("phreatic"),
                           spec.get("smoothing", "none"), spec.get("final_level"),
-                          spec.get("drawdown_time"))
+                          spec.get("drawdown_time"), tuple(spec.get("drained_sides", ())))
         except ValueError as err:
             key = getattr(err, "key", None)
             raise reader.error(("water",) + ((key,) if key in WATER else ()), str(err)) from None

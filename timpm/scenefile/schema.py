@@ -49,6 +49,8 @@ TYPES = {
                   for c in v))),
     "whole": ("an integer >= 0", lambda v: isinstance(v, int) and not isinstance(v, bool)
               and v >= 0),
+    "sides": ("an array of sides (left, right, bottom, top, back, front)",
+              lambda v: isinstance(v, list) and all(isinstance(c, str) for c in v)),
     "range": ("two increasing numbers [low, high]",
               lambda v: isinstance(v, list) and len(v) == 2 and all(_is_number(c) for c in v)
               and v[0] < v[1]),
@@ -206,6 +208,10 @@ WATER = {
                        "free water's unloading at once, B = 1)"),
     "drawdown_time": Key("positive", None, "s", "the drawdown's duration (with "
                          "final_level)"),
+    "drained_sides": Key("sides", [], doc="coupled: the sides whose walls (or fixed nodes) "
+                         "hold the skeleton only, the pore water flowing through them "
+                         "(p_e = 0 on them, as at a free surface); the others are "
+                         "impermeable"),
 }
 SHAPE_KEYS = {"box": ("lo", "hi"), "ball": ("center", "radius"), "polygon": ("vertices",),
               "prism": ("vertices", "z")}

@@ -21,8 +21,10 @@ balances are solved for the velocities at the step's end with the drag taken the
 so that a low permeability (Q large) does not shorten the time step: the step is bounded
 by the undrained wave, sqrt((E_oed + K_w / n) / rho_sat), not by the drag's 2 M_w / Q.
 A node's water is held by its walls (impermeable: the normal velocity the skeleton's) and
-by its Dirichlet conditions; a free surface drains (p_e = 0 is the weak form's natural
-condition).  The skeleton's is MUSL's step: the particles' velocities updated, their
+by its Dirichlet conditions, except on the sides the scene drains (``Water.drained_sides``),
+where the water's own balance is solved with the skeleton's velocity held, w+ = (F_w +
+M_w w / dt + Q v+) / (M_w / dt + Q); a free surface drains (p_e = 0 is the weak form's
+natural condition, there and on a drained side).  The skeleton's is MUSL's step: the particles' velocities updated, their
 momentum mapped again, the strain from that velocity.  The water's volumetric strain is
 taken from its velocity at the step's end, w+, itself: remapped from the particles, the
 nodal field is a smoothed one, and consolidation ran slower than Terzaghi's series by a
@@ -130,26 +132,42 @@ class TwoPhase(MUSL):
         aw = ti.Vector.zero(float, self.dim)
         w_end = ti.Vector.zero(float, self.dim)  # (zero at Dirichlet and empty nodes)
         m = grid.node_mass[I]
+        wet = Mw > values.mass_tol()
+        A = Mw / dt
+        w = ti.Vector.zero(float, self.dim)
+        if wet:
+            w = Pw / Mw
+        R1 = Fw + A * w
+        drains = self.drains(values, I)
         if m > values.mass_tol() and not self.boundary.is_fixed(I):
             v = grid.node_momentum[I] / m
-            w = v
+            if not wet:
+                w = v
             v_new = v + dt * grid.node_force[I] / m
             w_new = v_new
-            if Mw > values.mass_tol():
-                w = Pw / Mw
+            if wet:
                 B = (m - Mbar) / dt
-                A = Mw / dt
                 C = Mbar / dt
-                R1 = Fw + A * w
                 R2 = grid.node_force[I] + B * v + C * w
                 w_new = (B * R1 + Q * R2) / (B * (A + Q) + Q * C)
                 v_new = (R2 - C * w_new) / B
             if ti.static(self.f.has_walls):
                 v_new = self.boundary.apply_walls(I, v_new)
-                w_new = self.boundary.apply_walls(I, w_new)
+                if drains and wet:  # the water through the wall: its balance, v+ held,
+                    w_new = (R1 + Q * v_new) / (A + Q)  # then the other sides' walls
+                    w_new = self.boundary.walls_except(I, w_new, self.f.drained_sides)
+                else:  # impermeable
+                    w_new = self.boundary.apply_walls(I, w_new)
             a = (v_new - v) / dt
             aw = (w_new - w) / dt
             w_end = w_new
+        elif m > values.mass_tol() and drains and wet:
+            # a Dirichlet node of a drained side: the skeleton held (v+ = 0, the coupled
+            # analysis takes no prescribed motion), the water through it
+            w_end = R1 / (A + Q)
+            if ti.static(self.f.has_walls):
+                w_end = self.boundary.walls_except(I, w_end, self.f.drained_sides)
+            aw = (w_end - w) / dt
         grid.node_acceleration[I] = a
         grid.node_water_acceleration[I] = aw
         grid.node_water_velocity[I] = w_end
@@ -160,6 +178,22 @@ class TwoPhase(MUSL):
             grid.node_drag[I] = 0.0
             grid.node_water_force[I] = ti.Vector.zero(float, self.dim)
             grid.node_water_momentum[I] = ti.Vector.zero(float, self.dim)
+
+    @ti.func
+    def drains(self, values: ti.template(), I):
+        """Node I lies on a side the pore water flows through (Water.drained_sides: at and
+        beyond its edge node, as a wall acts)."""
+        out = False
+        for j in ti.static(range(len(self.f.drained_sides))):
+            side = ti.static(self.f.drained_sides[j])
+            edge = values.drained_nodes()[j]
+            if ti.static(side % 2 == 0):
+                if I[side // 2] <= edge:
+                    out = True
+            else:
+                if I[side // 2] >= edge:
+                    out = True
+        return out
 
     # ---- G2P of the velocities, P2G of the momenta ----------------------------------------
     @ti.func
