@@ -18,6 +18,10 @@ class _Soil:  # what a realisation reads of a Mohr-Coulomb material
     unreduced = property(lambda self: self)
 
 
+class _Water:  # what a realisation reads of a body's pore water
+    conductivity = 1e-5
+
+
 def test_lognormal_marginal_and_cross_correlation():
     """Point values (one point per cell) over a domain many scales of fluctuation long:
     ln c has the mean ln(mean) - sigma^2 / 2 and the deviation sigma = sqrt(ln(1 + V^2)),
@@ -35,10 +39,21 @@ def test_lognormal_marginal_and_cross_correlation():
     r = np.corrcoef(np.log(real["cohesion"]), np.log(real["friction_angle"]))[0, 1]
     assert r == pytest.approx(-0.6, abs=0.05)
     assert real["clipped"] == 0 and real["cells"] == 20000
-    again = rf._realise(_Soil(), x, 2.0, np.zeros(2))  # generated again, not the memo's
-    assert np.array_equal(again["cohesion"], real["cohesion"])  # seeded: reproducible
+    # generated again (not the memo's): seeded, reproducible
+    again = rf._realise({"cohesion": 10e3, "friction_angle": 30.0}, x, 2.0, np.zeros(2))
+    assert np.array_equal(again["cohesion"], real["cohesion"])
     other = replace(rf, seed=8).realise(_Soil(), x, 2.0, np.zeros(2))
     assert not np.array_equal(other["cohesion"], real["cohesion"])
+    # the pore water's conductivity: lognormal about its own, independent of the strength,
+    # which keeps its values (its Gaussian fields the same two)
+    wet = replace(rf, conductivity_cov=0.6).realise(_Soil(), x, 2.0, np.zeros(2),
+                                                    _Water())
+    s = math.sqrt(math.log1p(0.36))
+    ln = np.log(wet["conductivity"])
+    assert ln.mean() == pytest.approx(math.log(1e-5) - 0.5 * s * s, abs=0.03)
+    assert ln.std() == pytest.approx(s, rel=0.05)
+    assert abs(np.corrcoef(ln, np.log(wet["cohesion"]))[0, 1]) < 0.05
+    assert np.array_equal(wet["cohesion"], real["cohesion"])
 
 
 def test_a_world_built_again_from_the_same_particles_reuses_its_realisation():

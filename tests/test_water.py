@@ -59,10 +59,11 @@ def test_water_refuses_bad_values(kwargs, key):
     assert err.value.key == key
 
 
-def _layer(water=None, pore=None, material=None, **world):
+def _layer(water=None, pore=None, material=None, random_field=None, **world):
     material = material or timpm.MohrCoulomb(E=1e7, nu=0.3, density=2000.0,
                                              friction_angle=30.0, cohesion=1e3)
-    body = timpm.Body(timpm.Box((0.0, 0.0), (1.0, 1.0)), material, water=pore)
+    body = timpm.Body(timpm.Box((0.0, 0.0), (1.0, 1.0)), material, water=pore,
+                      random_field=random_field)
     return timpm.World(domain=(1.0, 2.0), cells=4, bodies=[body], transfer="musl",
                        water=water, **world)
 
@@ -254,13 +255,14 @@ def test_terzaghi_drained_at_both_faces():
     assert plain.read("pw")[np.argmin(x0)] / prob.p0 > 0.99  # (T = 0.025 of the plain layer)
 
 
-def _drained_column(sides, walls):
+def _drained_column(sides, walls, random_field=None):
     """A 2D saturated elastic column (2 x 16 cells, nu = 0, roller sides) under a 1 kPa
     top load, no gravity, coupled, its water drained through ``sides``: Terzaghi's layer
     in plane strain."""
     prob = get_problem("terzaghi")
     soil = timpm.LinearElastic(E=prob.E, nu=0.0, density=prob.density)
-    body = timpm.Body(timpm.Box((0.0, 0.0), (0.125, 1.0)), soil, ppc=2, water=prob.pore_water)
+    body = timpm.Body(timpm.Box((0.0, 0.0), (0.125, 1.0)), soil, ppc=2, water=prob.pore_water,
+                      random_field=random_field)
     world = timpm.World(domain=(0.125, 1.0), cells=2, bodies=[body], transfer="musl",
                         basis="linear", walls=walls, gravity=(0.0, 0.0),
                         tractions=[SurfaceTraction(0, "top", (0.0, -prob.p0))],
@@ -296,6 +298,56 @@ def test_a_drained_wall_lets_the_water_through(bottom):
     _, sealed = _drained_column((), walls)
     pw = timpm.Solver(sealed, energies=False).run(t_end=0.1 * Hd ** 2 / prob.c_v).read("pw")
     assert np.min(pw[y0 < 0.1]) / prob.p0 > 0.99
+
+
+def test_a_random_conductivity_drains_at_its_own_rate():
+    """conductivity_cov with an infinite scale of fluctuation: one conductivity a
+    realisation, lognormal about the pore water's; the column consolidates as the series
+    with that k's c_v (each cell within 0.02 at T = 0.2), its drag n rho_w g / k; a
+    spatial field gives every cell its own k (a mean near the water's, cells apart)."""
+    walls = {"left": "roller", "right": "roller", "bottom": "sticky", "top": None}
+    rf = timpm.RandomField(conductivity_cov=1.0, seed=3)
+    prob, world = _drained_column(("bottom",), walls, random_field=rf)
+    k = world.random_fields[0]["conductivity"]
+    assert np.ptp(k) == 0.0 and abs(k[0] / prob.conductivity - 1.0) > 0.1
+    assert np.allclose(world.model.pore_conductivity, k)
+    c_v = k[0] / (prob.water_density * 9.81 * (1.0 / prob.E + prob.porosity
+                                                / prob.water_modulus))
+    Hd = 0.5 * prob.H
+    solver = timpm.Solver(world, energies=False).run(t_end=0.2 * Hd ** 2 / c_v)
+    drag = solver.read("drag")
+    assert drag == pytest.approx(prob.porosity * prob.water_density * 9.81 / k, rel=1e-12)
+    y0 = world.positions[:, 1]
+    exact = consolidation_series(np.minimum(y0, prob.H - y0) / Hd, 0.2)
+    pw = solver.read("pw") / prob.p0
+    row = np.floor(y0 / world.h).astype(int)
+    for r in range(16):
+        assert abs(pw[row == r].mean() - exact[row == r].mean()) < 0.02, r
+    spatial = timpm.RandomField(conductivity_cov=1.0, correlation_length=0.25, seed=3)
+    _, world = _drained_column(("bottom",), walls, random_field=spatial)
+    k = world.random_fields[0]["conductivity"]
+    per_cell = np.unique(k)
+    assert len(per_cell) == 32 and 0.3 < np.exp(np.log(per_cell).mean()) / 1e-3 < 3.0
+
+
+@pytest.mark.parametrize("make, key, words", [
+    (lambda: timpm.RandomField(conductivity_cov=0.5, marginal="normal"), "marginal",
+     "lognormal"),
+    (lambda: timpm.Body(timpm.Box((0.0, 0.0), (1.0, 1.0)), timpm.LinearElastic(
+        E=1e7, nu=0.3, density=2e3), random_field=timpm.RandomField(conductivity_cov=0.5)),
+     "conductivity_cov", "give the body water"),
+    (lambda: timpm.Body(timpm.Box((0.0, 0.0), (1.0, 1.0)), timpm.LinearElastic(
+        E=1e7, nu=0.3, density=2e3), water=timpm.PoreWater(0.4, conductivity=1e-5),
+        random_field=timpm.RandomField(cohesion_cov=0.5, conductivity_cov=0.5)),
+     "random_field", "Mohr-Coulomb soil, not of linear-elastic"),
+    (lambda: _layer(water=timpm.Water("undrained"),
+                    pore=timpm.PoreWater(0.4, conductivity=1e-5),
+                    random_field=timpm.RandomField(conductivity_cov=0.5)),
+     "bodies", "coupled analysis's drag only")])
+def test_a_random_conductivity_is_refused_where_nothing_reads_it(make, key, words):
+    with pytest.raises(InputError, match=words) as err:
+        make()
+    assert err.value.key == key
 
 
 def test_terzaghi_converges():

@@ -201,7 +201,9 @@ class Model:
     particles start from (undrained and coupled analyses; default 0): the stress the grid
     sees starts at sigma' - p_e I, sigma' the initial stress (or zero).
     ``particle_values`` the initial values of law fields per particle, name -> (n, ...)
-    array (a random field's strength, MohrCoulombField's ``strength``).
+    array (a random field's strength, MohrCoulombField's ``strength``);
+    ``pore_conductivity`` the (n,) hydraulic conductivities of the particles' pore water
+    (a random field's; nan: the material's PoreWater's), a coupled analysis's drag.
     """
 
     basis: "str | type[Basis]"  # a name or a Basis class; the class once checked
@@ -236,6 +238,7 @@ class Model:
     pore_water: tuple | None = None
     initial_pore_pressure: np.ndarray | None = None
     particle_values: dict | None = None
+    pore_conductivity: object = None
     name: str = "model"
 
     def __post_init__(self):

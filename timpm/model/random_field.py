@@ -1,8 +1,12 @@
-"""Random fields of a soil's strength: a property of a body, realised on its particles.
+"""Random fields of a soil's strength and of its pore water's conductivity: a property of
+a body, realised on its particles.
 
 A :class:`RandomField` is a value, checked on construction: the coefficients of variation
 of the cohesion and the friction angle (their means are the body's Mohr-Coulomb
-material's), their marginal distribution (lognormal, or normal), the scale of
+material's) and of the hydraulic conductivity (its mean the body's PoreWater's; always
+lognormal, from a third Gaussian field independent of the strength's, read by a coupled
+analysis's drag n rho_w g / k per particle; averaged per cell as ln k, the geometric
+mean), their marginal distribution (lognormal, or normal), the scale of
 fluctuation theta (one value, isotropic, or horizontal and vertical; ``math.inf``: one
 value per realisation, the same at every point), the correlation function, a rotation of
 the anisotropy, the correlation between the two parameters and the seed.
@@ -58,7 +62,8 @@ CORRELATIONS = ("exponential", "gaussian")
 #: from them (a trial's reduced soil)
 _REALISED = Memo(kept=4)
 
-PARAMETERS = {"cohesion": (0.0, math.inf), "friction_angle": (0.0, 89.0)}
+PARAMETERS = {"cohesion": (0.0, math.inf), "friction_angle": (0.0, 89.0),
+              "conductivity": (0.0, math.inf)}
 
 
 def _positive_or_inf(value) -> bool:
@@ -74,6 +79,7 @@ class RandomField:
 
     cohesion_cov: float = 0.0
     friction_angle_cov: float = 0.0
+    conductivity_cov: float = 0.0
     correlation_length: object = math.inf
     marginal: str = "lognormal"
     correlation: str = "exponential"
@@ -89,6 +95,8 @@ class RandomField:
                               high=10.0),
         "friction_angle_cov": Param(doc="coefficient of variation of the friction angle",
                                     low=0.0, high=10.0),
+        "conductivity_cov": Param(doc="coefficient of variation of the pore water's "
+                                  "hydraulic conductivity (lognormal)", low=0.0, high=10.0),
         "angle": Param(unit="degrees", doc="rotation of the anisotropy's axes from x toward "
                        "y (2D)", low=-90.0, high=90.0),
         "cross_correlation": Param(doc="correlation of the cohesion's and the friction "
@@ -132,6 +140,15 @@ class RandomField:
                              f"or along neither, got {self.correlation_length!r}",
                              "correlation_length")
         object.__setattr__(self, "correlation_length", tuple(float(t) for t in theta))
+        if self.conductivity_cov > 0.0 and self.marginal != "lognormal":
+            raise InputError(f"{self.name}: a hydraulic conductivity is positive: its field "
+                             f"is lognormal (marginal = 'lognormal'), whatever the strength's",
+                             "marginal")
+
+    @property
+    def varies_strength(self) -> bool:
+        """The cohesion or the friction angle varies."""
+        return self.cohesion_cov > 0.0 or self.friction_angle_cov > 0.0
 
     @property
     def infinite(self) -> bool:
@@ -143,14 +160,19 @@ class RandomField:
 
         return replace(self, seed=seed)
 
-    def check_soil(self, soil, where="body"):
-        """The body's material must be Mohr-Coulomb soil of a mean that can vary."""
-        from ..materials.mohr_coulomb import MohrCoulomb
-        from ..materials.mohr_coulomb_softening import MohrCoulombSoftening
-
-        if not isinstance(soil, MohrCoulomb) or isinstance(soil, MohrCoulombSoftening):
-            raise InputError(f"{where}: a random field varies the strength of Mohr-Coulomb "
-                             f"soil, not of {soil.name}", "random_field")
+    def check_soil(self, soil, where="body", water=None):
+        """The body's material must be Mohr-Coulomb soil of a mean that can vary (unless
+        the field varies the conductivity alone), and a varied conductivity needs the
+        body's pore water with one."""
+        if self.conductivity_cov > 0.0 and (water is None or water.conductivity is None):
+            raise InputError(f"{where}: conductivity_cov = {self.conductivity_cov:g} varies "
+                             f"the pore water's hydraulic conductivity: give the body "
+                             f"water=timpm.PoreWater(..., conductivity=K)", "conductivity_cov")
+        if not self.strength_of(soil):
+            if self.varies_strength or self.conductivity_cov == 0.0:
+                raise InputError(f"{where}: a random field varies the strength of "
+                                 f"Mohr-Coulomb soil, not of {soil.name}", "random_field")
+            return
         base = soil.unreduced
         for key in ("cohesion", "friction_angle"):
             if getattr(self, f"{key}_cov") > 0.0 and getattr(base, key) == 0.0:
@@ -161,11 +183,11 @@ class RandomField:
 
     # ---- the realisation -----------------------------------------------------------
     def gaussian(self, points: np.ndarray, seeds) -> np.ndarray:
-        """Two independent standard Gaussian fields (2, m) at ``points`` (m, dim)."""
+        """Independent standard Gaussian fields (len(seeds), m) at ``points`` (m, dim)."""
         m, dim = points.shape
         if self.infinite:
             rng = np.random.default_rng(seeds[0])
-            return np.repeat(rng.standard_normal(2)[:, None], m, axis=1)
+            return np.repeat(rng.standard_normal(len(seeds))[:, None], m, axis=1)
         try:
             import gstools as gs
         except ImportError:
@@ -178,26 +200,40 @@ class RandomField:
         kind = gs.Exponential if self.correlation == "exponential" else gs.Gaussian
         model = kind(dim=dim, var=1.0, len_scale=scales,
                      angles=math.radians(self.angle) if dim == 2 else 0.0)
-        out = np.empty((2, m))
-        for k in range(2):
+        out = np.empty((len(seeds), m))
+        for k in range(len(seeds)):
             srf = gs.SRF(model, seed=int(seeds[k]), mode_no=self.modes)
             out[k] = srf(tuple(points.T), mesh_type="unstructured")
         return out
 
-    def realise(self, soil, positions, h, origin) -> dict:
+    @staticmethod
+    def strength_of(soil) -> bool:
+        """Whether ``soil``'s strength can vary: Mohr-Coulomb without softening."""
+        from ..materials.mohr_coulomb import MohrCoulomb
+        from ..materials.mohr_coulomb_softening import MohrCoulombSoftening
+
+        return isinstance(soil, MohrCoulomb) and not isinstance(soil, MohrCoulombSoftening)
+
+    def realise(self, soil, positions, h, origin, water=None) -> dict:
         """The realisation on particles at ``positions`` (n, dim) of a grid of spacing ``h``
         from ``origin``: {"cohesion": (n,), "friction_angle": (n,), "clipped": count,
-        "cells": the cells averaged}; the means are ``soil.unreduced``'s."""
-        base = soil.unreduced
+        "cells": the cells averaged}, and "conductivity" (n,) where conductivity_cov > 0;
+        the means are ``soil.unreduced``'s (a soil whose strength does not vary: none)
+        and ``water``'s conductivity."""
+        means = {}
+        if hasattr(soil, "unreduced"):  # (Mohr-Coulomb's: a strength that can vary)
+            means.update(cohesion=float(soil.unreduced.cohesion),
+                         friction_angle=float(soil.unreduced.friction_angle))
+        if self.conductivity_cov > 0.0:
+            means["conductivity"] = float(water.conductivity)
         x = np.ascontiguousarray(positions, dtype=np.float64)
-        n, dim = x.shape
         # a strength-reduction trial builds its world again from the same particles: the
         # same realisation, generated once (the key: what the values depend on)
-        key = (self, float(base.cohesion), float(base.friction_angle), float(h),
+        key = (self, tuple(sorted(means.items())), float(h),
                digest(np.asarray(origin, dtype=np.float64)), digest(x))
-        return dict(_REALISED.get(key, lambda: self._realise(base, x, h, origin)))
+        return dict(_REALISED.get(key, lambda: self._realise(means, x, h, origin)))
 
-    def _realise(self, base, x, h, origin) -> dict:
+    def _realise(self, means, x, h, origin) -> dict:
         n, dim = x.shape
         cell = np.floor((x - np.asarray(origin)) / h).astype(np.int64)
         cells, inverse = np.unique(cell, axis=0, return_inverse=True)
@@ -206,13 +242,18 @@ class RandomField:
         offsets = (np.arange(k) + 0.5) / k
         sub = np.stack(np.meshgrid(*([offsets] * dim), indexing="ij"), -1).reshape(-1, dim)
         at = (np.asarray(origin) + (cells[:, None, :] + sub[None]) * h).reshape(-1, dim)
-        seeds = np.random.SeedSequence(self.seed).generate_state(2)
-        G = self.gaussian(at, seeds).reshape(2, len(cells), len(sub)).mean(axis=2)
+        count = 3 if "conductivity" in means else 2  # (the third: the conductivity's own)
+        seeds = np.random.SeedSequence(self.seed).generate_state(count)
+        G = self.gaussian(at, seeds).reshape(count, len(cells), len(sub)).mean(axis=2)
         r = self.cross_correlation
         fields = {"cohesion": G[0], "friction_angle": r * G[0] + math.sqrt(1.0 - r * r) * G[1]}
+        if count == 3:
+            fields["conductivity"] = G[2]
         out, clipped = {}, 0
         for key, g in fields.items():
-            mean, cov = getattr(base, key), getattr(self, f"{key}_cov")
+            if key not in means:
+                continue
+            mean, cov = means[key], getattr(self, f"{key}_cov")
             if cov == 0.0:
                 values = np.full(len(cells), float(mean))
             elif self.marginal == "lognormal":

@@ -81,7 +81,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..materials.pore_water import PoreWater
+from ..materials.pore_water import STANDARD_GRAVITY, PoreWater
 from ..platform.errors import InputError, about
 from .walls import SIDES
 
@@ -248,6 +248,29 @@ def ground_surface_above(positions, volume, up):
     return top[where]
 
 
+def _conductivity(model, arrays):
+    """The Model's ``pore_conductivity`` (n,) checked: positive where given (nan: the
+    material's), given on saturated particles only; None if not given."""
+    if model.pore_conductivity is None:
+        return None
+    n = len(model.positions)
+    try:
+        k = np.array(model.pore_conductivity, dtype=np.float64).reshape(n)
+    except (TypeError, ValueError):
+        raise InputError(f"pore_conductivity must be {n} numbers (one per particle; nan: "
+                         f"the material's), got shape {np.shape(model.pore_conductivity)}",
+                         "pore_conductivity") from None
+    bad = np.flatnonzero(~(np.isnan(k) | ((k > 0.0) & np.isfinite(k))))
+    if len(bad):
+        raise InputError(f"pore_conductivity of particle {int(bad[0])} must be a positive "
+                         f"conductivity (m/s), got {k[bad[0]]!r}", "pore_conductivity")
+    dry = np.flatnonzero(np.isfinite(k) & (arrays["rho_w"] == 0.0))
+    if len(dry):
+        raise InputError(f"pore_conductivity: particle {int(dry[0])} is of a dry material "
+                         f"(no pore water)", "pore_conductivity")
+    return k
+
+
 def checked_water(model):
     """A :class:`~timpm.model.Model`'s water checked: its ``pore_water`` as one PoreWater
     or None per material, and the per-particle arrays the engine uploads (the Model's
@@ -371,6 +394,15 @@ def checked_water(model):
             arrays["porosity"] = column([0.0 if pw is None else pw.porosity
                                          for pw in pores])
             arrays["drag"] = column([0.0 if pw is None else pw.drag() for pw in pores])
+        k = _conductivity(model, arrays)
+        if k is not None:  # a random field's: n rho_w g / k particle by particle
+            given = np.isfinite(k)
+            arrays["drag"][given] = (arrays["porosity"][given] * arrays["rho_w"][given]
+                                     * STANDARD_GRAVITY / k[given])
+    elif model.pore_conductivity is not None:
+        raise InputError(f"pore_conductivity (a random field's conductivity_cov) is read by "
+                         f"a coupled analysis's drag only, not by a {water.analysis} one",
+                         "pore_conductivity")
     for arr in arrays.values():
         arr.setflags(write=False)
     return pores, arrays

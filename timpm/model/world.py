@@ -196,7 +196,8 @@ class Body:
                 raise InputError(f"body random_field must be a timpm.RandomField (the "
                                  f"strength's variation) or None, got {self.random_field!r}",
                                  "random_field")
-            self.random_field.check_soil(mat, f"body {self.name!r}" if self.name else "body")
+            self.random_field.check_soil(mat, f"body {self.name!r}" if self.name else "body",
+                                         self.water)
         if self.displacement is not None and not callable(self.displacement):
             raise ValueError("body displacement must be a function u0(X) of the body's (n, "
                              f"dim) reference positions, got {type(self.displacement).__name__}")
@@ -231,7 +232,8 @@ _WORLD_KEY_OF_MODEL = {"positions": "bodies", "materials": "bodies", "elements":
                        "level": "water.level", "analysis": "water.analysis",
                        "seepage": "water.seepage", "phreatic": "water.phreatic",
                        "smoothing": "water.smoothing", "drained_sides": "water.drained_sides",
-                       "pore_water": "bodies", "conductivity": "bodies"}
+                       "pore_water": "bodies", "conductivity": "bodies",
+                       "pore_conductivity": "bodies"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -365,7 +367,8 @@ class World:
                       initial_stress=initial_stress, water=self.water,
                       pore_water=part["pore_water"],
                       initial_pore_pressure=self.initial_pore_pressure,
-                      particle_values=part["particle_values"])
+                      particle_values=part["particle_values"],
+                      pore_conductivity=part["conductivity"])
 
     def _initial_stress(self, dim, g, domain):
         """The particles' initial stresses: a :class:`~timpm.model.geostatic.K0` procedure's
@@ -457,7 +460,9 @@ class World:
         self._check_size(dim, h, domain)
         xs, vs, vols, mats, ids = [], [], [], [], []
         materials = []
-        strength, realised = [], {}  # random fields: (first row, values), body -> realisation
+        # random fields: (first row, strength values), (first row, conductivities), body ->
+        # its realisation
+        strength, conductivity, realised = [], [], {}
         for k, body in enumerate(self.bodies):
             label = f"body {k}" + (f" ({body.name!r})" if body.name else "")
             if body.shape.dim != dim:
@@ -485,12 +490,18 @@ class World:
                 v = np.zeros(dim) if body.velocity is None else _vector(
                     f"{label} velocity", body.velocity, dim)
             slot = (body.material, body.water)  # a material slot: a law and its pore water
-            if body.random_field is not None:  # its own law, its strength per particle
-                law = MohrCoulombField.of(body.material)
-                slot = (law, body.water)
-                real = body.random_field.realise(body.material, pts, h, np.zeros(dim))
-                strength.append((sum(len(a) for a in xs), law.strength_values(
-                    real["cohesion"], real["friction_angle"], body.material.factor)))
+            if body.random_field is not None:
+                real = body.random_field.realise(body.material, pts, h, np.zeros(dim),
+                                                 body.water)
+                first = sum(len(a) for a in xs)
+                if body.random_field.strength_of(body.material):
+                    # its own law, its strength per particle
+                    law = MohrCoulombField.of(body.material)
+                    slot = (law, body.water)
+                    strength.append((first, law.strength_values(
+                        real["cohesion"], real["friction_angle"], body.material.factor)))
+                if "conductivity" in real:
+                    conductivity.append((first, real["conductivity"]))
                 realised[k] = real
             if slot not in materials:
                 materials.append(slot)
@@ -521,7 +532,12 @@ class World:
             for first, block in strength:
                 values[first:first + len(block)] = block
             values = {"strength": values}
-        out.update(particle_values=values, random_fields=realised)
+        k_field = None
+        if conductivity:  # the pore water's conductivity per particle (nan: the body's own)
+            k_field = np.full(len(x), np.nan)
+            for first, block in conductivity:
+                k_field[first:first + len(block)] = block
+        out.update(particle_values=values, random_fields=realised, conductivity=k_field)
         for key in ("positions", "velocity", "volume", "mass", "material_index", "body_index"):
             out[key].setflags(write=False)
         return out

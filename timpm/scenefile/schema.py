@@ -165,6 +165,10 @@ RANDOM_FIELD = {
                         "(its mean: the material's)"),
     "friction_angle_cov": Key("non-negative", 0.0, doc="coefficient of variation of the "
                               "friction angle (its mean: the material's)"),
+    "conductivity_cov": Key("non-negative", 0.0, doc="coefficient of variation of the pore "
+                            "water's hydraulic conductivity (its mean: the body's water's; "
+                            "lognormal, independent of the strength; a coupled analysis's "
+                            "drag)"),
     "correlation_length": Key("scale", REQUIRED, "m", "the scale of fluctuation theta "
                               "(Vanmarcke's; GSTools' len_scale is theta / 2): one (isotropic) "
                               "or [horizontal, vertical]; inf: one value per realisation"),

@@ -1,0 +1,137 @@
+"""The run-out of the slope that fails (`timpm demo slope`: Griffiths & Lane's slope, its
+strength halved) on finer and finer grids, per basis: how the run-out converges and what
+each basis pays for it (issue 46, item 5's run-out half).
+
+    python benchmarks/runout_convergence.py [--cells 10 20 40 80]
+        [--schemes linear:apic uniform-bspline2:apic uniform-bspline2:mls-mpm
+                   uniform-bspline3:apic]
+        [--json docs/runout_convergence.json] [--plot docs/runout_convergence.png]
+
+Each row is `timpm demo slope --param cells_per_H=C --param basis=B --param transfer=T`
+(no rendering, 10 s of slide): the run-out beyond the toe (the deposit's front where it is
+2% of H thick, read per grid column), the particles, steps and the stepping's wall time on
+two threads.  Per scheme, where three meshes halve h and the run-outs change monotonically,
+Richardson's extrapolation: the observed order p = log2((R1 - R2) / (R2 - R3)) and R* = R3
++ (R3 - R2) / (2^p - 1).  The reference is the finest mesh's extrapolation of the scheme
+that reaches it with the smallest change; each scheme's cheapest mesh within 5% of it is
+reported.
+"""
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+
+def richardson(values):
+    """(p, extrapolated) of the last three values of a halving sequence, or None."""
+    if len(values) < 3:
+        return None
+    r1, r2, r3 = values[-3:]
+    d1, d2 = r2 - r1, r3 - r2
+    if d1 == 0.0 or d2 == 0.0 or (d1 > 0) != (d2 > 0) or abs(d2) >= abs(d1):
+        return None  # not monotone, or not converging
+    p = math.log2(d1 / d2)
+    return p, r3 + d2 / (2.0 ** p - 1.0)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--cells", type=int, nargs="+", default=[10, 20, 40, 80])
+    ap.add_argument("--schemes", nargs="+", default=[
+        "linear:apic", "uniform-bspline2:apic", "uniform-bspline2:mls-mpm",
+        "uniform-bspline3:apic"])
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--json", metavar="FILE")
+    ap.add_argument("--plot", metavar="FILE.png")
+    args = ap.parse_args()
+
+    import timpm
+    from timpm.scenarios.demos import run_demo
+
+    timpm.init(threads=args.threads)
+    rows = []
+    for scheme in args.schemes:
+        basis, transfer = scheme.split(":")
+        for cells in args.cells:
+            t = time.perf_counter()
+            r = run_demo("slope", frames=20, cells_per_H=cells, basis=basis,
+                         transfer=transfer)
+            row = {"basis": basis, "transfer": transfer, "cells_per_H": cells,
+                   "h": 10.0 / cells, "particles": r.particles, "steps": r.steps,
+                   "runout": r.summary["runout"], "stepping_seconds": r.simulation_seconds,
+                   "compile_seconds": r.compile_seconds,
+                   "end_to_end_seconds": time.perf_counter() - t,
+                   "simulated_per_wall_second": r.t_end / r.simulation_seconds,
+                   "energy_dissipated": r.summary["energy_dissipated"],
+                   "potential_energy_released": r.summary["potential_energy_released"]}
+            rows.append(row)
+            print(f"{basis} {transfer} cells_per_H = {cells}: run-out {row['runout']:.3f} m, "
+                  f"{row['particles']} particles, {row['steps']} steps, "
+                  f"{row['stepping_seconds']:.1f} s stepping", flush=True)
+    summary = {}
+    for scheme in args.schemes:
+        basis, transfer = scheme.split(":")
+        sel = [r for r in rows if (r["basis"], r["transfer"]) == (basis, transfer)]
+        rich = richardson([r["runout"] for r in sel])
+        summary[scheme] = {"order": None if rich is None else rich[0],
+                           "extrapolated": None if rich is None else rich[1],
+                           "finest": sel[-1]["runout"]}
+    # the reference: the extrapolations' scheme whose last refinement moved least
+    candidates = [(abs(sel_last_change(rows, s)), s) for s in args.schemes
+                  if summary[s]["extrapolated"] is not None]
+    reference = None
+    if candidates:
+        reference = summary[min(candidates)[1]]["extrapolated"]
+        for scheme in args.schemes:
+            basis, transfer = scheme.split(":")
+            sel = [r for r in rows if (r["basis"], r["transfer"]) == (basis, transfer)]
+            within = [r for r in sel if abs(r["runout"] - reference) <= 0.05 * reference]
+            cheapest = min(within, key=lambda r: r["end_to_end_seconds"]) if within else None
+            summary[scheme]["cheapest_within_5_percent"] = (
+                None if cheapest is None else {k: cheapest[k] for k in (
+                    "cells_per_H", "runout", "end_to_end_seconds", "stepping_seconds")})
+    for scheme, s in summary.items():
+        print(scheme, json.dumps(s), flush=True)
+    print(f"reference run-out: {reference}", flush=True)
+    doc = {"command": "python benchmarks/runout_convergence.py " + " ".join(sys.argv[1:]),
+           "date": time.strftime("%Y-%m-%d"), "threads": args.threads, "rows": rows,
+           "richardson": summary, "reference_runout": reference}
+    if args.json:
+        Path(args.json).write_text(json.dumps(doc, indent=1) + "\n")
+    if args.plot:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
+        for scheme in args.schemes:
+            basis, transfer = scheme.split(":")
+            sel = [r for r in rows if (r["basis"], r["transfer"]) == (basis, transfer)]
+            a1.plot([r["h"] for r in sel], [r["runout"] for r in sel], "o-", label=scheme)
+            a2.plot([r["end_to_end_seconds"] for r in sel], [r["runout"] for r in sel], "o-",
+                    label=scheme)
+        for ax in (a1, a2):
+            if reference is not None:
+                ax.axhspan(0.95 * reference, 1.05 * reference, color="0.85",
+                           label="reference +- 5%")
+            ax.set_ylabel("run-out beyond the toe (m)")
+            ax.legend(fontsize=7)
+        a1.set(xscale="log", xlabel="h (m)", title="run-out against the mesh")
+        a2.set(xscale="log", xlabel="wall time, two cores (s)", title="run-out against cost")
+        fig.tight_layout()
+        fig.savefig(args.plot, dpi=110)
+
+
+def sel_last_change(rows, scheme):
+    basis, transfer = scheme.split(":")
+    sel = [r["runout"] for r in rows if (r["basis"], r["transfer"]) == (basis, transfer)]
+    return sel[-1] - sel[-2] if len(sel) > 1 else math.inf
+
+
+if __name__ == "__main__":
+    main()
