@@ -300,7 +300,7 @@ def test_a_drained_wall_lets_the_water_through(bottom):
     assert np.min(pw[y0 < 0.1]) / prob.p0 > 0.99
 
 
-def test_a_random_conductivity_drains_at_its_own_rate():
+def test_a_random_conductivity_drains_at_its_own_rate(tmp_path):
     """conductivity_cov with an infinite scale of fluctuation: one conductivity a
     realisation, lognormal about the pore water's; the column consolidates as the series
     with that k's c_v (each cell within 0.02 at T = 0.2), its drag n rho_w g / k; a
@@ -328,6 +328,9 @@ def test_a_random_conductivity_drains_at_its_own_rate():
     k = world.random_fields[0]["conductivity"]
     per_cell = np.unique(k)
     assert len(per_cell) == 32 and 0.3 < np.exp(np.log(per_cell).mean()) / 1e-3 < 3.0
+    from timpm.studies.monte_carlo import plot_field
+    plot_field(world, tmp_path / "k.png")  # (the conductivity's panel alone)
+    assert (tmp_path / "k.png").stat().st_size > 0
 
 
 @pytest.mark.parametrize("make, key, words", [

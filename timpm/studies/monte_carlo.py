@@ -387,8 +387,14 @@ def plot_study(record, path):
     plt.close(fig)
 
 
+#: a realisation's parameters a picture draws: key -> (unit, divisor)
+PICTURED = {"cohesion": ("kPa", 1e3), "friction_angle": ("degrees", 1.0),
+            "conductivity": ("m/s", 1.0)}
+
+
 def plot_field(world, path, k=0):
-    """Realisation ``k``'s cohesion and friction angle on the particles."""
+    """Realisation ``k``'s varied parameters (cohesion, friction angle, conductivity) on
+    the particles, a panel each."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -396,12 +402,15 @@ def plot_field(world, path, k=0):
     from ..platform.files import replacing
 
     w = realisation(world, k)
-    fig, axes = plt.subplots(2, 1, figsize=(9, 7))
+    keys = [key for key in PICTURED if any(key in r for r in w.random_fields.values())]
+    fig, axes = plt.subplots(len(keys), 1, figsize=(9, 3.5 * len(keys)), squeeze=False)
     for body, real in w.random_fields.items():
         X = w.model.positions[w.model.body_index == body]
-        for ax, key, unit in zip(axes, ("cohesion", "friction_angle"), ("kPa", "degrees")):
-            v = real[key] / (1e3 if key == "cohesion" else 1.0)
-            sc = ax.scatter(X[:, 0], X[:, 1], c=v, s=3, cmap="viridis")
+        for ax, key in zip(axes[:, 0], keys):
+            if key not in real:
+                continue
+            unit, divisor = PICTURED[key]
+            sc = ax.scatter(X[:, 0], X[:, 1], c=real[key] / divisor, s=3, cmap="viridis")
             fig.colorbar(sc, ax=ax, label=f"{key.replace('_', ' ')} [{unit}]")
             ax.set_aspect("equal")
             ax.set(xlabel="x [m]", ylabel="y [m]", title=f"realisation {k}: "
