@@ -26,6 +26,36 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 
+def closed_form(V, ratio):
+    """P[F_mean c_u / mean < F] for a lognormal c_u of coefficient of variation V, ratio =
+    F_mean / F: Phi((ln(1 / ratio) + s^2 / 2) / s), s^2 = ln(1 + V^2)."""
+    s = math.sqrt(math.log1p(V * V))
+    return 0.5 * (1 + math.erf((math.log(1.0 / ratio) + 0.5 * s * s) / (s * math.sqrt(2))))
+
+
+def mean_slope(cells, workers):
+    """Taichi started on one thread; the undrained slope's scene at ``cells``, its body and
+    the factor of safety at the mean strength (no random field; bracket 1-3, tolerance
+    0.01), printed."""
+    import timpm
+    from timpm.scenefile import load_scene
+    from timpm.studies import factor_of_safety as fos
+
+    timpm.init(threads=1)
+    scene = load_scene(ROOT / "examples" / "slope_undrained_random.toml",
+                       overrides={"domain.cells": cells})
+    body = scene.world.bodies[0]
+    mean = replace(scene.world, bodies=(replace(body, random_field=None),))
+    t0 = time.perf_counter()
+    det, _ = fos.factor_of_safety(mean, scene.t_end, low=1.0, high=3.0, tolerance=0.01,
+                                  workers=workers)
+    F_lo, F_hi = det["bracket"]
+    print(f"h = {scene.world.h:g} m, {scene.world.model.n_particles} particles: F at the mean "
+          f"strength {det['factor_of_safety']:.4f} [{F_lo:.4f}, {F_hi:.4f}] "
+          f"({time.perf_counter() - t0:.1f} s)", flush=True)
+    return scene, body, det
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cells", type=int, default=60)
@@ -37,29 +67,14 @@ def main():
     ap.add_argument("--plot", metavar="FILE.png")
     args = ap.parse_args()
 
-    import timpm
-    from timpm.scenefile import load_scene
-    from timpm.studies import factor_of_safety as fos
     from timpm.studies import monte_carlo as mc
 
-    timpm.init(threads=1)
-    scene = load_scene(ROOT / "examples" / "slope_undrained_random.toml",
-                       overrides={"domain.cells": args.cells})
-    body = scene.world.bodies[0]
-    mean = replace(scene.world, bodies=(replace(body, random_field=None),))
-    t0 = time.perf_counter()
-    det, _ = fos.factor_of_safety(mean, scene.t_end, low=1.0, high=3.0, tolerance=0.01,
-                                  workers=args.workers)
+    scene, body, det = mean_slope(args.cells, args.workers)
     F_lo, F_hi = det["bracket"]
-    print(f"h = {scene.world.h:g} m, {scene.world.model.n_particles} particles: F at the mean "
-          f"strength {det['factor_of_safety']:.4f} [{F_lo:.4f}, {F_hi:.4f}] "
-          f"({time.perf_counter() - t0:.1f} s)", flush=True)
     rows = []
     for case in args.cases:
         V, F = (float(v) for v in case.split(":"))
-        s = math.sqrt(math.log1p(V * V))
-        closed = [0.5 * (1 + math.erf((math.log(F / Fm) + 0.5 * s * s) / (s * math.sqrt(2))))
-                  for Fm in (F_hi, F_lo)]
+        closed = [closed_form(V, Fm / F) for Fm in (F_hi, F_lo)]
         for theta in (math.inf, tuple(args.theta)):
             rf = replace(body.random_field, cohesion_cov=V, correlation_length=theta)
             world = replace(scene.world, bodies=(replace(body, random_field=rf),))

@@ -25,12 +25,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-
-
-def closed_form(V, ratio):
-    """P[F_mean c_u / mean < F] for a lognormal c_u of coefficient of variation V."""
-    s = math.sqrt(math.log1p(V * V))
-    return 0.5 * (1 + math.erf((math.log(1.0 / ratio) + 0.5 * s * s) / (s * math.sqrt(2))))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 
 def main():
@@ -45,24 +40,13 @@ def main():
     ap.add_argument("--plot", metavar="FILE.png")
     args = ap.parse_args()
 
-    import timpm
-    from timpm.scenefile import load_scene
-    from timpm.studies import factor_of_safety as fos
+    from monte_carlo_slope import closed_form, mean_slope
     from timpm.studies import monte_carlo as mc
 
-    timpm.init(threads=1)
-    scene = load_scene(ROOT / "examples" / "slope_undrained_random.toml",
-                       overrides={"domain.cells": args.cells})
-    body = scene.world.bodies[0]
-    mean = replace(scene.world, bodies=(replace(body, random_field=None),))
-    t0 = time.perf_counter()
-    det, _ = fos.factor_of_safety(mean, scene.t_end, low=1.0, high=3.0, tolerance=0.01,
-                                  workers=args.workers)
+    scene, body, det = mean_slope(args.cells, args.workers)
     F_mean = det["factor_of_safety"]
     F = F_mean / args.factor_ratio
-    print(f"h = {scene.world.h:g} m, {scene.world.model.n_particles} particles: F at the mean "
-          f"strength {F_mean:.4f} {det['bracket']} ({time.perf_counter() - t0:.1f} s); the "
-          f"slope asked to stand at F = {F:.4f}", flush=True)
+    print(f"the slope asked to stand at F = {F:.4f}", flush=True)
     rows = []
     for theta in args.thetas:
         for V in args.covs:
