@@ -38,7 +38,13 @@ def main():
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", metavar="FILE")
     ap.add_argument("--plot", metavar="FILE.png")
+    ap.add_argument("--replot", metavar="FILE.json",
+                    help="draw --plot from a record this script wrote, running nothing")
     args = ap.parse_args()
+    if args.replot:
+        doc = json.loads(Path(args.replot).read_text())
+        plot(doc, args)
+        return
 
     from monte_carlo_slope import closed_form, mean_slope
     from timpm.studies import monte_carlo as mc
@@ -74,31 +80,44 @@ def main():
            "rows": rows}
     if args.json:
         Path(args.json).write_text(json.dumps(doc, indent=1) + "\n")
+    plot(doc, args)
+
+
+def plot(doc, args):
+    """P_f against V per scale of fluctuation, beside the closed form (``args.plot``)."""
+    from monte_carlo_slope import closed_form
+
     if args.plot:
+        rows, h = doc["rows"], doc["h"]
         import matplotlib
+        import matplotlib.ticker
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         import numpy as np
 
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
-        V = np.geomspace(min(args.covs) / 1.5, max(args.covs) * 1.5, 100)
-        ax.plot(V, [closed_form(v, args.factor_ratio) for v in V], "k-", lw=1,
+        ratio = doc["factor_ratio"]
+        covs = sorted({r["cov"] for r in rows})
+        V = np.geomspace(min(covs) / 1.5, max(covs) * 1.5, 100)
+        ax.plot(V, [closed_form(v, ratio) for v in V], "k-", lw=1,
                 label="single random variable (closed form)")
-        for theta in args.thetas:
-            key = "inf" if math.isinf(theta) else theta
+        for key in dict.fromkeys(r["theta"] for r in rows):
             sel = [r for r in rows if r["theta"] == key]
             x = [r["cov"] for r in sel]
             y = [r["probability_of_failure"] for r in sel]
-            err = [[r["probability_of_failure"] - r["wilson_95"][0] for r in sel],
-                   [r["wilson_95"][1] - r["probability_of_failure"] for r in sel]]
+            # (clipped at zero: the Wilson bound of P_f = 0 is 0 to rounding)
+            err = [[max(0.0, r["probability_of_failure"] - r["wilson_95"][0]) for r in sel],
+                   [max(0.0, r["wilson_95"][1] - r["probability_of_failure"]) for r in sel]]
             label = ("theta = inf (Monte Carlo)" if key == "inf"
-                     else f"theta = {theta:g} m (theta / H = {theta / 10:g})")
+                     else f"theta = {key:g} m (theta / H = {key / 10:g})")
             ax.errorbar(x, y, yerr=err, marker="o", ms=4, capsize=3, label=label,
                         ls="none" if key == "inf" else "-")
         ax.set(xscale="log", xlabel="coefficient of variation of c_u",
                ylabel="probability of failure",
-               title=f"undrained 2:1 slope, F_mean / F = {args.factor_ratio:g}, "
-                     f"h = {scene.world.h:g} m, N = {args.realisations}")
+               title=f"undrained 2:1 slope, F_mean / F = {ratio:g}, "
+                     f"h = {h:g} m, N = {rows[0]['realisations']}")
+        ax.set_xticks(covs, [f"{c:g}" for c in covs])
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.legend(fontsize=7)
         fig.tight_layout()
         fig.savefig(args.plot, dpi=110)

@@ -28,12 +28,13 @@ class Drivers:
     (``team``: ``team_arrived``, ``team_abort``, ``rank_step``)."""
 
     def __init__(self, features, phases, particles, grid, values, scatter, failures, run,
-                 recorder, team, capacity):
+                 recorder, team, capacity, window=None):
         f = self.f = features
         self.dim, self.phases = f.dim, phases
         self.particles, self.grid, self.values = particles, grid, values
         self.scatter, self.failures, self.run, self.recorder = scatter, failures, run, recorder
-        self.team, self.capacity = team, capacity
+        self.team, self.capacity, self.window = team, capacity, window
+        self.windowed = window is not None  # (engine/window.py)
         # a team's node phase sums the copies of the scatter before it
         self.merged_before = tuple(
             before.merge if k > 0 and before.kind == "scatter" else ()
@@ -59,6 +60,9 @@ class Drivers:
                 for I in ti.grouped(ti.ndrange(*self.capacity.nodes)):
                     if (I < self.values.nodes()).all():
                         self._node(phase, I, s)
+            elif ti.static(self.windowed):  # the active window's nodes
+                for I in ti.grouped(ti.ndrange(*self.window.ranges())):
+                    self._node(phase, I, s)
             else:
                 for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                     self._node(phase, I, s)

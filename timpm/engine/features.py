@@ -21,9 +21,15 @@ from ..model.walls import SIDES
 from ..platform import runtime
 from ..schemes import INTEGRATORS, scheme_class
 
-__all__ = ["FeatureSet", "Layout", "plan", "MODES", "SCATTERS", "MIN_CPU_BLOCK", "auto_mode"]
+__all__ = ["FeatureSet", "Layout", "plan", "MODES", "GRIDS", "SCATTERS", "MIN_CPU_BLOCK",
+           "auto_mode", "grid_window_refusal"]
 
 MODES = ("auto", "serial", "parallel", "team")
+#: the grid's node loops: over every node, or over the box of nodes the particles reach
+#: this step and the last (engine/window.py); "auto" picks the window where the bodies
+#: start in less than WINDOW_SHARE of the domain and it applies (grid_window_refusal)
+GRIDS = ("auto", "dense", "window")
+WINDOW_SHARE = 0.5
 #: P2G scatter strategies: parallel atomic adds (the GPU path); the scatter loop on one
 #: thread (plain adds); or one private grid copy per CPU thread, each filled with plain adds
 #: by its share of the particles and summed into the grid afterwards.  "auto" picks
@@ -88,6 +94,7 @@ class FeatureSet:
     pore_smoothing: bool = False  # the pore strain's cell mean drives p_e (Water.smoothing)
     drawdown: bool = False       # the still-water level moves in time (Water.final_level)
     drained_sides: tuple = ()    # side indices (SIDES) the pore water flows through
+    grid_window: bool = False    # node loops over the particles' active window (window.py)
 
     @property
     def pore_pressure(self) -> bool:
@@ -286,9 +293,42 @@ def _volume_range(value):
     return lo, hi
 
 
+def grid_window_refusal(model, mode, on_cpu) -> str | None:
+    """Why the active window (engine/window.py) does not apply to ``model`` run in ``mode``
+    ("team" or another), or None where it does: its node loops must be the step's only
+    ones and every scatter at the step's starting positions."""
+    if model.dim == 1:
+        return "a 1D grid (its loops are short; the banded mass and the MLS sums span it)"
+    if model.integrator != "euler-cromer":
+        return (f"the {model.integrator} integrator (its stages scatter from positions the "
+                "step's start does not bound)")
+    if model.mass_matrix == "consistent" or model.projection == "mls":
+        return "the consistent mass and the MLS projection (their solves span the grid)"
+    if model.periodic:
+        return "a periodic x (the stencils wrap round)"
+    if mode == "team":
+        return "mode='team' (its threads split the whole grid's nodes)"
+    if not on_cpu:
+        return "a GPU (its loops run to the capacity)"
+    return None
+
+
+def _starting_share(model) -> float:
+    """The share of the domain (between its walls, without the grid's padding) in the box
+    of the particles' first positions, a cell wider."""
+    x = np.asarray(model.positions, dtype=float).reshape(model.n_particles, model.dim)
+    share = 1.0
+    for k in range(model.dim):
+        cells = (model.elements[k] if model.wall_cells is None
+                 else model.wall_cells[k][1] - model.wall_cells[k][0])
+        span = (x[:, k].max() - x[:, k].min()) / model.h + 1.0
+        share *= min(1.0, span / cells)
+    return float(share)
+
+
 def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
          history_chunk=None, track_crossings=None, grid_displacement=False,
-         small_mass=1e-3, scatter="auto", volume_range=(1e-2, 1e2)):
+         small_mass=1e-3, scatter="auto", volume_range=(1e-2, 1e2), grid="auto"):
     """The feature set and layout of ``scene`` (a Model, or a Scene or World that builds
     one) run with the solver's options (checked)."""
     model = getattr(scene, "model", scene)
@@ -297,6 +337,9 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
                         f"timpm.model.Model, got {type(scene).__name__}")
     if mode not in MODES:
         raise ValueError(f"unknown mode {mode!r}: choose one of {', '.join(MODES)}")
+    if grid not in GRIDS:
+        raise ValueError(f"unknown grid {grid!r}: choose one of {', '.join(GRIDS)} (the node "
+                         "loops over every node, or over the particles' active window)")
     volume_range = _volume_range(volume_range)
     n = model.n_particles
     for p in track:
@@ -342,6 +385,17 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     # Taichi's pool is woken once per launch, not three to five times per step
     team_ok = (private and not strain_remap and model.integrator == "euler-cromer"
                and threads >= n_copies)
+    # the active window: asked, or (auto) where the bodies start in a small part of the
+    # grid and it applies; a team splits the whole grid, so the window runs without one
+    refusal = grid_window_refusal(model, requested if requested == "team" else run_mode,
+                                  on_cpu)
+    if grid == "window" and refusal is not None:
+        raise ValueError(f"grid='window' does not apply to {refusal}: use grid='dense' or "
+                         "'auto'")
+    window = grid == "window" or bool(grid == "auto" and refusal is None
+                                      and _starting_share(model) < WINDOW_SHARE)
+    if window:
+        team_ok = False
     if requested == "team" and not team_ok:
         raise ValueError("mode='team' needs the private scatter (lumped mass, standard "
                          "projection) with a thread per grid copy (two CPU threads or more); "
@@ -378,7 +432,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         pore_smoothing=model.water is not None and model.water.smoothing == "cell",
         drawdown=model.water is not None and model.water.drawdown,
         drained_sides=() if model.water is None else tuple(
-            SIDES.index(side) for side in model.water.drained_sides))
+            SIDES.index(side) for side in model.water.drained_sides),
+        grid_window=window)
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
         per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))

@@ -112,20 +112,25 @@ class GridSolve:
     stencil and the add of the mode (``project``)."""
 
     def __init__(self, features, grid, values, boundary, stencil, accumulate, banded=None,
-                 cg=None, mls_nd=None):
+                 cg=None, mls_nd=None, window=None):
         f = self.f = features
         self.dim = f.dim
         self.grid, self.values, self.boundary = grid, values, boundary
         self.stencil, self.accumulate = stencil, accumulate
         self.banded, self.cg, self.mls_nd = banded, cg, mls_nd
+        self.window = window
+        self.windowed = window is not None  # (engine/window.py)
 
     @ti.func
-    def clear(self):
-        for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-            self.grid.node_mass[I] = 0.0
-            self.grid.node_momentum[I] = ti.Vector.zero(float, self.dim)
-            if ti.static("gf" in self.grid.storage):
-                self.grid.node_force[I] = ti.Vector.zero(float, self.dim)
+    def clear(self, whole: ti.template() = False):
+        """m_i, P_i, F_i = 0 over the active window (engine/window.py) or, without one or
+        with ``whole``, over the grid."""
+        if ti.static(self.windowed and not whole):
+            for I in ti.grouped(ti.ndrange(*self.window.ranges())):
+                self.clear_node(I)
+        else:
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
+                self.clear_node(I)
         if ti.static(self.f.consistent and self.dim == 1):
             for i, k in ti.ndrange(self.values.nodes()[0], 2 * self.f.bandwidth + 1):
                 self.grid.band[i, k] = 0.0
@@ -144,10 +149,20 @@ class GridSolve:
                     self.grid.n_vel[i] = ti.Vector.zero(float, 2)
 
     @ti.func
+    def clear_node(self, I):
+        self.grid.node_mass[I] = 0.0
+        self.grid.node_momentum[I] = ti.Vector.zero(float, self.dim)
+        if ti.static("gf" in self.grid.storage):
+            self.grid.node_force[I] = ti.Vector.zero(float, self.dim)
+
+    @ti.func
     def solve(self, rhs: ti.template(), walls: ti.template()):
         """rhs <- M^-1 rhs with Dirichlet nodes held at zero and empty nodes left at zero;
         ``walls``: apply the wall conditions to the result (a velocity)."""
-        if ti.static(not self.f.consistent):
+        if ti.static(not self.f.consistent and self.windowed):
+            for I in ti.grouped(ti.ndrange(*self.window.ranges())):
+                self.solve_node(rhs, walls, I)
+        elif ti.static(not self.f.consistent):
             for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
                 self.solve_node(rhs, walls, I)
         elif ti.static(self.dim > 1):
@@ -169,8 +184,9 @@ class GridSolve:
     @ti.func
     def project(self, particles: ti.template()):
         # the grid cleared, then P2G of mass and momentum alone: m_i = sum m_p phi_i, P_i =
-        # sum m_p phi_i v_p (the grid fields of an output frame)
-        self.clear()
+        # sum m_p phi_i v_p (the grid fields of an output frame; the whole grid cleared:
+        # the particles have moved since the active window was found)
+        self.clear(True)
         for p in range(self.values.n_particles()):
             base, w, dw, xi, inside = self.stencil.of(particles.x[p])
             if inside:

@@ -23,6 +23,7 @@ import taichi as ti
 
 from ..platform.declare import Field
 from ..schemes import INTEGRATORS, OPERATIONS, scheme_class, scheme_for
+from ..schemes.phases import Whole
 from .consistent_mass import BandedMass
 from .consistent_mass_cg import CGMass, cg_fields, cg_particle_fields
 from .drivers import Drivers
@@ -41,6 +42,7 @@ from .stencil import Stencil
 from .uploads import Uploads
 from .views import FieldView, MaterialState
 from .water import Pores
+from .window import ActiveWindow, window_fields
 
 __all__ = ["Program", "declared_fields"]
 
@@ -263,6 +265,11 @@ class Program:
             if f.mls_study:
                 scratch.update(n_mom=ti.Vector.field(3, real), n_vel=ti.Vector.field(2, real))
                 fb.dense(ti.i, nn).place(scratch["n_mom"], scratch["n_vel"])
+        if f.grid_window:  # the active window's boxes and extent (window.py)
+            fields = window_fields(real)
+            fb.dense(ti.i, 4 * d).place(fields["window_box"])
+            fb.dense(ti.i, 2 * d).place(fields["window_extent"])
+            scratch.update(fields)
         # run state and the first error
         run = {"step_count": ti.field(ti.i64), "time": ti.field(ti.f64),
                "crossings": ti.field(ti.i64), "err": ti.field(ti.i32),
@@ -347,7 +354,9 @@ class Program:
                                                          "rank_step") if k in scratch})
         failures = Failures(f, run, scratch.get("rank_step"), values)
         stencil = Stencil(f, values)
-        scatter = Scatter(f, grid, self.copies, values, failures, cap.particles)
+        window = (ActiveWindow(f, values, scratch["window_box"], scratch["window_extent"])
+                  if f.grid_window else None)
+        scatter = Scatter(f, grid, self.copies, values, failures, cap.particles, window)
         boundary = Boundary(f, grid, run, values)
         banded = BandedMass(f, boundary, failures) if f.consistent and f.dim == 1 else None
         cg = (CGMass(f, stencil, boundary, failures, particles,
@@ -356,7 +365,8 @@ class Program:
               if f.consistent and f.dim > 1 else None)
         mls = MLSProjection(f, accumulate, boundary) if f.mls and f.dim == 1 else None
         mls_nd = MLSStressND(f, stencil, accumulate) if f.mls and f.dim > 1 else None
-        nodes = GridSolve(f, grid, values, boundary, stencil, accumulate, banded, cg, mls_nd)
+        nodes = GridSolve(f, grid, values, boundary, stencil, accumulate, banded, cg, mls_nd,
+                          window)
         pores = Pores(f, values, grid, accumulate, run)
         loads = Loads(f, run, accumulate, pores)
         # the compiled unit of each material, reading its constants from its group
@@ -371,13 +381,16 @@ class Program:
         assert set(vars(self.ops)) == set(OPERATIONS)
         # the transfer scheme (or the integrator that wraps it) and its step as phases
         self.scheme = scheme_for(f, self.ops)
-        self.phases = self.scheme.phases() + pores.phases()
+        # the step: the active window first (where compiled in), the scheme's, the pores'
+        first = (Whole("the active window: the box of nodes the particles reach",
+                       window.find),) if window is not None else ()
+        self.phases = first + self.scheme.phases() + pores.phases()
         buffer = FieldView("record", {k: scratch[k] for k in ("rec_count", "track_ids")
                                       if k in scratch})
         self.recorder = Recorder(f, particles, self.history, buffer, run, laws, accumulate,
                                  values)
         self.drivers = Drivers(f, self.phases, particles, grid, values, scatter, failures,
-                               run, self.recorder, team, cap)
+                               run, self.recorder, team, cap, window)
         self.uploads = Uploads(f, particles, laws, g2p, accumulate, values)
         self.host = HostState({"particle": self.particle_fields, "grid": self.grid_fields,
                                "copies": self.copies, "scratch": scratch,
@@ -432,7 +445,7 @@ class Program:
 
         @ti.kernel
         def clear():
-            nodes.clear()
+            nodes.clear(True)
 
         self.step, self.record, self.advance = step, record, advance
         self.project, self.clear = project, clear

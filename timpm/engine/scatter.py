@@ -48,11 +48,12 @@ class Scatter:
     the private copies, the run-time values, the failure record (a particle of a failed
     step scatters nothing) and the particle capacity (a GPU's loops run to it)."""
 
-    def __init__(self, features, grid, copies, values, failures, capacity):
+    def __init__(self, features, grid, copies, values, failures, capacity, window=None):
         f = self.f = features
         self.dim, self.support, self.mode = f.dim, f.basis.support, f.mode
         self.grid, self.copies, self.values, self.failures = grid, copies, values, failures
-        self.capacity = capacity
+        self.capacity, self.window = capacity, window
+        self.windowed = window is not None  # (engine/window.py)
         self.accumulate = accumulate_in(f.mode)
         # the copies of scalar grid fields (node_mass, a scheme's masses): cleared as 0.0
         self.scalar_copies = frozenset(name for name, fld in copies.items()
@@ -111,10 +112,18 @@ class Scatter:
     @ti.func
     def merge_copies(self, names: ti.template()):
         # private scatter: sum the threads' grid copies into the grid, and clear them
-        for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
-            for name in ti.static(names):
-                grid = ti.static(getattr(self.grid, name))
-                grid[I] = self.merged(name, I)  # a plain store: no other thread writes I
+        if ti.static(self.windowed):
+            for I in ti.grouped(ti.ndrange(*self.window.ranges())):
+                self._merge_node(names, I)
+        else:
+            for I in ti.grouped(ti.ndrange(*[self.values.nodes()[k] for k in range(self.dim)])):
+                self._merge_node(names, I)
+
+    @ti.func
+    def _merge_node(self, names: ti.template(), I):
+        for name in ti.static(names):
+            grid = ti.static(getattr(self.grid, name))
+            grid[I] = self.merged(name, I)  # a plain store: no other thread writes I
 
     @ti.func
     def run(self, phase: ti.template(), particles: ti.template(), grid: ti.template(),

@@ -218,6 +218,20 @@ class State:
             fld[None] = values.tolist() if np.ndim(values) else values.item()
         else:
             prog.write(fld, values, self.extent(prog, name))
+        if self.features.grid_window and any(fld is g for g in prog.grid_fields.values()):
+            # a grid written from the host: the next step clears it whole (window.py)
+            d = self.features.dim
+            box = prog.window_box.to_numpy()
+            box[:d], box[d:2 * d] = 0, self.layout.nodes
+            prog.window_box.from_numpy(box)
+
+    def window(self, prog):
+        """The active window's box of the last step, U_n (lo, hi) per axis, or None
+        without a window (engine/window.py)."""
+        if not self.features.grid_window:
+            return None
+        d, box = self.features.dim, prog.window_box.to_numpy()
+        return tuple(int(i) for i in box[2 * d:3 * d]), tuple(int(i) for i in box[3 * d:])
 
     def upload_body_force(self, prog, step):
         """The body force b(X, t) of every particle at the start of step ``step`` (t =

@@ -47,6 +47,12 @@ class Solver:
     and at any size where Taichi runs one CPU thread, else team where it applies, else
     parallel).
 
+    ``grid`` is ``"dense"`` (every node loop over the whole grid), ``"window"`` (over the
+    box of nodes the particles reach this step and the last: the same results, the empty
+    space skipped; 2D and 3D, the Euler-Cromer step with the lumped mass and standard
+    projection, no team, not periodic; :mod:`timpm.engine.window`) or ``"auto"`` (the
+    window where it applies and the bodies start in less than half the domain).
+
     ``grid_displacement=True`` accumulates the nodal displacements u_i += v_i dt, so that
     the displacement field u_h(x) = sum_i phi_i(x) u_i can be drawn (study 5.2).
 
@@ -71,7 +77,7 @@ class Solver:
                  track_crossings: bool | None = None, energy_guard: float | None = 2.0,
                  grid_displacement: bool = False, small_mass: float = 1e-3,
                  scatter: str = "auto", check_every: int = 16,
-                 volume_range: tuple | None = (1e-2, 1e2)):
+                 volume_range: tuple | None = (1e-2, 1e2), grid: str = "auto"):
         if isinstance(track, (str, bytes)) or not hasattr(track, "__iter__"):
             raise ValueError(f"track must be a sequence of particle indices, got {track!r}")
         track = [index("tracked particle", p) for p in track]
@@ -91,7 +97,7 @@ class Solver:
             scene, track=track, energies=energies, mode=mode,
             serial_threshold=serial_threshold, history_chunk=history_chunk,
             track_crossings=track_crossings, grid_displacement=grid_displacement,
-            small_mass=small_mass, scatter=scatter, volume_range=volume_range)
+            small_mass=small_mass, scatter=scatter, volume_range=volume_range, grid=grid)
         f, lay = self.features, self.layout
         self.scene, self.track = scene, track
         self.model = getattr(scene, "model", scene)  # the one model of 1D to 3D
@@ -197,6 +203,12 @@ class Solver:
             raise KeyError(f"this solver has no state field {name!r}")
         with self._compiling():  # Taichi's to_numpy compiles a reader per field
             return self.state.read(prog, name)
+
+    def active_window(self):
+        """The box of grid nodes the last step's node loops ran over, ((lo, ...), (hi,
+        ...)) with hi exclusive, or None where every loop runs over the whole grid
+        (``grid``; :mod:`timpm.engine.window`)."""
+        return self.state.window(self.program())
 
     def write(self, name: str, values):
         """Set the live values of state field ``name`` (for tests and inspection): finite
