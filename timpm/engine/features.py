@@ -27,7 +27,8 @@ __all__ = ["FeatureSet", "Layout", "plan", "MODES", "GRIDS", "SCATTERS", "MIN_CP
 MODES = ("auto", "serial", "parallel", "team")
 #: the grid's node loops: over every node, or over the box of nodes the particles reach
 #: this step and the last (engine/window.py); "auto" picks the window where the bodies
-#: start in less than WINDOW_SHARE of the domain and it applies (grid_window_refusal)
+#: start in less than WINDOW_SHARE of the domain, it applies (grid_window_refusal) and
+#: no team runs
 GRIDS = ("auto", "dense", "window")
 WINDOW_SHARE = 0.5
 #: P2G scatter strategies: parallel atomic adds (the GPU path); the scatter loop on one
@@ -386,13 +387,16 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     team_ok = (private and not strain_remap and model.integrator == "euler-cromer"
                and threads >= n_copies)
     # the active window: asked, or (auto) where the bodies start in a small part of the
-    # grid and it applies; a team splits the whole grid, so the window runs without one
+    # domain, it applies and no team runs (a team splits the whole grid; its dense step
+    # beat the windowed parallel one on the slope demo, 1.28 against 1.67 ms, and on
+    # examples/large_slope.toml, 6.7 against 8.1 ms: the particles' work dominates there)
+    team_auto = team_ok and requested in ("team", "auto")
     refusal = grid_window_refusal(model, requested if requested == "team" else run_mode,
                                   on_cpu)
     if grid == "window" and refusal is not None:
         raise ValueError(f"grid='window' does not apply to {refusal}: use grid='dense' or "
                          "'auto'")
-    window = grid == "window" or bool(grid == "auto" and refusal is None
+    window = grid == "window" or bool(grid == "auto" and refusal is None and not team_auto
                                       and _starting_share(model) < WINDOW_SHARE)
     if window:
         team_ok = False

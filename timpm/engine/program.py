@@ -268,7 +268,7 @@ class Program:
         if f.grid_window:  # the active window's boxes and extent (window.py)
             fields = window_fields(real)
             fb.dense(ti.i, 4 * d).place(fields["window_box"])
-            fb.dense(ti.i, 2 * d).place(fields["window_extent"])
+            fb.dense(ti.i, 2 * d * f.n_copies).place(fields["window_extent"])
             scratch.update(fields)
         # run state and the first error
         run = {"step_count": ti.field(ti.i64), "time": ti.field(ti.f64),

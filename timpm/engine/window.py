@@ -33,8 +33,9 @@ PREV_LO, PREV_HI, LO, HI = range(4)
 
 
 def window_fields(real):
-    """The window's scratch fields, to be placed 4 dim and 2 dim long: its boxes (integers)
-    and the particles' extent (cleared when a state is loaded: P_{n-1} empty)."""
+    """The window's scratch fields, to be placed 4 dim and 2 dim times the blocks long: its
+    boxes (integers) and the particles' extent per block (cleared when a state is loaded:
+    P_{n-1} empty)."""
     return {"window_box": ti.field(ti.i32), "window_extent": ti.field(real)}
 
 
@@ -44,6 +45,8 @@ class ActiveWindow:
 
     def __init__(self, features, values, box, extent):
         self.dim, self.basis = features.dim, features.basis
+        #: the particles' blocks, one per thread of the private scatter's split
+        self.blocks = features.n_copies
         self.support = self.basis.support
         self.values, self.box, self.extent = values, box, extent
 
@@ -55,17 +58,30 @@ class ActiveWindow:
 
     @ti.func
     def find(self, particles: ti.template(), grid: ti.template(), values: ti.template()):
-        # the active window (module): xi_min, xi_max over the particles on the grid
+        # the active window (module): xi_min, xi_max over the particles on the grid, per
+        # block of the private scatter's split (thread c the particles [c B, (c + 1) B):
+        # no atomics, which two threads contending for four values made cost as much as
+        # the step), then over the blocks
         d = ti.static(self.dim)
+        B = values.scatter_block()
+        for q in range(self.blocks * B):
+            if q % B == 0:
+                c = q // B
+                lo = ti.Vector([3.0e38] * d)
+                hi = ti.Vector([-3.0e38] * d)
+                for p in range(c * B, ti.min((c + 1) * B, values.n_particles())):
+                    for k in ti.static(range(d)):
+                        xi = (particles.x[p][k] - values.origin()[k]) * values.inv_h()
+                        if xi >= 0.0 and xi <= values.elements()[k]:  # (off it: P2G fails)
+                            lo[k] = ti.min(lo[k], xi)
+                            hi[k] = ti.max(hi[k], xi)
+                for k in ti.static(range(d)):
+                    self.extent[c * 2 * d + k] = lo[k]
+                    self.extent[c * 2 * d + d + k] = hi[k]
         for k in ti.static(range(d)):
-            self.extent[k] = 3.0e38
-            self.extent[d + k] = -3.0e38
-        for p in range(values.n_particles()):
-            for k in ti.static(range(d)):
-                xi = (particles.x[p][k] - values.origin()[k]) * values.inv_h()
-                if xi >= 0.0 and xi <= values.elements()[k]:  # (off the grid: P2G fails)
-                    ti.atomic_min(self.extent[k], xi)
-                    ti.atomic_max(self.extent[d + k], xi)
+            for c in range(1, self.blocks):
+                self.extent[k] = ti.min(self.extent[k], self.extent[c * 2 * d + k])
+                self.extent[d + k] = ti.max(self.extent[d + k], self.extent[c * 2 * d + d + k])
         # P_n from the extremes' stencils, U_n = box(P_n, P_{n-1}); P_n kept for the next
         for k in ti.static(range(d)):
             lo, hi = 0, 0

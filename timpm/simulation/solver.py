@@ -51,7 +51,8 @@ class Solver:
     box of nodes the particles reach this step and the last: the same results, the empty
     space skipped; 2D and 3D, the Euler-Cromer step with the lumped mass and standard
     projection, no team, not periodic; :mod:`timpm.engine.window`) or ``"auto"`` (the
-    window where it applies and the bodies start in less than half the domain).
+    window where it applies, no team runs and the bodies start in less than half the
+    domain).
 
     ``grid_displacement=True`` accumulates the nodal displacements u_i += v_i dt, so that
     the displacement field u_h(x) = sum_i phi_i(x) u_i can be drawn (study 5.2).
