@@ -2,13 +2,14 @@
 strength halved) on finer and finer grids, per basis: how the run-out converges and what
 each basis pays for it (issue 46, item 5's run-out half).
 
-    python benchmarks/runout_convergence.py [--cells 10 20 40 80]
+    python benchmarks/runout_convergence.py [--cells 10 20 40 80] [--courant 0.5]
         [--schemes linear:apic uniform-bspline2:apic uniform-bspline2:mls-mpm
                    uniform-bspline3:apic]
         [--json docs/runout_convergence.json] [--plot docs/runout_convergence.png]
 
 Each row is `timpm demo slope --param cells_per_H=C --param basis=B --param transfer=T`
-(no rendering, 10 s of slide): the run-out beyond the toe (the deposit's front where it is
+--param courant=K (no rendering, 10 s of slide; one courant number for every scheme,
+0.5 by default: the demo's 0.8 is measured for MLS-MPM only): the run-out beyond the toe (the deposit's front where it is
 2% of H thick, read per grid column), the particles, steps and the stepping's wall time on
 two threads.  Per scheme, where three meshes halve h and the run-outs change monotonically,
 Richardson's extrapolation: the observed order p = log2((R1 - R2) / (R2 - R3)) and R* = R3
@@ -45,6 +46,7 @@ def main():
     ap.add_argument("--schemes", nargs="+", default=[
         "linear:apic", "uniform-bspline2:apic", "uniform-bspline2:mls-mpm",
         "uniform-bspline3:apic"])
+    ap.add_argument("--courant", type=float, default=0.5)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--json", metavar="FILE")
     ap.add_argument("--plot", metavar="FILE.png")
@@ -60,7 +62,7 @@ def main():
         for cells in args.cells:
             t = time.perf_counter()
             r = run_demo("slope", frames=20, cells_per_H=cells, basis=basis,
-                         transfer=transfer)
+                         transfer=transfer, courant=args.courant)
             row = {"basis": basis, "transfer": transfer, "cells_per_H": cells,
                    "h": 10.0 / cells, "particles": r.particles, "steps": r.steps,
                    "runout": r.summary["runout"], "stepping_seconds": r.simulation_seconds,
@@ -99,7 +101,8 @@ def main():
         print(scheme, json.dumps(s), flush=True)
     print(f"reference run-out: {reference}", flush=True)
     doc = {"command": "python benchmarks/runout_convergence.py " + " ".join(sys.argv[1:]),
-           "date": time.strftime("%Y-%m-%d"), "threads": args.threads, "rows": rows,
+           "date": time.strftime("%Y-%m-%d"), "threads": args.threads,
+           "courant": args.courant, "rows": rows,
            "richardson": summary, "reference_runout": reference}
     if args.json:
         Path(args.json).write_text(json.dumps(doc, indent=1) + "\n")

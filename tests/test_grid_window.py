@@ -144,3 +144,35 @@ def test_an_unknown_grid_is_refused():
     with pytest.raises(ValueError, match="unknown grid 'sparse': choose one of auto, dense, "
                                          "window"):
         timpm.Solver(_small(transfer="musl"), grid="sparse")
+
+
+NO_FILES = {"output.gif": None, "output.vtk": None, "output.npz": None, "output.json": None,
+            "output.frames": None}
+
+
+@pytest.mark.cpu_only("compared bit for bit; the window is a CPU strategy")
+def test_a_scene_file_picks_its_grid(exact_rounding):
+    """``[simulation] grid``: the cube scene file in a box three times its size runs in the
+    window as on the dense grid, its records bit for bit; a name the schema does not know,
+    and the window where the scene cannot take it (a team), are refused naming the key,
+    before any work."""
+    from timpm.scenefile import run_scene
+
+    big = {"domain.size": [3.0] * 3, "domain.cells": 24, "simulation.t_end": 0.05,
+           **NO_FILES}
+    series = {}
+    for grid in ("dense", "window"):
+        scene = load_scene(CUBE, {**big, "simulation.grid": grid})
+        assert scene.grid == grid
+        series[grid] = run_scene(scene).series
+    assert series["dense"].keys() == series["window"].keys() and series["dense"]
+    for key in series["dense"]:
+        np.testing.assert_array_equal(series["window"][key], series["dense"][key])
+    assert load_scene(CUBE, big).grid == "auto"
+    with pytest.raises(ValueError, match=r"simulation\.grid.*'sparse'.*auto, dense, window"):
+        load_scene(CUBE, {**big, "simulation.grid": "sparse"})
+    team = load_scene(CUBE, {**big, "simulation.grid": "window", "simulation.mode": "team"})
+    with pytest.raises(ValueError, match=r"simulation\.grid \(overridden\): grid = "
+                                         r"'window' does not apply to mode='team'.*give "
+                                         r"'dense' or 'auto'"):
+        run_scene(team)

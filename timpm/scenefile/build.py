@@ -27,7 +27,8 @@ class SceneFile:
     """A checked scene file: a ``world`` (the world form) or the keyword arguments of
     :func:`timpm.studies.study.run_problem` (``problem``, the problem form), the run's
     ``t_end``, ``mode``, ``precision`` (None: a problem, which runs in the precision
-    Taichi was started with) and the ``output`` settings."""
+    Taichi was started with), the ``output`` settings and the world's ``grid`` ("auto",
+    "dense" or "window": :class:`timpm.Solver`)."""
 
     path: str
     name: str
@@ -38,6 +39,7 @@ class SceneFile:
     precision: str
     output: dict
     reader: Reader = field(repr=False, default=None)
+    grid: str = "auto"  # the world form's node loops (Solver's grid)
 
     def error(self, path, message) -> ValueError:
         """A ValueError naming the file, the line of key ``path`` and ``message``."""
@@ -362,4 +364,4 @@ def _world_scene(reader, data, path) -> SceneFile:
         raise (reader.error(key, str(err)) if key else ValueError(f"{path}: {err}")) from None
     return SceneFile(path=str(path), name=name, world=world, problem=None, t_end=sim["t_end"],
                      mode=sim.get("mode", "auto"), precision=sim.get("precision", "f64"),
-                     output=output, reader=reader)
+                     output=output, reader=reader, grid=sim.get("grid", "auto"))

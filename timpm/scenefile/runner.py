@@ -249,6 +249,14 @@ def _run_world(scene, fields_writer, movie, progress, checkpoint, run,
     if steps == 0:
         raise scene.error(("simulation", "t_end"), f"t_end = {t_end:g} s is shorter than half "
                           f"a step (dt = {world.dt:g} s): the run would take no step")
+    if scene.grid == "window":  # refused before a gravity loading's work, naming the key
+        from ..engine.features import grid_window_refusal
+        from ..platform import runtime
+
+        refusal = grid_window_refusal(world.model, scene.mode, runtime.on_cpu())
+        if refusal is not None:
+            raise scene.error(("simulation", "grid"), f"grid = 'window' does not apply to "
+                              f"{refusal}: give 'dense' or 'auto'")
     from ..model.geostatic import GravityLoading
     from ..simulation.loading import gravity_loading
 
@@ -262,7 +270,8 @@ def _run_world(scene, fields_writer, movie, progress, checkpoint, run,
             raise _interrupted_loading(scene, stop) from None
     run = {**run, "mode": scene.mode,
            "record_every": max(1, int(round(t_end / world.dt / 200)))}
-    solver = Solver(world, mode=scene.mode, energies=True, record_every=run["record_every"])
+    solver = Solver(world, mode=scene.mode, energies=True, record_every=run["record_every"],
+                    grid=scene.grid)
     try:
         if movie is not None:
             try:
@@ -378,7 +387,7 @@ def resume_scene(saved, t_end, mode=None, fields=None, frames=20, checkpoint=Non
         raise ValueError(f"--t-end {t_end:g} s is not after the checkpoint's time "
                          f"{saved['t']:g} s")
     solver = Solver(scene.world, mode=mode or run["mode"], energies=True,
-                    record_every=run["record_every"])
+                    record_every=run["record_every"], grid=scene.grid)
     try:
         try:
             solver.restore(saved)

@@ -5,7 +5,7 @@ import math
 from dataclasses import dataclass
 
 from ..bases import get_basis
-from ..engine.features import MODES
+from ..engine.features import GRIDS, MODES
 from ..materials import MATERIALS
 from ..materials.pore_water import PoreWater
 from ..model.model import (INTEGRATORS, ND_BASES, SIDES, TRANSFERS, WALL_KINDS, MASS_KINDS,
@@ -102,6 +102,11 @@ SIMULATION = {
     "mode": Key("string", "auto", doc="how the steps run (serial: one thread, "
                 "bit-reproducible)", choices=MODES),
     "precision": Key("string", "f64", doc="float type of the run", choices=("f64", "f32")),
+    "grid": Key("string", "auto", doc="the grid's node loops: over every node (dense) or "
+                "over the box of nodes the particles reach (window: the same results, a "
+                "mostly empty domain skipped; 2D and 3D, euler-cromer, lumped mass, not "
+                "periodic, no team); auto takes the window where it applies, no team runs and "
+                "the bodies start in under half the domain", choices=GRIDS),
     "allow_unstable_dt": Key("boolean", False, doc="run a dt above the CFL limit"),
     "allow_overlap": Key("boolean", False, doc="let bodies overlap"),
 }
