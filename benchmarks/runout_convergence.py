@@ -6,6 +6,8 @@ each basis pays for it (issue 46, item 5's run-out half).
         [--schemes linear:apic uniform-bspline2:apic uniform-bspline2:mls-mpm
                    uniform-bspline3:apic]
         [--json docs/runout_convergence.json] [--plot docs/runout_convergence.png]
+    python benchmarks/runout_convergence.py --replot docs/runout_convergence.json
+        --plot docs/runout_convergence.png     # the plot again from a record, no runs
 
 Each row is `timpm demo slope --param cells_per_H=C --param basis=B --param transfer=T`
 --param courant=K (no rendering, 10 s of slide; one courant number for every scheme,
@@ -50,7 +52,13 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--json", metavar="FILE")
     ap.add_argument("--plot", metavar="FILE.png")
+    ap.add_argument("--replot", metavar="FILE.json", help="draw --plot from this record")
     args = ap.parse_args()
+    if args.replot:
+        doc = json.loads(Path(args.replot).read_text())
+        schemes = list(doc["richardson"])
+        plot(args.plot, schemes, doc["rows"], doc["reference_runout"])
+        return
 
     import timpm
     from timpm.scenarios.demos import run_demo
@@ -107,12 +115,18 @@ def main():
     if args.json:
         Path(args.json).write_text(json.dumps(doc, indent=1) + "\n")
     if args.plot:
+        plot(args.plot, args.schemes, rows, reference)
+
+
+def plot(path, schemes, rows, reference):
+    """Run-out against h and against the cost, per scheme; Richardson's value +- 5%."""
+    if path:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
-        for scheme in args.schemes:
+        for scheme in schemes:
             basis, transfer = scheme.split(":")
             sel = [r for r in rows if (r["basis"], r["transfer"]) == (basis, transfer)]
             a1.plot([r["h"] for r in sel], [r["runout"] for r in sel], "o-", label=scheme)
@@ -121,13 +135,13 @@ def main():
         for ax in (a1, a2):
             if reference is not None:
                 ax.axhspan(0.95 * reference, 1.05 * reference, color="0.85",
-                           label="reference +- 5%")
+                           label="Richardson's value +- 5% (see results.md)")
             ax.set_ylabel("run-out beyond the toe (m)")
             ax.legend(fontsize=7)
         a1.set(xscale="log", xlabel="h (m)", title="run-out against the mesh")
         a2.set(xscale="log", xlabel="wall time, two cores (s)", title="run-out against cost")
         fig.tight_layout()
-        fig.savefig(args.plot, dpi=110)
+        fig.savefig(path, dpi=110)
 
 
 def sel_last_change(rows, scheme):
