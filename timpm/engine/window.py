@@ -6,8 +6,8 @@ node phases, the private copies' merge) visited them.  With the window (``grid="
 compiled in only where a feature set asks: ``FeatureSet.grid_window``) each step starts
 with one phase:
 
-1. the particles' extent in element units, xi_min and xi_max per axis (a parallel
-   reduction, atomic min and max);
+1. the particles' extent in element units, xi_min and xi_max per axis (each block of the
+   private scatter's split on its thread, without atomics, then the blocks combined);
 2. the stencil nodes of those extremes: the particle window P_n = [b(xi_min), b(xi_max) +
    support) per axis (b, the basis's first stencil node, is monotone in xi, so every
    particle's stencil lies inside);
@@ -78,8 +78,9 @@ class ActiveWindow:
                 for k in ti.static(range(d)):
                     self.extent[c * 2 * d + k] = lo[k]
                     self.extent[c * 2 * d + d + k] = hi[k]
-        for k in ti.static(range(d)):
-            for c in range(1, self.blocks):
+        ti.loop_config(serialize=True)  # one thread combines the blocks (no race on 0)
+        for c in range(1, self.blocks):
+            for k in ti.static(range(d)):
                 self.extent[k] = ti.min(self.extent[k], self.extent[c * 2 * d + k])
                 self.extent[d + k] = ti.max(self.extent[d + k], self.extent[c * 2 * d + d + k])
         # P_n from the extremes' stencils, U_n = box(P_n, P_{n-1}); P_n kept for the next
