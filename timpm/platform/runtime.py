@@ -540,10 +540,14 @@ def generation() -> int:
     return _state.get("generation", 0)
 
 
-def _cpu_time(tid: int) -> int:
-    """Nanoseconds thread ``tid`` of this process has run (Linux schedstat)."""
-    with open(f"/proc/self/task/{tid}/schedstat") as f:
-        return int(f.read().split()[0])
+def _cpu_time(tid: int) -> int | None:
+    """Nanoseconds thread ``tid`` of this process has run (Linux schedstat); None for a
+    thread that has ended since it was listed."""
+    try:
+        with open(f"/proc/self/task/{tid}/schedstat") as f:
+            return int(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return None
 
 
 def pin_workers() -> list:
@@ -575,13 +579,20 @@ def pin_workers() -> list:
     main = threading.get_native_id()
     try:
         tids = [int(t) for t in os.listdir("/proc/self/task") if int(t) != main]
-        before = {t: _cpu_time(t) for t in tids}
-        busy(20000)  # a few milliseconds of work shared by the workers
-        gained = [t for t in tids if _cpu_time(t) - before[t] > 1_000_000]
-        pinned = []
-        for k, tid in enumerate(sorted(gained)):
-            os.sched_setaffinity(tid, {cores[k % len(cores)]})
-            pinned.append((tid, cores[k % len(cores)]))
-    except (OSError, ValueError, KeyError):
+    except (OSError, ValueError):
         return []
+    # (another library's thread may end at any moment: it is skipped, not a reason to pin
+    # none)
+    before = {t: c for t in tids if (c := _cpu_time(t)) is not None}
+    busy(20000)  # a few milliseconds of work shared by the workers
+    gained = [t for t, c in before.items()
+              if (now := _cpu_time(t)) is not None and now - c > 1_000_000]
+    pinned = []
+    for tid in sorted(gained):
+        core = cores[len(pinned) % len(cores)]
+        try:
+            os.sched_setaffinity(tid, {core})
+        except OSError:  # ended since
+            continue
+        pinned.append((tid, core))
     return pinned
