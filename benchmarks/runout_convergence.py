@@ -11,9 +11,9 @@ each basis pays for it (issue 46, item 5's run-out half).
 
 Each row is `timpm demo slope --param cells_per_H=C --param basis=B --param transfer=T`
 --param courant=K (no rendering, 10 s of slide; one courant number for every scheme,
-0.5 by default: the demo's 0.8 is measured for MLS-MPM only): the run-out beyond the toe (the deposit's front where it is
-2% of H thick, read per grid column), the particles, steps and the stepping's wall time on
-two threads.  Per scheme, where three meshes halve h and the run-outs change monotonically,
+0.5 by default: the demo's 0.8 is measured for MLS-MPM only): the run-out beyond the toe
+(the deposit's front where it is 2% of H thick, read per grid column), the particles,
+steps and the stepping's wall time on two threads.  Per scheme, where three meshes halve h and the run-outs change monotonically,
 Richardson's extrapolation: the observed order p = log2((R1 - R2) / (R2 - R3)) and R* = R3
 + (R3 - R2) / (2^p - 1).  The reference is the finest mesh's extrapolation of the scheme
 that reaches it with the smallest change; each scheme's cheapest mesh within 5% of it is
@@ -120,28 +120,29 @@ def main():
 
 def plot(path, schemes, rows, reference):
     """Run-out against h and against the cost, per scheme; Richardson's value +- 5%."""
-    if path:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+    if not path:
+        return
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
 
-        fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
-        for scheme in schemes:
-            basis, transfer = scheme.split(":")
-            sel = [r for r in rows if (r["basis"], r["transfer"]) == (basis, transfer)]
-            a1.plot([r["h"] for r in sel], [r["runout"] for r in sel], "o-", label=scheme)
-            a2.plot([r["end_to_end_seconds"] for r in sel], [r["runout"] for r in sel], "o-",
-                    label=scheme)
-        for ax in (a1, a2):
-            if reference is not None:
-                ax.axhspan(0.95 * reference, 1.05 * reference, color="0.85",
-                           label="Richardson's value +- 5% (see results.md)")
-            ax.set_ylabel("run-out beyond the toe (m)")
-            ax.legend(fontsize=7)
-        a1.set(xscale="log", xlabel="h (m)", title="run-out against the mesh")
-        a2.set(xscale="log", xlabel="wall time, two cores (s)", title="run-out against cost")
-        fig.tight_layout()
-        fig.savefig(path, dpi=110)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
+    for scheme in schemes:
+        basis, transfer = scheme.split(":")
+        sel = [r for r in rows if (r["basis"], r["transfer"]) == (basis, transfer)]
+        a1.plot([r["h"] for r in sel], [r["runout"] for r in sel], "o-", label=scheme)
+        a2.plot([r["end_to_end_seconds"] for r in sel], [r["runout"] for r in sel], "o-",
+                label=scheme)
+    for ax in (a1, a2):
+        if reference is not None:
+            ax.axhspan(0.95 * reference, 1.05 * reference, color="0.85",
+                       label="Richardson's value +- 5% (see results.md)")
+        ax.set_ylabel("run-out beyond the toe (m)")
+        ax.legend(fontsize=7)
+    a1.set(xscale="log", xlabel="h (m)", title="run-out against the mesh")
+    a2.set(xscale="log", xlabel="wall time, two cores (s)", title="run-out against cost")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
 
 
 def sel_last_change(rows, scheme):

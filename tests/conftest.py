@@ -45,6 +45,11 @@ def assert_same_run(actual, desired):
                                    atol=1e-12 * max(1.0, float(np.abs(desired).max())))
 
 
+#: scene-file overrides that write no output file (and no frames: a scene refuses frames
+#: without an output written frame by frame)
+NO_FILES = {"output.gif": None, "output.vtk": None, "output.npz": None, "output.json": None,
+            "output.frames": None}
+
 #: the environment of a ``timpm`` child process in a test: one thread, no banners
 CHILD_ENV = dict(os.environ, TIMPM_THREADS="1", ENABLE_TAICHI_HEADER_PRINT="false",
                  TI_LOG_LEVEL="warn")

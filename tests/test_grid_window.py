@@ -9,6 +9,8 @@ from timpm.bases.sample import stencils
 from timpm.scenarios.demos import ColumnCollapse, SlopeFailure
 from timpm.scenefile import load_scene
 
+from conftest import NO_FILES
+
 CUBE = "examples/cube_drop_3d.toml"
 
 
@@ -144,10 +146,6 @@ def test_an_unknown_grid_is_refused():
     with pytest.raises(ValueError, match="unknown grid 'sparse': choose one of auto, dense, "
                                          "window"):
         timpm.Solver(_small(transfer="musl"), grid="sparse")
-
-
-NO_FILES = {"output.gif": None, "output.vtk": None, "output.npz": None, "output.json": None,
-            "output.frames": None}
 
 
 @pytest.mark.cpu_only("compared bit for bit; the window is a CPU strategy")

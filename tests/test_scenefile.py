@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from conftest import NO_FILES
+
 from timpm.platform import runtime
 from timpm.cli.main import main
 from timpm.scenarios.demos import get_demo
@@ -16,9 +18,6 @@ from timpm.studies.study import run_problem
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
-#: (and no frames: a scene refuses frames without an output written frame by frame)
-NO_FILES = {"output.gif": None, "output.vtk": None, "output.npz": None, "output.json": None,
-            "output.frames": None}
 
 #: each example at a tiny size: a coarse grid, a few steps
 TINY = {
