@@ -2,6 +2,7 @@
 timpm/engine/water.py, timpm/schemes/two_phase.py): the pore water's checks, the
 undrained split of a load, Terzaghi's consolidation against its series, a saturated layer
 at rest under still water, and buoyancy."""
+import dataclasses
 import math
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 import timpm
 from timpm.platform.errors import InputError
 from timpm.problems import get_problem
+from timpm.materials.pore_water import STANDARD_GRAVITY
 from timpm.model.loads import SurfaceTraction
 from timpm.problems.terzaghi import consolidation_series, degree_of_consolidation
 
@@ -52,7 +54,18 @@ def test_pore_water_derived_numbers():
     (dict(drained_sides=("base",)), "drained_sides"),
     (dict(drained_sides=("top", "top")), "drained_sides"),
     (dict(drained_sides=3), "drained_sides"),
-    (dict(analysis="undrained", drained_sides=("bottom",)), "drained_sides")])
+    (dict(analysis="undrained", drained_sides=("bottom",)), "drained_sides"),
+    (dict(drained_sides=("bottom",), side_pressure={"top": 2e4}), "side_pressure"),
+    (dict(side_pressure={"bottom": 2e4}), "side_pressure"),
+    (dict(drained_sides=("bottom",), side_pressure={"base": 2e4}), "side_pressure"),
+    (dict(drained_sides=("bottom",), side_pressure={"bottom": float("nan")}), "side_pressure"),
+    (dict(drained_sides=("bottom",), side_pressure={"bottom": float("inf")}), "side_pressure"),
+    (dict(drained_sides=("bottom",), side_pressure={"bottom": "2e4"}), "side_pressure"),
+    (dict(drained_sides=("bottom",), side_pressure=2e4), "side_pressure"),
+    (dict(analysis="undrained", side_pressure={"bottom": 2e4}), "side_pressure"),
+    (dict(drained_sides=("bottom",), side_pressure={"bottom": 2e4}, side_pressure_time=3.0),
+     "side_pressure_time"),
+    (dict(side_pressure_time=timpm.Ramp(1.0)), "side_pressure_time")])
 def test_water_refuses_bad_values(kwargs, key):
     with pytest.raises(InputError) as err:
         timpm.Water(**kwargs)
@@ -92,6 +105,10 @@ def _layer(water=None, pore=None, material=None, random_field=None, **world):
     (lambda: _layer(water=timpm.Water("coupled", drained_sides=("front",)),
                     pore=timpm.PoreWater(porosity=0.4, conductivity=1e-5)),
      "water.drained_sides", "2D domain has no front side"),
+    (lambda: _layer(water=timpm.Water("coupled", drained_sides=("front",),
+                                      side_pressure={"front": 2e4}),
+                    pore=timpm.PoreWater(porosity=0.4, conductivity=1e-5)),
+     "water.side_pressure", "front side, which a 2D domain does not have"),
     (lambda: _layer(water=timpm.Water("undrained", smoothing="cell"),
                     pore=timpm.PoreWater(0.4), basis="bspline3"), "water.smoothing",
      "quadratic basis, not bspline3")])
@@ -333,6 +350,205 @@ def test_a_random_conductivity_drains_at_its_own_rate(tmp_path):
     assert (tmp_path / "k.png").stat().st_size > 0
 
 
+# ---- coupled: a prescribed pore pressure on a drained side -------------------------------
+P_B = 1e3  # the base's excess pore pressure, Pa
+
+
+def base_pressure_series(z, T, terms=400):
+    """u / p_b in a layer whose base (z = 0, z over the height H) is held at p_b from t = 0
+    and whose top drains, from u = 0: c_v u_zz = u_t, u(0, t) = p_b, u(1, t) = 0, so u =
+    p_b (1 - z) - sum_m (2 p_b / M) sin(M z) exp(-M^2 T), M = m pi (the transient: the
+    sine series of -p_b (1 - z), whose coefficients are -2 p_b int_0^1 (1 - s) sin(M s) ds
+    = -2 p_b / M), T = c_v t / H^2."""
+    M = math.pi * np.arange(1, terms + 1)
+    z = np.asarray(z, dtype=float)
+    return (1.0 - z) - np.sum(2.0 / M * np.sin(np.multiply.outer(z, M))
+                              * np.exp(-M * M * T), axis=-1)
+
+
+def ramped_base_pressure_series(z, T, D):
+    """u / p_b as :func:`base_pressure_series` with the base's pressure brought on linearly
+    over the time factor D, p_b min(T / D, 1) (Duhamel: the step's response averaged over
+    the last D, (S(T) - S(max(T - D, 0))) / D with S(T) = int_0^T u_step dT')."""
+    M = math.pi * np.arange(1, 401)
+    z = np.asarray(z, dtype=float)
+
+    def S(T):
+        return T * (1.0 - z) - np.sum(2.0 / M ** 3 * np.sin(np.multiply.outer(z, M))
+                                      * (1.0 - np.exp(-M * M * T)), axis=-1)
+    return (S(T) - S(max(T - D, 0.0))) / D
+
+
+def test_the_base_pressure_series_is_the_finite_difference_solution():
+    """The series against Crank-Nicolson on 400 intervals (its first steps backward Euler,
+    the jump at the base damped): within 1e-5 of p_b at T = 0.02, 0.1 and 0.5 (5e-6, 5e-7,
+    1e-7)."""
+    n, dT = 400, 2e-5
+    z = np.linspace(0.0, 1.0, n + 1)
+    L = (np.diag(np.full(n - 2, 1.0), -1) - 2.0 * np.eye(n - 1)
+         + np.diag(np.full(n - 2, 1.0), 1)) * n * n
+    b = np.zeros(n - 1)
+    b[0] = n * n  # u(0) = 1
+    I = np.eye(n - 1)
+    euler = np.linalg.inv(I - dT * L)
+    cn = np.linalg.solve(I - 0.5 * dT * L, I + 0.5 * dT * L)
+    cn_b = np.linalg.solve(I - 0.5 * dT * L, dT * b)
+    u, T = np.zeros(n - 1), 0.0
+    for _ in range(20):
+        u, T = euler @ (u + dT * b), T + dT
+    for target in (0.02, 0.1, 0.5):
+        while T < target - 1e-12:
+            u, T = cn @ u + cn_b, T + dT
+        assert np.max(np.abs(u - base_pressure_series(z[1:-1], T))) < 1e-5, target
+
+
+def _artesian_layer(pressure=P_B, time=None):
+    """Terzaghi's layer (16 linear elements, 4 particles each, its base's node fixed, its
+    time step) without its load, from p_e = 0, the base drained and held at ``pressure``
+    (times ``time``'s f(t)), the top drained (a free surface)."""
+    prob = get_problem("terzaghi")
+    layer = prob.scene()
+    water = timpm.Water("coupled", drained_sides=("left",), side_pressure={"left": pressure},
+                        side_pressure_time=time)
+    return prob, timpm.Scene(grid=layer.grid, positions=layer.positions, volume=layer.volume,
+                             dt=layer.dt, material=prob.material,
+                             fixed_nodes=layer.fixed_nodes, pore_water=prob.pore_water,
+                             water=water)
+
+
+def _element_means(values, x0, h, n):
+    element = np.floor(x0 / h).astype(int)
+    return np.array([values[element == e].mean() for e in range(n)])
+
+
+def test_a_pressure_at_the_base_drives_the_water_up_through_the_layer():
+    """Water(drained_sides=("left",), side_pressure={"left": p_b}): the 1D layer from p_e =
+    0, its base at p_b from t = 0, its top drained.  Each element's mean pressure (the
+    linear basis' pressure is constant over an element) within 0.02 of p_b of the series'
+    mean at T = 0.1 and 0.2; at T = 1 (the transient's rest 3e-5 of p_b) the steady state:
+    the profile p_b (1 - z / H) at the elements' centres and the Darcy flux n (w - v) = (k /
+    gamma_w) p_b / H at the nodes and in the particles' mean within 2 p_b / E_oed (0.002:
+    the scheme is exact for the linear steady state in small strain, the run's error that
+    of the layer's swelling, sigma' = p_e, strain up to p_b / E_oed, which the drag's
+    volumes and the particles' positions follow).  The side pressure's work is not
+    recorded: the energy guard is off."""
+    prob, scene = _artesian_layer()
+    H, n = prob.H, 16
+    h = H / n
+    x0 = scene.positions.copy()
+    solver = timpm.Solver(scene)
+    assert solver.energy_guard is None
+    for T in (0.1, 0.2):
+        solver.run(t_end=T * H ** 2 / prob.c_v)
+        error = (_element_means(solver.read("pw") / P_B, x0, h, n)
+                 - _element_means(base_pressure_series(x0 / H, T), x0, h, n))
+        assert np.max(np.abs(error)) < 0.02, (T, error)
+    solver.run(t_end=H ** 2 / prob.c_v)
+    strain = P_B / prob.E
+    centres = (np.arange(n) + 0.5) * h
+    steady = _element_means(solver.read("pw") / P_B, x0, h, n)
+    assert np.max(np.abs(steady - (1.0 - centres / H))) < 2.0 * strain
+    q = prob.conductivity / (prob.water_density * STANDARD_GRAVITY) * P_B / H
+    nodes = prob.porosity * solver.read("node_water_velocity")[:, 0]  # (v_i = 0 at rest)
+    assert np.max(np.abs(nodes / q - 1.0)) < 2.0 * strain
+    particles = prob.porosity * (solver.read("w") - solver.read("v"))[:, 0]
+    assert abs(np.mean(particles) / q - 1.0) < 2.0 * strain
+    assert np.all(solver.read("x")[:, 0] >= x0)  # the layer swells (sigma' = p_e > 0)
+
+
+def test_a_ramped_base_pressure_follows_duhamel_s_series():
+    """side_pressure_time=Ramp(D), D = 0.1 H^2 / c_v: each element's mean pressure within
+    0.02 of p_b of the series' mean while the pressure rises (T = 0.05) and after (T =
+    0.2)."""
+    prob = get_problem("terzaghi")
+    D = 0.1
+    _, scene = _artesian_layer(time=timpm.Ramp(D * prob.H ** 2 / prob.c_v))
+    x0 = scene.positions.copy()
+    solver = timpm.Solver(scene, energies=False)
+    for T in (0.05, 0.2):
+        solver.run(t_end=T * prob.H ** 2 / prob.c_v)
+        error = (_element_means(solver.read("pw") / P_B, x0, prob.H / 16, 16)
+                 - _element_means(ramped_base_pressure_series(x0 / prob.H, T, D), x0,
+                                  prob.H / 16, 16))
+        assert np.max(np.abs(error)) < 0.02, (T, error)
+
+
+def test_a_zero_side_pressure_compiles_nothing_new():
+    """side_pressure={"left": 0}: the feature set of the plain drained side (no field, no
+    value, the same program) and the same run to the bit (Terzaghi's layer drained at both
+    faces)."""
+    prob = get_problem("terzaghi", drainage="both")
+    plain = prob.scene()
+    zero = dataclasses.replace(plain, water=timpm.Water(
+        "coupled", drained_sides=("left",), side_pressure={"left": 0.0}))
+    assert not zero.water.pressured
+    runs = [timpm.Solver(s, energies=False).run(n_steps=500) for s in (plain, zero)]
+    assert runs[0].features == runs[1].features and runs[1].features.side_pressure is None
+    assert np.array_equal(runs[0].read("pw"), runs[1].read("pw"))
+    assert np.array_equal(runs[0].read("w"), runs[1].read("w"))
+
+
+def _pressured_column(basis, pressure=P_B, **water):
+    """Terzaghi's layer as a 2D column (2 x 16 cells, nu = 0, roller sides, a sticky base,
+    the top free) from p_e = 0, its base drained at ``pressure``."""
+    prob = get_problem("terzaghi")
+    soil = timpm.LinearElastic(E=prob.E, nu=0.0, density=prob.density)
+    body = timpm.Body(timpm.Box((0.0, 0.0), (0.125, 1.0)), soil, ppc=2, water=prob.pore_water)
+    walls = {"left": "roller", "right": "roller", "bottom": "sticky", "top": None}
+    return prob, timpm.World(domain=(0.125, 1.0), cells=2, bodies=[body], transfer="musl",
+                             basis=basis, walls=walls, gravity=(0.0, 0.0),
+                             water=timpm.Water("coupled", drained_sides=("bottom",),
+                                               side_pressure={"bottom": pressure}, **water))
+
+
+@pytest.mark.parametrize("basis, rows, across", [
+    # the functions' values on the side's plane, row by row, and their integrals across it
+    # (in h, over the two cells between the roller walls: the linear hats; the padded
+    # B-splines centred on the nodes, cut at the walls: the quadratic's tail beyond its
+    # half-width 1 is 1/48, the cubic's beyond 1, 1/24)
+    ("linear", [1.0], [0.5, 1.0, 0.5]),
+    ("uniform-bspline2", [0.125, 0.75, 0.125], [1 / 48, 0.5, 46 / 48, 0.5, 1 / 48]),
+    ("uniform-bspline3", [1 / 6, 2 / 3, 1 / 6], [1 / 24, 0.5, 22 / 24, 0.5, 1 / 24])])
+def test_a_side_pressure_s_nodal_forces_are_its_face_integrals(basis, rows, across):
+    """The nodal forces -p_b n int phi_i dA of a pressured base: the tensor product of the
+    functions' values on the base's plane (1 at the linear basis' edge node; about a padded
+    B-spline's edge node the three rows of the cardinal B-spline's values) and their
+    integrals across the column between its walls; p_b times the base's width in all, up
+    (the outward normal -y)."""
+    from timpm.model.water import side_pressure_forces
+    _, world = _pressured_column(basis, pressure=2e4)
+    model = world.model
+    F = side_pressure_forces(model)
+    assert np.all(F[..., 0] == 0.0)
+    assert F[..., 1].sum() == pytest.approx(2e4 * 0.125, rel=1e-13)
+    x_lo, y_lo = (int(c[0]) for c in model.wall_cells)
+    offset = model.basis.offset() if hasattr(model.basis, "offset") else 0
+    loaded = np.argwhere(F[..., 1] != 0.0)
+    first_row = y_lo + offset - (len(rows) - 1) // 2
+    assert sorted(set(loaded[:, 1])) == list(range(first_row, first_row + len(rows)))
+    first_column = x_lo + offset - (len(across) - 3) // 2
+    assert sorted(set(loaded[:, 0])) == list(range(first_column, first_column + len(across)))
+    expected = 2e4 * model.h * np.multiply.outer(across, rows)
+    block = F[first_column:first_column + len(across), first_row:first_row + len(rows), 1]
+    assert block == pytest.approx(expected, rel=1e-12, abs=1e-12)
+
+
+def test_a_pressured_drained_wall_drives_the_water_through_a_column():
+    """The 2D column on a sticky base drained at p_b (the padded quadratic B-splines: the
+    force on three rows about the base, 1/8, 3/4, 1/8): each cell row's mean pressure within
+    0.02 of p_b of the series' mean at T = 0.1 and 0.2, the flow straight up."""
+    prob, world = _pressured_column("uniform-bspline2")
+    solver = timpm.Solver(world, energies=False)
+    y0 = world.positions[:, 1]
+    for T in (0.1, 0.2):
+        solver.run(t_end=T * prob.H ** 2 / prob.c_v)
+        error = (_element_means(solver.read("pw") / P_B, y0, world.h, 16)
+                 - _element_means(base_pressure_series(y0 / prob.H, T), y0, world.h, 16))
+        assert np.max(np.abs(error)) < 0.02, (T, error)
+    w = solver.read("w")
+    assert np.all(w[:, 1] > 0.0) and np.max(np.abs(w[:, 0])) < 1e-9 * np.max(w[:, 1])
+
+
 @pytest.mark.parametrize("make, key, words", [
     (lambda: timpm.RandomField(conductivity_cov=0.5, marginal="normal"), "marginal",
      "lognormal"),
@@ -566,6 +782,11 @@ def test_a_scene_file_poses_a_submerged_layer(tmp_path):
     assert world.water == timpm.Water("coupled", level=5.5)
     drained = load_scene(path, overrides={"water.drained_sides": ["bottom"]}).world
     assert drained.water.drained_sides == ("bottom",)
+    artesian = load_scene(path, overrides={"water.drained_sides": ["bottom"],
+                                           "water.side_pressure": {"bottom": 2e4},
+                                           "water.side_pressure_ramp": 10.0}).world
+    assert artesian.water.side_pressure == (("bottom", 2e4),)
+    assert artesian.water.side_pressure_time.duration == 10.0
     assert world.bodies[0].water.conductivity == 1e-5
     # the K0 procedure on the buoyant weight: sigma_v' = (2000 - 1000) g (4 - y)
     y = world.positions[:, 1]
@@ -582,7 +803,17 @@ def test_a_scene_file_poses_a_submerged_layer(tmp_path):
     ("porosity = 0.4,", "porosty = 0.4,", 23, "body[0].water"),
     ("level = 5.5", 'level = 5.5\ndrained_sides = ["base"]', 28, "water.drained_sides"),
     ("level = 5.5", 'level = 5.5\ndrained_sides = "bottom"', 28, "water.drained_sides"),
-    ("level = 5.5", 'level = 5.5\ndrained_sides = ["front"]', 28, "water.drained_sides")])
+    ("level = 5.5", 'level = 5.5\ndrained_sides = ["front"]', 28, "water.drained_sides"),
+    ("level = 5.5", "level = 5.5\nside_pressure = {bottom = 2e4}", 28, "water.side_pressure"),
+    ("level = 5.5", 'level = 5.5\ndrained_sides = ["bottom"]\nside_pressure = {bottom = "2e4"}',
+     29, "water.side_pressure"),
+    ("level = 5.5", 'level = 5.5\ndrained_sides = ["bottom"]\nside_pressure = 2e4', 29,
+     "water.side_pressure"),
+    ("level = 5.5", 'level = 5.5\ndrained_sides = ["front"]\nside_pressure = {front = 2e4}',
+     29, "water.side_pressure"),
+    ("level = 5.5", "level = 5.5\nside_pressure_ramp = 10.0", 28, "water.side_pressure_ramp"),
+    ('analysis = "coupled"', 'analysis = "undrained"\nside_pressure = {bottom = 2e4}', 27,
+     "water.side_pressure")])
 def test_scene_file_water_errors_name_key_and_line(tmp_path, old, new, line, key):
     from timpm.scenefile import load_scene
     path = tmp_path / "layer.toml"

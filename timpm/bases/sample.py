@@ -5,7 +5,7 @@ import taichi as ti
 
 from ..platform.runtime import ensure_init
 
-__all__ = ["stencils", "evaluate"]
+__all__ = ["stencils", "evaluate", "integrals"]
 
 
 @ti.kernel
@@ -50,3 +50,18 @@ def evaluate(basis, xi, n_elements: int):
         np.add.at(phi, (rows, base + a), w[:, a])
         np.add.at(dphi, (rows, base + a), dw[:, a])
     return phi, dphi
+
+
+def integrals(basis, n_elements: int, lo: float, hi: float):
+    """int_lo^hi phi_j dxi of every basis function over [lo, hi] (element units), an array
+    of shape ``(n_nodes,)``: Gauss-Legendre with ``support`` points on each half element
+    within [lo, hi], exact (every basis is a polynomial of degree below 2 support on a
+    half element: the knots stand at whole elements, or at half ones for the uniform
+    B-splines of even degree)."""
+    cuts = np.arange(np.ceil(2.0 * lo), np.floor(2.0 * hi) + 1.0) / 2.0
+    cuts = np.unique(np.concatenate(([lo], cuts[(cuts > lo) & (cuts < hi)], [hi])))
+    t, g = np.polynomial.legendre.leggauss(basis.support)
+    half = 0.5 * np.diff(cuts)[:, None]
+    xi = (0.5 * (cuts[:-1] + cuts[1:]))[:, None] + half * t
+    phi, _ = evaluate(basis, xi.ravel(), n_elements)
+    return (half * g).ravel() @ phi

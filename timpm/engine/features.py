@@ -95,6 +95,8 @@ class FeatureSet:
     pore_smoothing: bool = False  # the pore strain's cell mean drives p_e (Water.smoothing)
     drawdown: bool = False       # the still-water level moves in time (Water.final_level)
     drained_sides: tuple = ()    # side indices (SIDES) the pore water flows through
+    side_pressure: type | None = None  # time-function class of the drained sides'
+                                 # prescribed pore pressures (Water.side_pressure); None: none
     grid_window: bool = False    # node loops over the particles' active window (window.py)
 
     @property
@@ -192,6 +194,11 @@ class FeatureSet:
     def has_surface_force(self) -> bool:
         """Surface tractions spread over a face's particles."""
         return self.surface_force is not None
+
+    @property
+    def has_side_pressure(self) -> bool:
+        """Prescribed pore pressures on drained sides (coupled: Water.side_pressure)."""
+        return self.side_pressure is not None
 
     @property
     def has_prescribed(self) -> bool:
@@ -437,6 +444,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
         drawdown=model.water is not None and model.water.drawdown,
         drained_sides=() if model.water is None else tuple(
             SIDES.index(side) for side in model.water.drained_sides),
+        side_pressure=(type(model.water.pressure_time) if model.water is not None
+                       and model.water.pressured else None),
         grid_window=window)
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
@@ -471,6 +480,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     if features.drained_sides:  # per drained side its edge node (as a wall's, wall_nodes)
         edges = [i for pair in model.wall_nodes() for i in pair]
         values.update(drained_nodes=tuple(edges[side] for side in features.drained_sides))
+    if features.has_side_pressure:  # (the nodal forces: a grid field, state.py)
+        values.update(side_pressure_param=float(model.water.pressure_time.param))
     if features.phreatic:
         values.update(phreatic_x=tuple(x for x, _ in model.water.phreatic),
                       phreatic_y=tuple(y for _, y in model.water.phreatic))

@@ -64,7 +64,7 @@ class HostState:
 
         for name, fld in self.particle_fields.items():
             add("particle_ints" if fld.dtype == ti.i32 else "particles", name, fld)
-        for name in ("gv", "gu", "fixed", "fixed_v"):
+        for name in ("gv", "gu", "fixed", "fixed_v", "gwb"):
             if name in self.grid_fields:
                 fld = self.grid_fields[name]
                 add("node_ints" if fld.dtype == ti.i32 else "nodes", name, fld)

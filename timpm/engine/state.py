@@ -11,6 +11,7 @@ import numpy as np
 import taichi as ti
 
 from ..bases import stencils
+from ..model.water import side_pressure_forces
 from .recorder import entry_size
 from ..schemes.rk4 import STAGE_TIMES
 
@@ -100,7 +101,10 @@ class State:
             "fixed_nodes": lay.fixed_nodes, "fixed_velocity": lay.fixed_velocity,
             **({} if f.water is None else {
                 "water": f.water, "pore_water": [None if w is None else w.parameters()
-                                                 for w in model.pore_water]})})
+                                                 for w in model.pore_water]}),
+            **({} if not f.has_side_pressure else {
+                "side_pressure": model.water.side_pressure,
+                "side_pressure_time": _name(f.side_pressure)})})
 
     def check_fits(self, prog, snapshot, record_every):
         """Refuse a snapshot (``Solver.snapshot``) whose fingerprint or state fields are
@@ -183,6 +187,8 @@ class State:
                 velocity[i] = v
             values["fixed"] = fixed
             values["fixed_v"] = velocity
+        if self.features.has_side_pressure:  # the drained sides' pressures' forces
+            values["gwb"] = side_pressure_forces(model)
         arrays = prog.host_arrays(n, int(np.prod(self.layout.nodes)))
         for block, entries in prog.state_layout().items():
             for name, col, comps in entries:

@@ -1,5 +1,5 @@
 """The water of a scene: how its saturated bodies are analysed and where the free water
-stands.  NumPy only.
+stands.  NumPy (a side pressure's nodal forces sample the basis: timpm.bases.sample).
 
 A body carries :class:`~timpm.materials.pore_water.PoreWater` (its porosity, permeability
 and the water's properties); the scene's :class:`Water` says what the engine computes:
@@ -63,6 +63,21 @@ Dirichlet nodes are impermeable (the water's normal velocity the skeleton's).  A
 drained side's node the water's velocity solves its own balance with the skeleton's held
 one, (M_w / dt + Q) w+ = F_w + M_w w / dt + Q v+ (schemes/two_phase.py).
 
+``side_pressure`` (coupled analyses): a prescribed excess pore pressure p_b (Pa, over the
+hydrostatic one of ``level``; {side: p_b}, kept as (side, p_b) pairs) on drained sides
+instead of p_e = 0 there: an artesian pressure under a clay layer, a raised pressure at a
+base.  It acts from t = 0, times ``side_pressure_time`` f(t) (a time function,
+:mod:`~timpm.model.loads`: Constant by default, Ramp(duration) to bring it on).  In the
+weak form of the water's balance it is the traction -p_b n on the water at the side (n
+its outward normal): the nodal force -p_b n int_side phi_i dA, added to F_w at each wet
+node whose function is non-zero on the side (the face's integral of the tensor-product
+function: its value on the side's plane, 1 at the edge node of the linear and the clamped
+bases, 1/8, 3/4, 1/8 across the three rows about a padded quadratic B-spline's, 1/6, 2/3,
+1/6 about a cubic's; times its integrals along the side between the walls across it,
+:func:`side_pressure_forces`), and to the mixture's F_i (the total traction's share, sigma'
+n its held skeleton's reaction).  The side is the box domain's between its walls: the
+saturated bodies should cover it (a node without pore water takes no share).
+
 ``smoothing`` (undrained and coupled analyses): ``"none"`` (each particle's excess pore
 pressure follows its own volumetric strain) or ``"cell"`` (the step's pore volumetric
 strain averaged over each grid cell, weighted by the particles' volumes, drives the
@@ -83,9 +98,11 @@ import numpy as np
 
 from ..materials.pore_water import STANDARD_GRAVITY, PoreWater
 from ..platform.errors import InputError, about
+from .loads import time_function
 from .walls import SIDES
 
-__all__ = ["Water", "ANALYSES", "SEEPAGE", "SMOOTHING", "checked_water"]
+__all__ = ["Water", "ANALYSES", "SEEPAGE", "SMOOTHING", "checked_water",
+           "side_pressure_forces"]
 
 #: the analyses a scene's water may ask for, the cheapest first
 ANALYSES = ("drained", "undrained", "coupled")
@@ -108,6 +125,8 @@ class Water:
     final_level: float | None = None
     drawdown_time: float | None = None
     drained_sides: tuple = ()
+    side_pressure: dict | tuple | None = None
+    side_pressure_time: object = None
 
     def __post_init__(self):
         if self.analysis not in ANALYSES:
@@ -142,6 +161,7 @@ class Water:
                              "smooth (smoothing is for analysis='undrained' or 'coupled')",
                              "smoothing")
         self._check_drained_sides()
+        self._check_side_pressure()
         if self.analysis == "drained" and self.level is None and self.phreatic is None:
             raise InputError("water: a drained analysis without a water level is a dry one: "
                              "give level= (the still-water level, m)", "level")
@@ -191,6 +211,56 @@ class Water:
                              "no excess pore pressure, undrained no flow)", "drained_sides")
         object.__setattr__(self, "drained_sides", sides)
 
+    def _check_side_pressure(self):
+        given = self.side_pressure
+        if given is None or (isinstance(given, (dict, tuple, list)) and len(given) == 0):
+            object.__setattr__(self, "side_pressure", None)
+            if self.side_pressure_time is not None:
+                raise InputError("water: side_pressure_time is the time function of the "
+                                 "side pressures: give side_pressure too",
+                                 "side_pressure_time")
+            return
+        pairs = None
+        if isinstance(given, dict):
+            pairs = list(given.items())
+        elif not isinstance(given, str):
+            try:
+                pairs = [tuple(pair) for pair in given]
+            except TypeError:
+                pairs = None
+        if pairs is None or not all(len(pair) == 2 and isinstance(pair[0], str)
+                                    for pair in pairs):
+            raise InputError(f"water: side_pressure must be a table of side "
+                             f"({', '.join(SIDES)}) to excess pore pressure (Pa), got "
+                             f"{given!r}", "side_pressure")
+        sides = [side for side, _ in pairs]
+        for side, value in pairs:
+            if side not in SIDES:
+                raise InputError(f"water: unknown side {side!r} in side_pressure: choose "
+                                 f"from {', '.join(SIDES)}", "side_pressure")
+            ok = (isinstance(value, (int, float, np.floating, np.integer))
+                  and not isinstance(value, bool) and math.isfinite(value))
+            if not ok:
+                raise InputError(f"water: side_pressure on the {side} side must be a finite "
+                                 f"excess pore pressure in Pa, got {value!r}", "side_pressure")
+        if len(set(sides)) != len(sides):
+            raise InputError(f"water: side_pressure names a side twice: {sides}",
+                             "side_pressure")
+        if self.analysis != "coupled":
+            raise InputError("water: a side pressure drives the pore water through a drained "
+                             "side: a coupled analysis's (analysis='coupled')", "side_pressure")
+        for side in sides:
+            if side not in self.drained_sides:
+                raise InputError(f"water: side_pressure on the {side} side, which is not "
+                                 f"drained: the pressure is prescribed where the water flows "
+                                 f"through (add {side!r} to drained_sides; drained: "
+                                 f"{list(self.drained_sides) or 'none'})", "side_pressure")
+        object.__setattr__(self, "side_pressure",
+                           tuple((side, float(value)) for side, value in pairs))
+        if self.side_pressure_time is not None:
+            with about("side_pressure_time"):
+                time_function("side_pressure_time", self.side_pressure_time)
+
     def _check_drawdown(self):
         for key, value, positive in (("final_level", self.final_level, False),
                                      ("drawdown_time", self.drawdown_time, True)):
@@ -228,6 +298,16 @@ class Water:
         return self.level
 
     @property
+    def pressured(self) -> bool:
+        """Whether a drained side carries a non-zero prescribed pressure (side_pressure)."""
+        return self.side_pressure is not None and any(p != 0.0 for _, p in self.side_pressure)
+
+    @property
+    def pressure_time(self):
+        """The side pressures' time function f(t) (Constant unless side_pressure_time)."""
+        return time_function("side_pressure_time", self.side_pressure_time)
+
+    @property
     def pore_pressure(self) -> bool:
         """Whether the particles keep an excess pore pressure (undrained, coupled)."""
         return self.analysis != "drained"
@@ -246,6 +326,41 @@ def ground_surface_above(positions, volume, up):
     top = np.full(where.max() + 1 if len(where) else 0, -np.inf)
     np.maximum.at(top, where, x[:, up] + 0.5 * extent)
     return top[where]
+
+
+def side_pressure_forces(model):
+    """The nodal force of the drained sides' prescribed pore pressures at f(t) = 1, an
+    array of the Model's nodes by dim: F_i = -sum_s p_s n_s int_s phi_i dA over each side
+    s of ``Water.side_pressure`` (n_s its outward normal), on the water and the mixture
+    alike (schemes/two_phase.py).  phi_i is the tensor product of one-dimensional
+    functions: int_s phi_i dA = phi_a(x_s) prod_(b != a) h int phi_b, phi_a(x_s) the
+    value of node i's function along the side's axis a on the side's plane x_s (the wall's
+    position, ``Model.wall_cells``), the integrals along the other axes between the walls
+    (exact: :func:`~timpm.bases.sample.integrals`; x periodic: its last column of nodes is
+    the first).  In 1D the force per unit area, in 2D per unit depth."""
+    from ..bases.sample import evaluate, integrals
+
+    dim, basis, water = model.dim, model.basis, model.water
+    forces = np.zeros(model.nodes + (dim,))
+    for side, pressure in water.side_pressure or ():
+        axis, upper = divmod(SIDES.index(side), 2)
+        shares = []
+        for k, e in enumerate(model.elements):
+            lo, hi = model.wall_cells[k]
+            if k == axis:
+                share, _ = evaluate(basis, [hi if upper else lo], e)
+                share = share[0]
+            else:
+                share = model.h * integrals(basis, e, lo, hi)
+            if k == 0 and model.periodic:  # node n_x is node 0
+                share = np.concatenate(([share[0] + share[-1]], share[1:-1]))
+            shares.append(share)
+        area = shares[0]
+        for share in shares[1:]:
+            area = np.multiply.outer(area, share)
+        outward = 1.0 if upper else -1.0
+        forces[..., axis] -= pressure * outward * area
+    return forces
 
 
 def _conductivity(model, arrays):
@@ -338,6 +453,11 @@ def checked_water(model):
                          "drove Terzaghi's consolidation away from the series as the grid "
                          "was refined (U = 0.992 against 0.931 at T = 1, 32 elements; "
                          "docs/results.md)", "smoothing")
+    for side, _ in water.side_pressure or ():
+        if SIDES.index(side) >= 2 * dim:
+            raise InputError(f"water: side_pressure on the {side} side, which a {dim}D "
+                             f"domain does not have (its sides: "
+                             f"{', '.join(SIDES[:2 * dim])})", "side_pressure")
     for side in water.drained_sides:
         if SIDES.index(side) >= 2 * dim:
             raise InputError(f"water: a {dim}D domain has no {side} side (its sides: "

@@ -232,6 +232,8 @@ _WORLD_KEY_OF_MODEL = {"positions": "bodies", "materials": "bodies", "elements":
                        "level": "water.level", "analysis": "water.analysis",
                        "seepage": "water.seepage", "phreatic": "water.phreatic",
                        "smoothing": "water.smoothing", "drained_sides": "water.drained_sides",
+                       "side_pressure": "water.side_pressure",
+                       "side_pressure_time": "water.side_pressure_time",
                        "pore_water": "bodies", "conductivity": "bodies",
                        "pore_conductivity": "bodies"}
 

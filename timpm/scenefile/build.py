@@ -333,13 +333,20 @@ def _world_scene(reader, data, path) -> SceneFile:
     water = None
     if "water" in data:
         spec = reader.table(("water",), data["water"], WATER)
+        ramp = spec.get("side_pressure_ramp")
+        if ramp is not None and "side_pressure" not in spec:
+            raise reader.error(("water", "side_pressure_ramp"), "side_pressure_ramp brings "
+                               "the side pressures on: give side_pressure too")
         try:
             water = Water(spec.get("analysis", "coupled"), spec.get("level"),
                           spec.get("seepage", "none"), spec.get("phreatic"),
                           spec.get("smoothing", "none"), spec.get("final_level"),
-                          spec.get("drawdown_time"), tuple(spec.get("drained_sides", ())))
+                          spec.get("drawdown_time"), tuple(spec.get("drained_sides", ())),
+                          spec.get("side_pressure"), None if ramp is None else Ramp(ramp))
         except ValueError as err:
             key = getattr(err, "key", None)
+            if key == "side_pressure_time":
+                key = "side_pressure_ramp"
             raise reader.error(("water",) + ((key,) if key in WATER else ()), str(err)) from None
     if output["gif"] is not None and dim == 1:
         raise reader.error(("output", "gif"), "a 1D world draws no GIF")

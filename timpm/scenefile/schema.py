@@ -221,6 +221,12 @@ WATER = {
                          "hold the skeleton only, the pore water flowing through them "
                          "(p_e = 0 on them, as at a free surface); the others are "
                          "impermeable"),
+    "side_pressure": Key("table", None, "Pa", "coupled: a prescribed excess pore pressure "
+                         "on drained sides instead of p_e = 0, {side = p_b} (over the "
+                         "hydrostatic pressure of the level; an artesian pressure under a "
+                         "clay layer): the traction -p_b n on the water there, from t = 0"),
+    "side_pressure_ramp": Key("positive", None, "s", "the side pressures brought on "
+                              "linearly over this time (none: at once)"),
 }
 SHAPE_KEYS = {"box": ("lo", "hi"), "ball": ("center", "radius"), "polygon": ("vertices",),
               "prism": ("vertices", "z")}

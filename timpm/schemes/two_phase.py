@@ -24,12 +24,16 @@ A node's water is held by its walls (impermeable: the normal velocity the skelet
 by its Dirichlet conditions, except on the sides the scene drains (``Water.drained_sides``),
 where the water's own balance is solved with the skeleton's velocity held, w+ = (F_w +
 M_w w / dt + Q v+) / (M_w / dt + Q); a free surface drains (p_e = 0 is the weak form's
-natural condition, there and on a drained side).  The skeleton's is MUSL's step: the particles' velocities updated, their
-momentum mapped again, the strain from that velocity.  The water's volumetric strain is
-taken from its velocity at the step's end, w+, itself: remapped from the particles, the
-nodal field is a smoothed one, and consolidation ran slower than Terzaghi's series by a
-share growing as 1 / (rho_w h) (4% of the time factor at 64 elements; with w+, 0.0004 of
-u0 at 16 to 64 elements, docs/results.md).
+natural condition, there and on a drained side).  A drained side's prescribed excess pore
+pressure p_b (``Water.side_pressure``) is the weak form's traction -p_b n there: its nodal
+force -p_b n int phi_i dA (model/water.py, ``side_pressure_forces``), times f(t), is added
+to F_w and to the mixture's F (the total traction's share) before the solve.  The
+skeleton's is MUSL's step: the particles' velocities updated, their momentum mapped again,
+the strain from that velocity.  The water's volumetric strain is taken from its velocity
+at the step's end, w+, itself: remapped from the particles, the nodal field is a smoothed
+one, and consolidation ran slower than Terzaghi's series by a share growing as 1 / (rho_w
+h) (4% of the time factor at 64 elements; with w+, 0.0004 of u0 at 16 to 64 elements,
+docs/results.md).
 """
 import taichi as ti
 
@@ -53,7 +57,11 @@ class TwoPhase(MUSL):
 
     @staticmethod
     def grid_fields(features):
-        return {**MUSL.grid_fields(features),
+        pressured = {} if not features.has_side_pressure else {
+            "gwb": Field("vector", names=("node_side_force",),
+                         doc="-sum_s p_s n_s int_s phi_i dA: the drained sides' prescribed "
+                             "pore pressures (Water.side_pressure), times f(t)")}
+        return {**MUSL.grid_fields(features), **pressured,
                 "gwm": Field(scatter=True, names=("node_water_mass",),
                              doc="M_w,i = sum phi_i rho_w V_p"),
                 "gwn": Field(scatter=True, names=("node_pore_mass",),
@@ -125,6 +133,14 @@ class TwoPhase(MUSL):
         Fw = self.scatter.merged("node_water_force", I)
         Pw = self.scatter.merged("node_water_momentum", I)
         dt = values.dt()
+        if ti.static(self.f.has_side_pressure):
+            # the drained sides' pressures p_b: the traction -p_b n f(t) on the water, and
+            # on the mixture (its total traction; the held skeleton's reaction the rest)
+            if Mw > values.mass_tol():
+                Fb = grid.node_side_force[I] * self.f.side_pressure.at(
+                    self.boundary.run.time[None], values.side_pressure_param())
+                Fw += Fb
+                grid.node_force[I] += Fb
         if ti.static(self.f.damping):  # F_damp = -alpha sgn(v_i) |F_i| (A.4), on the mixture
             grid.node_force[I] -= (values.damping() * ti.math.sign(grid.node_momentum[I])
                                    * ti.abs(grid.node_force[I]))

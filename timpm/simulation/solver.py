@@ -60,7 +60,8 @@ class Solver:
     With energies recorded, ``energy_guard`` stops an unstable run: kinetic + strain energy
     may not exceed ``energy_guard`` times the energy put in so far (initial kinetic and
     strain energy plus the magnitudes of the gravity and external work); ``None`` turns the
-    check off (it is off where nodes move at prescribed velocities: their work is not
+    check off (it is off where nodes move at prescribed velocities or a drained side's
+    prescribed pore pressure drives the water, ``Water.side_pressure``: their work is not
     recorded).  ``volume_range`` (lowest, highest) stops a run whose particle's volume
     ratio V/V0 leaves it, naming step and particle (a crushed or torn body is no longer
     resolved); a material without tension (fluids, sand) is bounded only below; ``None``
@@ -111,9 +112,10 @@ class Solver:
         self.h, self.inv_h, self.dt = lay.h, lay.values["inv_h"], self.model.dt
         self.origin, self.materials = lay.origin, lay.materials
         self.record_every, self.history_chunk = record_every, lay.history
-        # prescribed node motion does work the records do not count: no energy balance
+        # prescribed node motion and side pressures do work the records do not count: no
+        # energy balance
         self.energy_guard = (energy_guard if energies and self.features.prescribed is None
-                             else None)
+                             and not self.features.has_side_pressure else None)
         self._slot = 0
         self.state = State(self.features, self.layout, scene, track)
         self._released = False
