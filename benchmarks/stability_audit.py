@@ -51,7 +51,7 @@ def _drift(energies):
 
 
 def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projection="standard",
-             integrator="euler-cromer", transfers=None):
+             integrator="euler-cromer", transfers=None, factors=FACTORS, bases=None):
     from timpm.model import pic_applies
     from timpm.problems import get_problem
 
@@ -61,6 +61,8 @@ def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projectio
         if (integrator == "rk4" and transfer != "musl") or transfer not in (transfers or
                                                                            (transfer,)):
             continue
+        if basis not in (bases or (basis,)):
+            continue
         pic = pic_fraction if pic_applies(transfer, mass) else 0.0
         proj = projection if transfer == "musl" else "standard"  # mls: a musl projection
         for placement in PLACEMENTS:
@@ -69,7 +71,7 @@ def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projectio
                                  stress_update=stress_update, pic_fraction=pic,
                                  projection=proj, integrator=integrator)
             critical = base.critical_dt
-            for factor in FACTORS:
+            for factor in factors:
                 scene = problem.scene(elements=16, ppc=4, basis=basis, mass=mass,
                                       placement=placement, transfer=transfer,
                                       dt=factor * critical, stress_update=stress_update,
@@ -82,7 +84,8 @@ def audit_1d(steps, progress, stress_update="study", pic_fraction=0.0, projectio
     return rows
 
 
-def audit_2d(steps, progress, integrator="euler-cromer", transfers=None):
+def audit_2d(steps, progress, integrator="euler-cromer", transfers=None, factors=FACTORS,
+             bases=None):
     from timpm.model import CRITICAL_STEP_FACTOR
     from timpm.problems import get_problem
 
@@ -92,6 +95,8 @@ def audit_2d(steps, progress, integrator="euler-cromer", transfers=None):
         if (integrator == "rk4" and transfer != "musl") or transfer not in (transfers or
                                                                            (transfer,)):
             continue
+        if basis not in (bases or (basis,)):
+            continue
         for placement in PLACEMENTS:
             scene = problem.scene(elements=16, basis=basis, transfer=transfer,
                                   placement=placement, projection="standard",
@@ -99,7 +104,7 @@ def audit_2d(steps, progress, integrator="euler-cromer", transfers=None):
             model = dataclasses.replace(scene.model, body_force=None, integrator=integrator)
             critical = (model.h / problem.material_law.wave_speed
                         * CRITICAL_STEP_FACTOR[integrator])
-            for factor in FACTORS:
+            for factor in factors:
                 rows.append(_run(dataclasses.replace(model, dt=factor * critical), steps,
                                  progress, dim=2, basis=basis, mass="lumped",
                                  transfer=transfer, placement=placement, factor=factor,
@@ -139,11 +144,11 @@ def table(rows) -> str:
     return "\n".join(lines)
 
 
-def grouped_table(rows) -> str:
+def grouped_table(rows, factors=FACTORS) -> str:
     """One line per scheme, one column per placement and dt / critical: the change of total
     energy over the run in units of the energy in motion (+: gained), or the step at which
     the run stopped."""
-    columns = [(p, f) for p in PLACEMENTS for f in FACTORS]
+    columns = [(p, f) for p in PLACEMENTS for f in factors]
     head = "| dim | basis, mass, transfer | " + " | ".join(f"{p} {f}" for p, f in columns) + " |"
     lines = [head, "|---|---|" + "---:|" * len(columns)]
     groups = {}
@@ -184,8 +189,12 @@ def main(argv=None):
                          "1D with an exact law; the critical step times the method's factor)")
     ap.add_argument("--transfer", nargs="+", choices=("musl", "apic", "mls-mpm"),
                     help="only the rows of these transfers")
+    ap.add_argument("--basis", nargs="+", help="only the rows of these bases")
+    ap.add_argument("--factors", nargs="+", type=float, default=list(FACTORS),
+                    help="the time steps as fractions of the critical one (default 0.5 0.9)")
     ap.add_argument("--json")
     args = ap.parse_args(argv)
+    factors = tuple(args.factors)
 
     def progress(r):
         print(f"{r['dim']}D {r['basis']:17s} {r['mass']:10s} {r['transfer']:7s} "
@@ -196,12 +205,13 @@ def main(argv=None):
     rows = []
     if args.only in (None, "1d"):
         rows += audit_1d(args.steps_1d, progress, args.stress_update, args.pic_fraction,
-                         args.projection, args.integrator, args.transfer)
+                         args.projection, args.integrator, args.transfer, factors, args.basis)
     if args.only in (None, "2d"):
-        rows += audit_2d(args.steps_2d, progress, args.integrator, args.transfer)
+        rows += audit_2d(args.steps_2d, progress, args.integrator, args.transfer, factors,
+                         args.basis)
     print(table(rows))
     print()
-    print(grouped_table(rows))
+    print(grouped_table(rows, factors))
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"date": time.strftime("%Y-%m-%d"), "gain_threshold": GAIN,
