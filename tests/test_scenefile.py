@@ -32,6 +32,7 @@ TINY = {
     "submerged_layer.toml": {"domain.cells": 4, "simulation.t_end": 0.02},
     "slope_griffiths_lane_submerged.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
     "slope_griffiths_lane_drawdown.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
+    "slope_morgenstern_drawdown.toml": {"domain.cells": 30, "simulation.t_end": 0.02},
     # with its seepage the slope cannot stand at full strength (F = 0.81): its gravity
     # loading is refused; under still water it stands (F = 1.59)
     "infinite_slope.toml": {"water.seepage": "none", "simulation.t_end": 0.02},
