@@ -28,7 +28,7 @@ from .materials import (DruckerPrager, LinearElastic, MohrCoulomb, MohrCoulombSo
                         NeoHookean, PoreWater, WeaklyCompressibleFluid, get_material)
 from .simulation.solver import SimulationError, Solver
 from .simulation.batch import Batch
-from .model.world import Ball, Body, Box, Points, Polygon, Prism, Wall, World
+from .model.world import Ball, Body, Box, Plane, Points, Polygon, Prism, Wall, World
 from .model.geostatic import K0, GravityLoading
 from .simulation.loading import gravity_loading
 from .model.model import Model
@@ -42,7 +42,7 @@ __all__ = [
     "Material", "Ramp", "Scene", "Sine", "Traction", "critical_time_step",
     "equidistant_particles",
     "SimulationError", "Solver", "Batch", "__version__", "World", "Body", "Box", "Ball", "Wall",
-    "Points", "Polygon", "Prism", "K0", "GravityLoading", "gravity_loading", "Model", "LinearElastic", "NeoHookean", "DruckerPrager", "MohrCoulomb",
+    "Plane", "Points", "Polygon", "Prism", "K0", "GravityLoading", "gravity_loading", "Model", "LinearElastic", "NeoHookean", "DruckerPrager", "MohrCoulomb",
     "MohrCoulombSoftening", "WeaklyCompressibleFluid", "get_material", "PoreWater", "Water",
     "RandomField",
 ]

@@ -76,7 +76,7 @@ class CGMass:
     @ti.func
     def _held_by_walls(self, I, v):
         out = v
-        if ti.static(self.f.has_walls):
+        if ti.static(self.f.walled):
             out = self.boundary.apply_walls(I, v)
         return out
 

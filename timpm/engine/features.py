@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model.model import Model
-from ..model.walls import SIDES
+from ..model.walls import PLANE_TOLERANCE, SIDES
 from ..platform import runtime
 from ..schemes import INTEGRATORS, scheme_class
 
@@ -98,6 +98,8 @@ class FeatureSet:
     side_pressure: type | None = None  # time-function class of the drained sides'
                                  # prescribed pore pressures (Water.side_pressure); None: none
     grid_window: bool = False    # node loops over the particles' active window (window.py)
+    planes: tuple = ()           # per plane wall (model/walls.py: Plane) its (kind, drained);
+                                 # its point, normal and mu are run-time values
 
     @property
     def pore_pressure(self) -> bool:
@@ -183,7 +185,28 @@ class FeatureSet:
 
     @property
     def has_walls(self) -> bool:
+        """Walls on the box's sides."""
         return self.walls is not None
+
+    @property
+    def walled(self) -> bool:
+        """Walls on the box's sides or plane walls: some node's velocity is projected."""
+        return self.walls is not None or bool(self.planes)
+
+    @property
+    def has_planes(self) -> bool:
+        """Plane walls (model/walls.py: Plane)."""
+        return bool(self.planes)
+
+    @property
+    def box_walls_only(self) -> bool:
+        """Walls on the box's sides and no plane walls."""
+        return self.walls is not None and not self.planes
+
+    @property
+    def has_drained_planes(self) -> bool:
+        """Plane walls the pore water flows through (Plane.drained)."""
+        return any(drained for _, drained in self.planes)
 
     @property
     def has_traction(self) -> bool:
@@ -446,7 +469,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
             SIDES.index(side) for side in model.water.drained_sides),
         side_pressure=(type(model.water.pressure_time) if model.water is not None
                        and model.water.pressured else None),
-        grid_window=window)
+        grid_window=window,
+        planes=tuple((plane.kind, plane.drained) for plane in model.planes))
     if history_chunk is None:
         # records the kernels hold between two reads from Python: about 4 MiB
         per_tracked = 8 * (2 * dim + dim * dim + (dim if has_u else 0))
@@ -503,6 +527,15 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
             values.update(wall_velocity=tuple(
                 c for w in model.walls for c in (w.velocity if w is not None and w.moves
                                                  else (0.0,) * dim)))
+    if features.planes:
+        # per plane its unit normal n and its level (p - origin) . n / h - tolerance: a node
+        # whose coordinates xi (in cells from the origin) have xi . n >= level is held
+        # (Boundary.on_plane: (x_i - p) . n >= -PLANE_TOLERANCE h, Model.plane_nodes)
+        values.update(
+            plane_normal=tuple(c for plane in model.planes for c in plane.normal),
+            plane_level=tuple(float(np.dot(np.subtract(plane.point, origin), plane.normal))
+                              / h - PLANE_TOLERANCE for plane in model.planes),
+            plane_mu=tuple(plane.mu for plane in model.planes))
     # 1D: room for a stencil beyond the last node (the banded solve reads it, as zeros)
     room = (nodes[0] + basis.support,) if dim == 1 else nodes
     layout = Layout(n_particles=n, elements=tuple(elements), nodes=nodes, room=room,

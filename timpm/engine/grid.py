@@ -1,8 +1,17 @@
 """The grid operations the schemes share, in two units: :class:`Boundary`, what holds at
-one node (Dirichlet nodes held or moving at a prescribed velocity v_i f(t), walls, the
-lumped solve), which the consistent mass solves call; and :class:`GridSolve`, clearing the
-grid and the mass solve of the whole grid (lumped, banded or conjugate gradients).
+one node (Dirichlet nodes held or moving at a prescribed velocity v_i f(t), walls on the
+box's sides and plane walls, the lumped solve), which the consistent mass solves call; and
+:class:`GridSolve`, clearing the grid and the mass solve of the whole grid (lumped, banded
+or conjugate gradients).
+
+A plane wall (model/walls.py: Plane) holds the nodes on or beyond it, xi . n >= level with
+xi the node's coordinates in cells from the grid's origin (the basis' node coordinates) and
+level = (p - origin) . n / h less a tolerance (engine/features.py); its kind and whether
+the pore water drains through it are compiled in (``FeatureSet.planes``), its normal,
+level and mu are run-time values (``plane_normal``, ``plane_level``, ``plane_mu``): moving
+or turning a plane compiles nothing.
 """
+import numpy as np
 import taichi as ti
 
 from .mls_projection import GAUSS_POINTS
@@ -28,8 +37,93 @@ class Boundary:
     def __init__(self, features, grid, run, values):
         f = self.f = features
         self.dim, self.walls, self.has_walls = f.dim, f.walls, f.has_walls
+        self.planes = f.planes
+        self.wall_axes = f.dim if f.has_walls else 0  # (none: planes only)
         self.prescribed_fn = f.prescribed
         self.grid, self.run, self.values = grid, run, values
+        if self.planes:
+            self.node_rule = _node_rule(f.basis)
+
+    @ti.func
+    def node_cell(self, k: ti.template(), j):
+        """The coordinate of node j along axis k in cells from the grid's origin (the
+        basis' ``node_coordinates``: j less the padded B-splines' offset; the clamped
+        B-splines' Greville abscissa (1 / p) sum_(m=1..p) clamp(j + m - p, 0, n))."""
+        value = ti.static(self.node_rule[1])
+        out = ti.cast(j, float)
+        if ti.static(self.node_rule[0] == "shift"):
+            out -= value
+        else:
+            n = self.values.elements()[k]
+            total = 0
+            for m in ti.static(range(1, value + 1)):
+                total += ti.min(ti.max(j + m - value, 0), n)
+            out = ti.cast(total, float) / value
+        return out
+
+    @ti.func
+    def on_plane(self, I, j: ti.template()):
+        """Plane j holds node I: xi . n >= its level (the module)."""
+        normals = self.values.plane_normal()
+        d = 0.0
+        for k in ti.static(range(self.dim)):
+            d += self.node_cell(k, I[k]) * normals[j * self.dim + k]
+        return d >= self.values.plane_level()[j]
+
+    @ti.func
+    def plane_normal(self, j: ti.template()):
+        normals = self.values.plane_normal()
+        return ti.Vector([normals[j * self.dim + k] for k in ti.static(range(self.dim))])
+
+    @ti.func
+    def apply_planes(self, I, v):
+        """The plane walls' conditions on the velocity of node I, one plane after the other
+        (model/walls.py), with n the outward normal (into the wall) and v_n = v . n: sticky
+        v = 0; roller v -= v_n n; slip, where v_n > 0 (moving into the wall), v -= v_n n;
+        friction there also scales the tangential part v - v_n n by max(0, 1 - mu v_n /
+        |v_t|) (Coulomb).  At a plane along an axis the same numbers as a box wall's."""
+        for j in ti.static(range(len(self.planes))):
+            if self.on_plane(I, j):
+                n = self.plane_normal(j)
+                vn = v.dot(n)
+                if ti.static(self.planes[j][0] == "sticky"):
+                    v = ti.Vector.zero(float, self.dim)
+                elif ti.static(self.planes[j][0] == "roller"):
+                    v = v - vn * n
+                elif vn > 0.0:
+                    if ti.static(self.planes[j][0] == "friction"):
+                        vt = v - vn * n
+                        speed = vt.norm()
+                        scale = 0.0
+                        if speed > 0.0:
+                            scale = ti.max(0.0, 1.0 - self.values.plane_mu()[j] * vn / speed)
+                        v = vt * scale
+                    else:
+                        v = v - vn * n
+        return v
+
+    @ti.func
+    def water_at_planes(self, I, w, v):
+        """The impermeable planes' condition on the pore water's velocity w at node I,
+        given the skeleton's v there (after the walls): its normal component the
+        skeleton's, w -= (w . n - v . n) n, its tangential part free; the drained planes
+        leave it alone (the water's own balance, schemes/two_phase.py)."""
+        for j in ti.static(range(len(self.planes))):
+            if ti.static(not self.planes[j][1]):
+                if self.on_plane(I, j):
+                    n = self.plane_normal(j)
+                    w = w - (w.dot(n) - v.dot(n)) * n
+        return w
+
+    @ti.func
+    def on_drained_plane(self, I):
+        """Some drained plane (Plane.drained) holds node I."""
+        out = False
+        for j in ti.static(range(len(self.planes))):
+            if ti.static(self.planes[j][1]):
+                if self.on_plane(I, j):
+                    out = True
+        return out
 
     @ti.func
     def is_fixed(self, I):
@@ -48,8 +142,12 @@ class Boundary:
 
     @ti.func
     def apply_walls(self, I, v):
-        """The walls' conditions on the velocity of node I (see :meth:`walls_except`)."""
-        return self.walls_except(I, v, ())
+        """The walls' conditions on the velocity of node I: the box's sides' (see
+        :meth:`walls_except`), then the planes' (:meth:`apply_planes`)."""
+        out = self.walls_except(I, v, ())
+        if ti.static(self.f.has_planes):
+            out = self.apply_planes(I, out)
+        return out
 
     @ti.func
     def walls_except(self, I, v, skip: ti.template()):
@@ -60,7 +158,7 @@ class Boundary:
         also slows the tangential velocity by mu |v_n| (Coulomb), down to rest.  A wall
         acts on the nodes at and beyond it (``wall_nodes``: per side the last node on or
         behind the wall)."""
-        for k in ti.static(range(self.dim)):
+        for k in ti.static(range(self.wall_axes)):
             for side in ti.static(range(2)):
                 if ti.static(self.walls[2 * k + side] != "open" and 2 * k + side not in skip):
                     edge = self.values.wall_nodes()[2 * k + side]
@@ -103,6 +201,27 @@ class Boundary:
     def is_free(self, I):
         """Node I carries mass (above ``mass_tol``) and is not a Dirichlet node."""
         return not (self.is_fixed(I) or self.grid.node_mass[I] <= self.values.mass_tol())
+
+
+def _node_rule(basis):
+    """How the kernels find a node's coordinate along an axis from its index (Boundary.
+    node_cell): ("shift", offset), x = j - offset, or ("greville", p), the clamped
+    B-splines' control points; checked against the basis' own node_coordinates."""
+    if basis.uniform_nodes:
+        rule = ("shift", basis.offset() if hasattr(basis, "offset") else 0)
+    else:
+        rule = ("greville", int(getattr(basis, "degree", 0)))
+    for n in range(max(basis.min_elements, 1), 12):
+        j = np.arange(basis.n_nodes(n))
+        if rule[0] == "shift":
+            mine = j - float(rule[1])
+        else:
+            p = rule[1]
+            mine = sum(np.clip(j + m - p, 0, n) for m in range(1, p + 1)) / p if p else j
+        if not np.allclose(mine, basis.node_coordinates(n), rtol=0.0, atol=1e-12):
+            raise NotImplementedError(f"plane walls do not know the {basis.name} basis' node "
+                                      "positions")
+    return rule
 
 
 class GridSolve:
@@ -174,7 +293,7 @@ class GridSolve:
     def solve_node(self, rhs: ti.template(), walls: ti.template(), I):
         """The lumped solve of ``solve`` at node I."""
         rhs[I] = self.boundary.lumped_solve(I, rhs[I])
-        if ti.static(walls and self.f.has_walls):
+        if ti.static(walls and self.f.walled):
             rhs[I] = self.boundary.apply_walls(I, rhs[I])
         if ti.static(walls and self.f.has_prescribed):
             # a velocity: Dirichlet nodes at v(t_n + dt)

@@ -78,6 +78,10 @@ def _param_spec(features, scheme_cls):
         spec.update(prescribed_param="real")
     if features.surface_force is not None:
         spec.update(surface_param="real")
+    if features.planes:
+        n_planes = len(features.planes)
+        spec.update(plane_normal=("real", n_planes * d), plane_level=("real", n_planes),
+                    plane_mu=("real", n_planes))
     if features.has_walls:
         spec.update(wall_mu=("real", 2 * d), wall_nodes=("int", 2 * d))
         if "driven" in features.walls:

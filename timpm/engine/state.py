@@ -104,7 +104,8 @@ class State:
                                                  for w in model.pore_water]}),
             **({} if not f.has_side_pressure else {
                 "side_pressure": model.water.side_pressure,
-                "side_pressure_time": _name(f.side_pressure)})})
+                "side_pressure_time": _name(f.side_pressure)}),
+            **({} if not f.planes else {"planes": f.planes})})
 
     def check_fits(self, prog, snapshot, record_every):
         """Refuse a snapshot (``Solver.snapshot``) whose fingerprint or state fields are

@@ -3,9 +3,10 @@
 A :class:`Model` holds a uniform grid (origin, spacing, elements per axis) and a basis on
 it, the particles (positions, velocities, volumes, the material of each), the materials,
 the transfer and mass matrix, the loads (gravity, the study's particle traction) and the
-boundaries: walls on the sides of a box (sticky, slip, Coulomb friction, or none) and
-Dirichlet nodes held at rest.  Every value is checked on construction, each error naming
-what is wrong and where.
+boundaries: walls on the sides of a box (sticky, slip, Coulomb friction, or none), plane
+walls at any angle (2D and 3D: :class:`~timpm.model.walls.Plane`) and Dirichlet nodes held
+at rest.  Every value is checked on construction, each error naming what is wrong and
+where.
 
 Two builders make models: :class:`timpm.model.scene.Scene` (1D: a grid and particles placed in
 its elements, the study's problems) and :class:`timpm.model.world.World` (a box domain in 1D,
@@ -25,9 +26,11 @@ from ..schemes import TRANSFERS as SCHEME_TRANSFERS, scheme_classes, scheme_para
 from .loads import BodyForce, field_function, time_function
 from ..materials import Material
 from .water import checked_water
-from .walls import SIDES, WALL_KINDS, Wall, walls_from
+from .walls import (PLANE_KINDS, PLANE_TOLERANCE, SIDES, WALL_KINDS, Plane, Wall,
+                    walls_from)
 
-__all__ = ["Model", "Wall", "walls_from", "check_scheme", "pic_applies", "with_pic_fraction", "SIDES", "WALL_KINDS",
+__all__ = ["Model", "Wall", "Plane", "PLANE_KINDS", "walls_from", "check_scheme", "pic_applies",
+           "with_pic_fraction", "SIDES", "WALL_KINDS",
            "ND_BASES", "TRANSFERS", "MASS_KINDS", "PROJECTIONS", "INTEGRATORS",
            "CRITICAL_STEP_FACTOR"]
 
@@ -204,6 +207,10 @@ class Model:
     array (a random field's strength, MohrCoulombField's ``strength``);
     ``pore_conductivity`` the (n,) hydraulic conductivities of the particles' pore water
     (a random field's; nan: the material's PoreWater's), a coupled analysis's drag.
+    ``planes`` plane walls at any angle (:class:`~timpm.model.walls.Plane`, 2D and 3D):
+    each holds the grid nodes on or beyond it (:meth:`plane_nodes`), every particle
+    starting on its material side; a ``drained`` one lets a coupled analysis's pore water
+    through.
     """
 
     basis: "str | type[Basis]"  # a name or a Basis class; the class once checked
@@ -239,6 +246,7 @@ class Model:
     initial_pore_pressure: np.ndarray | None = None
     particle_values: dict | None = None
     pore_conductivity: object = None
+    planes: tuple = ()
     name: str = "model"
 
     def __post_init__(self):
@@ -284,6 +292,8 @@ class Model:
             pores, arrays = checked_water(self)
             object.__setattr__(self, "pore_water", pores)
             object.__setattr__(self, "water_arrays", arrays)
+        with about("planes"):
+            self._check_planes(dim)
 
     # ---- checks ----------------------------------------------------------------------
     def _check_particles(self, dim):
@@ -641,6 +651,69 @@ class Model:
                 raise ValueError(f"traction particle {self.traction.particle} does not exist "
                                  f"({n} particles)")
 
+    def _check_planes(self, dim):
+        """``planes``: Plane walls of the scene's dimension (2D, 3D), every particle on
+        their material side, mu and drained where they apply; each error's key the
+        plane's (``planes[k]``, ``planes[k].normal`` ...)."""
+        given = self.planes
+        if given is None:
+            given = ()
+        elif isinstance(given, Plane):
+            given = (given,)
+        if isinstance(given, (str, bytes, dict)):
+            raise InputError(f"planes must be a list of timpm.Plane walls, got {given!r}",
+                             "planes")
+        try:
+            planes = tuple(given)
+        except TypeError:
+            raise InputError(f"planes must be a list of timpm.Plane walls, got {given!r}",
+                             "planes") from None
+        object.__setattr__(self, "planes", planes)
+        if not planes:
+            return
+        for k, plane in enumerate(planes):
+            if not isinstance(plane, Plane):
+                raise InputError(f"planes[{k}] must be a timpm.Plane (point, normal, kind), "
+                                 f"got {plane!r}", f"planes[{k}]")
+        if dim == 1:
+            raise InputError("plane walls stand in 2D and 3D scenes: a 1D bar's ends are its "
+                             "walls (walls=, fixed_nodes=)", "planes")
+        x = self.positions  # where the particles start: displaced, if they are
+        if self.initial_displacement is not None:
+            x = x + self.initial_displacement
+        coupled = self.water is not None and self.water.analysis == "coupled"
+        for k, plane in enumerate(planes):
+            label = f"plane {k} (point {plane.point}, normal " \
+                    f"{tuple(round(c, 6) for c in plane.normal)})"
+            if plane.dim != dim:
+                raise InputError(f"{label}: a {plane.dim}D plane in a {dim}D scene",
+                                 f"planes[{k}].point")
+            if plane.drained and not coupled:
+                scene = "the scene is dry" if self.water is None else \
+                    f"the scene's analysis is {self.water.analysis}"
+                raise InputError(f"{label}: drained lets the pore water flow through the "
+                                 f"plane, in a coupled analysis (Water(analysis='coupled')): "
+                                 f"{scene}", f"planes[{k}].drained")
+            if self.periodic and plane.normal[0] != 0.0:
+                raise InputError(f"{label}: x is periodic, and a plane that is not parallel "
+                                 "to x would not be (give its normal no x component)",
+                                 f"planes[{k}].normal")
+            if plane.kind in ("slip", "friction") and self.integrator != "euler-cromer":
+                raise InputError(f"{label}: the {self.integrator} integrator takes roller "
+                                 f"and sticky planes only (linear constraints), not "
+                                 f"{plane.kind}", f"planes[{k}].kind")
+            if plane.kind in ("slip", "friction") and self.mass_matrix != "lumped":
+                raise InputError(f"{label}: with the consistent mass the planes must be "
+                                 f"roller or sticky (constraints of the solve), not "
+                                 f"{plane.kind}", f"planes[{k}].kind")
+            beyond = np.flatnonzero(plane.distance(x) > PLANE_TOLERANCE * self.h)
+            if len(beyond):
+                p = int(beyond[0])
+                raise InputError(f"{label}: {len(beyond)} of {len(x)} particles start beyond "
+                                 f"it, in the wall (particle {p} at {_point(x[p])}, "
+                                 f"{plane.distance(x[p:p + 1])[0]:.4g} m beyond): the normal "
+                                 "points out of the material, into the wall", f"planes[{k}]")
+
     # ---- derived -----------------------------------------------------------------------
     @property
     def pic_fraction(self) -> float:
@@ -704,6 +777,25 @@ class Model:
     @property
     def mass_per_particle(self) -> np.ndarray:
         return self._mass
+
+    def plane_nodes(self, k=None) -> np.ndarray:
+        """The grid nodes plane ``k`` holds (all planes: None), a boolean array of the
+        nodes' shape: those on or beyond it, (x_i - p) . n >= -PLANE_TOLERANCE h with x_i
+        the node's position (basis.node_coordinates: the control points of the clamped
+        B-splines), as the kernels find them (timpm/engine/grid.py)."""
+        held = np.zeros(self.nodes, dtype=bool)
+        chosen = self.planes if k is None else (self.planes[k],)
+        if not chosen:
+            return held
+        axes = []
+        for k_axis, e in enumerate(self.elements):
+            xi = self.basis.node_coordinates(e)[:self.nodes[k_axis]]
+            axes.append(self.origin[k_axis] + self.h * xi)
+        X = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+        for plane in chosen:
+            held |= plane.distance(X.reshape(-1, self.dim)).reshape(self.nodes) >= \
+                -PLANE_TOLERANCE * self.h
+        return held
 
     def wall_nodes(self) -> tuple:
         """Per axis the last node at or below the lower wall and the first node at or

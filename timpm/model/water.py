@@ -59,7 +59,9 @@ and coupled drawdowns did not yet give trustworthy factors, docs/results.md.)
 "bottom", ...; in 1D "left" is the base at x = 0) whose walls or Dirichlet nodes hold the
 skeleton only: the pore water flows through them, the excess pore pressure vanishing on
 them (the water's natural condition, as at a free surface).  The other sides' walls and
-Dirichlet nodes are impermeable (the water's normal velocity the skeleton's).  At a
+Dirichlet nodes are impermeable (the water's normal velocity the skeleton's).  Plane walls
+at any angle (:class:`~timpm.model.walls.Plane`) are impermeable too unless ``drained``
+(model/walls.py).  At a
 drained side's node the water's velocity solves its own balance with the skeleton's held
 one, (M_w / dt + Q) w+ = F_w + M_w w / dt + Q v+ (schemes/two_phase.py).
 

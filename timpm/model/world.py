@@ -5,7 +5,8 @@ A :class:`World` is, like :class:`timpm.model.scene.Scene`, a checked, immutable
 one model of 1D to 3D (:class:`timpm.model.Model`), which the engine reads.  Bodies are
 shapes (:class:`Box`, :class:`Ball`, :class:`Points`) filled with a regular lattice of
 ``ppc`` particles per cell and axis; walls bound the domain (``sticky``, ``slip``, Coulomb
-``friction`` or none, per side); the grid covers the domain and a padding band as wide as
+``friction`` or none, per side), and plane walls at any angle stand inside it (``planes``,
+:class:`~timpm.model.walls.Plane`); the grid covers the domain and a padding band as wide as
 the basis support on each side, so a particle that touches a wall still has its whole
 stencil on the grid (the clamped B-splines ``bsplineN`` need none: their grid ends at the
 walls).
@@ -29,10 +30,11 @@ from ..materials import MATERIALS, Material, get_material
 from ..materials.mohr_coulomb_field import MohrCoulombField
 from ..materials.pore_water import PoreWater
 from .random_field import RandomField
-from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Wall, check_scheme,
-                    walls_from)
+from .model import (ND_BASES, SIDES, TRANSFERS, WALL_KINDS, Model, Plane, Wall,
+                    check_scheme, walls_from)
 
-__all__ = ["Box", "Ball", "Points", "Polygon", "Prism", "K0", "Body", "Wall", "World", "ND_BASES", "TRANSFERS", "WALL_KINDS",
+__all__ = ["Box", "Ball", "Points", "Polygon", "Prism", "K0", "Body", "Wall", "Plane", "World",
+           "ND_BASES", "TRANSFERS", "WALL_KINDS",
            "SIDES", "PRESETS"]
 
 
@@ -265,6 +267,9 @@ class World:
     ``water``: the scene's :class:`~timpm.model.water.Water` (its analysis and still-water
     level) where some body carries pore water (``Body(water=PoreWater(...))``);
     ``initial_pore_pressure`` the particles' initial excess pore pressures (n,).
+    ``planes``: plane walls at any angle (2D, 3D; :class:`~timpm.model.walls.Plane`: a point,
+    the normal out of the material into the wall, a kind, mu, drained), besides the box's
+    walls; every body must start on their material side.
     """
 
     domain: tuple
@@ -289,6 +294,7 @@ class World:
     initial_stress: object = None
     water: object = None
     initial_pore_pressure: object = None
+    planes: tuple = ()
     _particles: dict = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -348,6 +354,7 @@ class World:
             model = self._model(basis, h, g, n, params, forces, force_time, initial_stress)
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "fixed_nodes", model.fixed_nodes)
+        object.__setattr__(self, "planes", model.planes)
 
     def _model(self, basis, h, g, n, params, forces, force_time, initial_stress):
         part = self._particles
@@ -370,7 +377,7 @@ class World:
                       pore_water=part["pore_water"],
                       initial_pore_pressure=self.initial_pore_pressure,
                       particle_values=part["particle_values"],
-                      pore_conductivity=part["conductivity"])
+                      pore_conductivity=part["conductivity"], planes=self.planes)
 
     def _initial_stress(self, dim, g, domain):
         """The particles' initial stresses: a :class:`~timpm.model.geostatic.K0` procedure's

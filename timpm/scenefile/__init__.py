@@ -4,7 +4,8 @@
 A scene file takes one of two forms (docs/scene_files.md lists every key):
 
 * a **world**: ``[simulation]`` (end time, time step or Courant number, basis, transfer,
-  mode, precision), ``[domain]`` (size, cells, walls), ``[material.NAME]`` tables,
+  mode, precision), ``[domain]`` (size, cells, walls), ``[[plane]]`` tables (plane walls
+  at any angle: point, normal, kind, mu, drained), ``[material.NAME]`` tables,
   ``[[body]]`` tables (a box or a ball of a material), ``[loads]`` (gravity, surface
   tractions) and ``[output]`` (field frames, GIF, JSON); it builds a
   :class:`timpm.model.world.World` and runs it like a demo;

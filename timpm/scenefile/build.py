@@ -13,12 +13,12 @@ from ..model.geostatic import K0, GravityLoading
 from ..model.water import Water
 from ..materials.pore_water import PoreWater
 from ..model.random_field import RandomField
-from ..model.world import PRESETS, Ball, Body, Box, Polygon, Prism, Wall, World
+from ..model.world import PRESETS, Ball, Body, Box, Plane, Polygon, Prism, Wall, World
 from .keypaths import key_lines, parse_path
 from .reader import Reader, apply_overrides, describe, read_toml, suggest
 from ..studies.landslide import Landslide
 from .schema import (BODY, BODY_WATER, RANDOM_FIELD, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
-                     PROBLEM_OUTPUT, PROBLEM_TABLES, SHAPE_KEYS, SIMULATION, TRACTION, WALL,
+                     PLANE, PROBLEM_OUTPUT, PROBLEM_TABLES, SHAPE_KEYS, SIMULATION, TRACTION, WALL,
                      WATER, WORLD_TABLES, material_schema)
 
 
@@ -166,6 +166,28 @@ def _walls(reader, value, dim):
     return wall(path, value)
 
 
+def _planes(reader, data, dim):
+    """The plane walls of ``[[plane]]`` tables (timpm.model.walls.Plane), each error naming
+    the table's key and line."""
+    if "plane" not in data:
+        return []
+    tables = reader.array_of_tables(("plane",), data["plane"], "one per plane wall")
+    if tables and dim == 1:
+        raise reader.error(("plane", 0), "plane walls stand in 2D and 3D domains: a 1D bar's "
+                           "ends are the domain's walls")
+    out = []
+    for k, table in enumerate(tables):
+        where = ("plane", k)
+        spec = reader.table(where, table, PLANE, dim)
+        try:
+            out.append(Plane(spec["point"], spec["normal"], spec.get("kind", "slip"),
+                             spec.get("mu", 0.0), spec.get("drained", False)))
+        except ValueError as err:  # names its key (InputError.key)
+            key = getattr(err, "key", None)
+            raise reader.error(where + ((key,) if key in table else ()), str(err)) from None
+    return out
+
+
 def _materials(reader, data):
     """The materials of ``[material.NAME]`` tables, by name."""
     tables = data.get("material", {})
@@ -280,7 +302,7 @@ _WORLD_KEYS = {"domain": "domain", "cells": "domain.cells", "walls": "domain.wal
                "integrator": "simulation.integrator", "dt": "simulation.dt",
                "courant": "simulation.courant", "gravity": "loads.gravity",
                "bodies": "body", "tractions": "loads.traction",
-               "initial_stress": "initial_stress", "water": "water"}
+               "initial_stress": "initial_stress", "water": "water", "planes": "plane"}
 
 
 def _world_error_key(key):
@@ -309,6 +331,7 @@ def _world_scene(reader, data, path) -> SceneFile:
     if dim not in (1, 2, 3):
         raise reader.error(("domain", "size"), f"expected 1, 2 or 3 lengths, got {dim}")
     walls = _walls(reader, data["domain"].get("walls", "slip"), dim)
+    planes = _planes(reader, data, dim)
     loads = reader.table(("loads",), data.get("loads", {}), LOADS, dim, skip=("traction",))
     materials = _materials(reader, data)
     bodies = _bodies(reader, data, materials, dim)
@@ -365,7 +388,7 @@ def _world_scene(reader, data, path) -> SceneFile:
                       pic_fraction=sim.get("pic_fraction", 0.0),
                       transfer_params=sim.get("transfer_params"), tractions=tractions, name=name,
                       integrator=sim.get("integrator", "euler-cromer"),
-                      initial_stress=initial, water=water)
+                      initial_stress=initial, water=water, planes=planes)
     except ValueError as err:
         key = _world_error_key(getattr(err, "key", None))
         raise (reader.error(key, str(err)) if key else ValueError(f"{path}: {err}")) from None

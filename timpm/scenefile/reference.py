@@ -2,8 +2,8 @@
 from ..materials import MATERIALS
 from ..materials.pore_water import PoreWater
 from ..schemes import TRANSFERS, scheme_params
-from .schema import (BODY, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT, PROBLEM,
-                     RANDOM_FIELD, REQUIRED, SIMULATION,
+from .schema import (BODY, DOMAIN, INITIAL_STRESS, LANDSLIDE, LOADS, MATERIAL_TYPE, OUTPUT,
+                     PLANE, PROBLEM, RANDOM_FIELD, REQUIRED, SIMULATION,
                      TRACTION, TYPES, WALL, WATER, material_schema)
 
 
@@ -67,6 +67,7 @@ def schema_reference() -> str:
     """The key tables of docs/scene_files.md, from the schema (a test keeps them equal)."""
     parts = [_markdown(SIMULATION, "[simulation]"), _markdown(DOMAIN, "[domain]"),
              _markdown(WALL, "a wall: a string (the kind) or a table"),
+             _markdown(PLANE, "[[plane]] (a plane wall at any angle, 2D and 3D)"),
              _markdown(LOADS, "[loads]"), _markdown(TRACTION, "[[loads.traction]]"),
              _markdown(BODY, "[[body]]"),
              _parameters(PoreWater.PARAMS, "[body.water] (a body's pore water)"),

@@ -8,8 +8,8 @@ from ..bases import get_basis
 from ..engine.features import GRIDS, MODES
 from ..materials import MATERIALS
 from ..materials.pore_water import PoreWater
-from ..model.model import (INTEGRATORS, ND_BASES, SIDES, TRANSFERS, WALL_KINDS, MASS_KINDS,
-                           PROJECTIONS)
+from ..model.model import (INTEGRATORS, ND_BASES, PLANE_KINDS, SIDES, TRANSFERS, WALL_KINDS,
+                           MASS_KINDS, PROJECTIONS)
 from ..problems import PROBLEMS
 from ..model.scene import PLACEMENTS, STRESS_UPDATES
 from ..model.random_field import CORRELATIONS, MARGINALS
@@ -123,6 +123,21 @@ DOMAIN = {
 WALL = {
     "kind": Key("string", doc="kind of wall", choices=WALL_KINDS + ("none",)),
     "mu": Key("non-negative", 0.0, doc="Coulomb friction coefficient (kind friction)"),
+}
+
+#: the keys of a plane wall, [[plane]] (timpm.model.walls.Plane)
+PLANE = {
+    "point": Key("vector", REQUIRED, "m", "a point of the plane (2D and 3D domains)"),
+    "normal": Key("vector", REQUIRED, doc="its normal, out of the material into the wall (any "
+                  "length but zero); the wall holds the grid nodes on or beyond the plane, "
+                  "every body starting on the other side"),
+    "kind": Key("string", "slip", doc="sticky: held; slip: no penetration, no friction; "
+                "friction: Coulomb (mu); roller: no normal motion either way",
+                choices=PLANE_KINDS),
+    "mu": Key("non-negative", 0.0, doc="Coulomb friction coefficient (kind friction)"),
+    "drained": Key("boolean", False, doc="a coupled analysis's pore water flows through the "
+                   "plane (p_e = 0 on it, as on a drained side); impermeable by default (the "
+                   "water's normal velocity the skeleton's)"),
 }
 
 BODY = {
@@ -316,8 +331,8 @@ PROBLEM = {
 }
 
 #: the top-level tables of each form
-WORLD_TABLES = ("simulation", "domain", "material", "body", "loads", "initial_stress",
-                "water", "output")
+WORLD_TABLES = ("simulation", "domain", "plane", "material", "body", "loads",
+                "initial_stress", "water", "output")
 PROBLEM_TABLES = ("problem", "output")
 
 MATERIAL_TYPE = Key("string", doc="the material law", choices=tuple(MATERIALS))

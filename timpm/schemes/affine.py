@@ -147,7 +147,7 @@ class Affine(Scheme):
             v = ti.Vector.zero(float, self.dim)
             if m > values.mass_tol() and not self.boundary.is_fixed(I):
                 v = P / m
-                if ti.static(self.f.has_walls):
+                if ti.static(self.f.walled):
                     v = self.boundary.apply_walls(I, v)
             if ti.static(self.f.has_prescribed):
                 if self.boundary.is_fixed(I):

@@ -38,7 +38,7 @@ class MUSL(Scheme):
         self.dim, self.support = f.dim, f.basis.support
         # P2G scatters the momentum where a later phase reads it (the grid phase's damping
         # and walls, the Runge-Kutta and midpoint rates)
-        self.scatters_momentum = (f.damping or f.has_walls or f.rk4 or f.midpoint
+        self.scatters_momentum = (f.damping or f.walled or f.rk4 or f.midpoint
                                   or self.needs_momentum)
         momentum = ("node_momentum",) if self.scatters_momentum else ()
         self.p2g = Scatter("P2G: m_i, F_i (and P_i) (A.1/A.2)", self.p2g_particle,
@@ -154,7 +154,7 @@ class MUSL(Scheme):
         if ti.static(self.f.damping):
             grid.node_force[I] -= (values.damping() * ti.math.sign(grid.node_momentum[I])
                                    * ti.abs(grid.node_force[I]))
-        if ti.static(self.f.has_walls and not self.f.consistent):
+        if ti.static(self.f.walled and not self.f.consistent):
             a = ti.Vector.zero(float, self.dim)  # Dirichlet and empty nodes: a = 0
             if grid.node_mass[I] > values.mass_tol() and not self.boundary.is_fixed(I):
                 vn = grid.node_momentum[I] / grid.node_mass[I]

@@ -21,9 +21,12 @@ balances are solved for the velocities at the step's end with the drag taken the
 so that a low permeability (Q large) does not shorten the time step: the step is bounded
 by the undrained wave, sqrt((E_oed + K_w / n) / rho_sat), not by the drag's 2 M_w / Q.
 A node's water is held by its walls (impermeable: the normal velocity the skeleton's) and
-by its Dirichlet conditions, except on the sides the scene drains (``Water.drained_sides``),
-where the water's own balance is solved with the skeleton's velocity held, w+ = (F_w +
-M_w w / dt + Q v+) / (M_w / dt + Q); a free surface drains (p_e = 0 is the weak form's
+by its Dirichlet conditions, except on the sides the scene drains (``Water.drained_sides``)
+and at its drained plane walls (``Plane.drained``), where the water's own balance is solved
+with the skeleton's velocity held, w+ = (F_w + M_w w / dt + Q v+) / (M_w / dt + Q).  (The
+box's walls apply their own projection to the water; an impermeable plane wall makes the
+water's normal velocity the skeleton's, w -= (w . n - v+ . n) n, its tangential part free:
+model/walls.py.)  A free surface drains (p_e = 0 is the weak form's
 natural condition, there and on a drained side).  A drained side's prescribed excess pore
 pressure p_b (``Water.side_pressure``) is the weak form's traction -p_b n there: its nodal
 force -p_b n int phi_i dA (model/water.py, ``side_pressure_forces``), times f(t), is added
@@ -167,13 +170,24 @@ class TwoPhase(MUSL):
                 R2 = grid.node_force[I] + B * v + C * w
                 w_new = (B * R1 + Q * R2) / (B * (A + Q) + Q * C)
                 v_new = (R2 - C * w_new) / B
-            if ti.static(self.f.has_walls):
+            if ti.static(self.f.box_walls_only):
                 v_new = self.boundary.apply_walls(I, v_new)
                 if drains and wet:  # the water through the wall: its balance, v+ held,
                     w_new = (R1 + Q * v_new) / (A + Q)  # then the other sides' walls
                     w_new = self.boundary.walls_except(I, w_new, self.f.drained_sides)
                 else:  # impermeable
                     w_new = self.boundary.apply_walls(I, w_new)
+            elif ti.static(self.f.has_planes):
+                # plane walls (model/walls.py): the skeleton's velocity held by the box's
+                # walls and the planes; the water's by the box's walls as above, then at
+                # each impermeable plane its normal component made the skeleton's
+                v_new = self.boundary.apply_walls(I, v_new)
+                if drains and wet:
+                    w_new = (R1 + Q * v_new) / (A + Q)
+                    w_new = self.boundary.walls_except(I, w_new, self.f.drained_sides)
+                else:
+                    w_new = self.boundary.walls_except(I, w_new, ())
+                w_new = self.boundary.water_at_planes(I, w_new, v_new)
             a = (v_new - v) / dt
             aw = (w_new - w) / dt
             w_end = w_new
@@ -183,6 +197,9 @@ class TwoPhase(MUSL):
             w_end = R1 / (A + Q)
             if ti.static(self.f.has_walls):
                 w_end = self.boundary.walls_except(I, w_end, self.f.drained_sides)
+            if ti.static(self.f.has_planes):
+                w_end = self.boundary.water_at_planes(I, w_end,
+                                                      ti.Vector.zero(float, self.dim))
             aw = (w_end - w) / dt
         grid.node_acceleration[I] = a
         grid.node_water_acceleration[I] = aw
@@ -198,8 +215,11 @@ class TwoPhase(MUSL):
     @ti.func
     def drains(self, values: ti.template(), I):
         """Node I lies on a side the pore water flows through (Water.drained_sides: at and
-        beyond its edge node, as a wall acts)."""
+        beyond its edge node, as a wall acts) or is held by a drained plane
+        (Plane.drained)."""
         out = False
+        if ti.static(self.f.has_drained_planes):
+            out = self.boundary.on_drained_plane(I)
         for j in ti.static(range(len(self.f.drained_sides))):
             side = ti.static(self.f.drained_sides[j])
             edge = values.drained_nodes()[j]
