@@ -288,6 +288,35 @@ def _drained_column(sides, walls, random_field=None):
     return prob, world
 
 
+@pytest.mark.xfail(strict=True, raises=timpm.SimulationError,
+                   reason="known fault (2026-12-07): with the linear basis the coupled "
+                          "step's water at a node the body barely reaches (phi = 0.05) "
+                          "takes F_w / (M_w / dt + Q), whose (grad phi)^2 / phi grows "
+                          "without bound: the free top blows up within ~100 steps")
+def test_a_column_whose_top_barely_reaches_a_node_row_consolidates():
+    """Terzaghi's 2D column (as _drained_column, sealed base) whose top particle row sits
+    0.05 h above the node row under it (ppc = 10, the top at 15.1 h): the
+    consolidation must run as for an aligned top; it does not yet (the strict xfail
+    records the fault until a fix, e.g. a water-mass floor for bases whose (grad phi)^2 /
+    phi is unbounded, makes it pass)."""
+    prob = get_problem("terzaghi")
+    soil = timpm.LinearElastic(E=prob.E, nu=0.0, density=prob.density)
+    h = 1.0 / 16
+    body = timpm.Body(timpm.Box((0.0, 0.0), (0.125, 15.1 * h)), soil, ppc=10,
+                      water=prob.pore_water)
+    walls = {"left": "roller", "right": "roller", "bottom": "sticky", "top": None}
+    kwargs = dict(domain=(0.125, 1.0 + 2 * h), cells=2, bodies=[body], transfer="musl",
+                  basis="linear", walls=walls, gravity=(0.0, 0.0),
+                  tractions=[SurfaceTraction(0, "top", (0.0, -prob.p0))],
+                  water=timpm.Water("coupled"))
+    n = timpm.World(**kwargs).model.n_particles
+    world = timpm.World(**kwargs, initial_pore_pressure=np.full(n, prob.p0))
+    y = world.positions[:, 1]
+    assert y.max() / h - 15.0 == pytest.approx(0.05)
+    solver = timpm.Solver(world, energies=False).run(n_steps=400)
+    assert np.max(np.abs(solver.read("pw"))) < 1.5 * prob.p0
+
+
 @pytest.mark.parametrize("bottom", ["sticky", "roller"])
 def test_a_drained_wall_lets_the_water_through(bottom):
     """The 2D column on a wall that holds the skeleton (sticky or roller) and drains the
