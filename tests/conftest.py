@@ -67,6 +67,17 @@ def default_signals():
         signal.signal(sig, signal.SIG_DFL)
 
 
+def scene_file_error(path, text) -> str:
+    """The message of the ValueError that loading the scene file ``text``, written to
+    ``path``, raises (the tests of scene-file errors read its ``file:line: key``)."""
+    from timpm.scenefile import load_scene
+
+    path.write_text(text)
+    with pytest.raises(ValueError) as err:
+        load_scene(path)
+    return str(err.value)
+
+
 @contextlib.contextmanager
 def killed_at_exit(process):
     """A failed wait leaves no run behind."""

@@ -5,6 +5,7 @@ Terzaghi's layer (sealed or drained at its base), and every bad input is refused
 its key (and, in a scene file, its line), before any work."""
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -385,20 +386,17 @@ def test_a_scene_file_poses_planes(tmp_path):
     ("point = [0.0, 0.1]", "point = [0.0, 0.5]", 9, "plane[0]"),
     ("normal = [0.0, -1.0]\n", "", 9, "plane[0]")])
 def test_scene_file_plane_errors_name_key_and_line(tmp_path, old, new, line, key):
-    from timpm.scenefile import load_scene
-    path = tmp_path / "plane.toml"
+    from conftest import scene_file_error
+
     assert old in SCENE
-    path.write_text(SCENE.replace(old, new))
-    with pytest.raises(ValueError) as err:
-        load_scene(path)
-    assert f"plane.toml:{line}: {key}" in str(err.value)
+    message = scene_file_error(tmp_path / "plane.toml", SCENE.replace(old, new))
+    assert f"plane.toml:{line}: {key}" in message
 
 
 def test_a_1d_scene_file_refuses_planes(tmp_path):
-    from timpm.scenefile import load_scene
-    path = tmp_path / "plane.toml"
+    from conftest import scene_file_error
+
     text = SCENE.replace("size = [1.0, 1.0]", "size = [1.0]").replace(
         "lo = [0.25, 0.25]\nhi = [0.75, 0.75]", "lo = [0.25]\nhi = [0.75]")
-    path.write_text(text)
-    with pytest.raises(ValueError, match=r"plane.toml:9: plane\[0\]: plane walls stand in 2D"):
-        load_scene(path)
+    message = scene_file_error(tmp_path / "plane.toml", text)
+    assert re.search(r"plane.toml:9: plane\[0\]: plane walls stand in 2D", message)

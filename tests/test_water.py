@@ -844,13 +844,11 @@ def test_a_scene_file_poses_a_submerged_layer(tmp_path):
     ('analysis = "coupled"', 'analysis = "undrained"\nside_pressure = {bottom = 2e4}', 27,
      "water.side_pressure")])
 def test_scene_file_water_errors_name_key_and_line(tmp_path, old, new, line, key):
-    from timpm.scenefile import load_scene
-    path = tmp_path / "layer.toml"
+    from conftest import scene_file_error
+
     assert old in SCENE
-    path.write_text(SCENE.replace(old, new))
-    with pytest.raises(ValueError) as err:
-        load_scene(path)
-    assert f"layer.toml:{line}: {key}" in str(err.value)
+    message = scene_file_error(tmp_path / "layer.toml", SCENE.replace(old, new))
+    assert f"layer.toml:{line}: {key}" in message
 
 
 # ---- the submarine slope ----------------------------------------------------------------
