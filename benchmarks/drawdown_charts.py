@@ -36,8 +36,6 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 H = 10.0
-#: Griffiths & Lane's slope (examples/slope_griffiths_lane*.toml)
-GL_SLOPE = [[0.0, 0.0], [40.0, 0.0], [20.0, 10.0], [0.0, 10.0]]
 #: their finite elements' factor against L / H, read off their Fig. 15 (XSLOPE's
 #: transcription, above)
 GL_FIG15 = {-0.2: 1.85, 0.0: 1.85, 0.2: 1.60, 0.4: 1.40, 0.5: 1.35, 0.7: 1.30, 0.9: 1.35,
@@ -49,13 +47,6 @@ M_SLOPE = [[0.0, 0.0], [45.0, 0.0], [15.0, 10.0], [0.0, 10.0]]
 M_CHART = {1.0: 1.20, 0.5: 1.41}
 M_TABLES = {1.0: [[0.0, 10.0], [15.0, 10.0], [45.0, 0.0], [60.0, 0.0]],
             0.5: [[0.0, 10.0], [15.0, 10.0], [30.0, 5.0], [60.0, 5.0]]}
-
-
-def _table(points):
-    import numpy as np
-
-    P = np.asarray(points, dtype=np.float64)
-    return lambda x: np.interp(x, P[:, 0], P[:, 1])
 
 
 def _study(file, overrides, bracket, args):
@@ -73,6 +64,7 @@ def _study(file, overrides, bracket, args):
 
 def griffiths_lane(args):
     from timpm.studies.limit_equilibrium import bishop_search
+    from water_slopes import SLOPE as GL_SLOPE  # Griffiths & Lane's slope, as there
 
     rows = []
     for ratio in GL_RATIOS:
@@ -95,12 +87,14 @@ def griffiths_lane(args):
 
 
 def morgenstern(args):
+    from timpm import Water
     from timpm.studies.limit_equilibrium import bishop_search
 
     rows = []
     for ratio, table in M_TABLES.items():
         t0 = time.perf_counter()
-        bishop = bishop_search(M_SLOPE, 4905.0, 30.0, 19.62e3, water_table=_table(table))[0]
+        phreatic = Water("drained", phreatic=table)  # the scene's table, as the engine reads it
+        bishop = bishop_search(M_SLOPE, 4905.0, 30.0, 19.62e3, water_table=phreatic.table)[0]
         le_seconds = time.perf_counter() - t0
         # psi = 0 (the file's) and associated flow, psi = phi' (the limit equilibrium's
         # tacit assumption: at phi' = 30 degrees a non-associated law's factor falls below
