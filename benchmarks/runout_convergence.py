@@ -51,6 +51,8 @@ def moved_mass(solver, H):
     (``runout_10``, per grid column as the 2% front)."""
     import numpy as np
 
+    from timpm.studies.landslide import deposit_front
+
     x0 = np.asarray(solver.model.positions)
     x, m = solver.positions(), solver.read("m")
     moved = np.linalg.norm(x - x0, axis=1) > 0.02 * H
@@ -59,11 +61,8 @@ def moved_mass(solver, H):
         w = m[moved] / m[moved].sum()
         out["centroid_travel"] = float(w @ (x[moved, 0] - x0[moved, 0]))
         out["centroid_drop"] = float(w @ (x0[moved, 1] - x[moved, 1]))
-    cols = np.floor(x[:, 0] / solver.h).astype(int)
-    top = np.zeros(cols.max() + 1)
-    np.maximum.at(top, cols, x[:, 1])
-    thick = np.flatnonzero(top >= 0.1 * H)
-    out["runout_10"] = float((thick.max() + 1) * solver.h) - 4.0 * H if len(thick) else None
+    front = deposit_front(x, solver.h, 0.1 * H)
+    out["runout_10"] = front - 4.0 * H if front > 0.0 else None
     return out
 
 

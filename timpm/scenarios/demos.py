@@ -452,12 +452,10 @@ class SlopeFailure(Demo):
         return 1.0
 
     def observe(self, solver, t) -> dict:
-        x = solver.positions()
-        cols = np.floor(x[:, 0] / solver.h).astype(int)
-        top = np.zeros(cols.max() + 1)
-        np.maximum.at(top, cols, x[:, 1])
-        thick = np.flatnonzero(top >= 0.02 * self.H)  # the deposit's front: 2% of H thick
-        return {"front": float((thick.max() + 1) * solver.h) if len(thick) else 0.0}
+        from ..studies.landslide import deposit_front
+
+        # the deposit's front: 2% of H thick
+        return {"front": deposit_front(solver.positions(), solver.h, 0.02 * self.H)}
 
     def summary(self, solver, series) -> dict:
         """Run-out beyond the toe; energies per metre of slope (plane strain, J/m): the

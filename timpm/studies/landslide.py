@@ -18,10 +18,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Landslide"]
+__all__ = ["Landslide", "deposit_front"]
 
 #: the share of H that counts as soil standing (the front) and as moved (the scarp)
 SHARE = 0.02
+
+
+def deposit_front(x, h, depth) -> float:
+    """The front of a deposit facing +x: the right edge of the last grid column (width
+    ``h``, counted from x = 0) where some particle of ``x`` (n, 2) stands ``depth`` high or
+    higher; 0 where none does."""
+    cols = np.floor(x[:, 0] / h).astype(int)
+    shift = min(int(cols.min()), 0)  # (columns left of x = 0 counted from the first)
+    top = np.zeros(int(cols.max()) - shift + 1)
+    np.maximum.at(top, cols - shift, x[:, 1])
+    standing = np.flatnonzero(top >= depth)
+    return float((standing.max() + 1 + shift) * h) if len(standing) else 0.0
 
 
 @dataclass
@@ -42,12 +54,7 @@ class Landslide:
     def observe(self, x0, x, h) -> dict:
         """The frame's front and scarp from the initial positions ``x0`` and the positions
         ``x`` (n, 2) on a grid of spacing ``h``."""
-        cols = np.floor(x[:, 0] / h).astype(int)
-        cols -= min(int(cols.min()), 0)
-        top = np.zeros(int(cols.max()) + 1)
-        np.maximum.at(top, cols, x[:, 1])
-        standing = np.flatnonzero(top >= SHARE * self.height)
-        front = float((standing.max() + 1) * h) if len(standing) else 0.0
+        front = deposit_front(x, h, SHARE * self.height)
         moved = np.linalg.norm(x - x0, axis=1) > SHARE * self.height
         scarp = float(x0[moved, 0].min()) if np.any(moved) else float("nan")
         return {"front": front, "scarp": scarp}
