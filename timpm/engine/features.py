@@ -199,11 +199,6 @@ class FeatureSet:
         return bool(self.planes)
 
     @property
-    def box_walls_only(self) -> bool:
-        """Walls on the box's sides and no plane walls."""
-        return self.walls is not None and not self.planes
-
-    @property
     def has_drained_planes(self) -> bool:
         """Plane walls the pore water flows through (Plane.drained)."""
         return any(drained for _, drained in self.planes)

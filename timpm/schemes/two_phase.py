@@ -170,24 +170,16 @@ class TwoPhase(MUSL):
                 R2 = grid.node_force[I] + B * v + C * w
                 w_new = (B * R1 + Q * R2) / (B * (A + Q) + Q * C)
                 v_new = (R2 - C * w_new) / B
-            if ti.static(self.f.box_walls_only):
+            if ti.static(self.f.walled):
+                # the skeleton held by the box's walls and the planes (model/walls.py)
                 v_new = self.boundary.apply_walls(I, v_new)
                 if drains and wet:  # the water through the wall: its balance, v+ held,
                     w_new = (R1 + Q * v_new) / (A + Q)  # then the other sides' walls
                     w_new = self.boundary.walls_except(I, w_new, self.f.drained_sides)
-                else:  # impermeable
-                    w_new = self.boundary.apply_walls(I, w_new)
-            elif ti.static(self.f.has_planes):
-                # plane walls (model/walls.py): the skeleton's velocity held by the box's
-                # walls and the planes; the water's by the box's walls as above, then at
-                # each impermeable plane its normal component made the skeleton's
-                v_new = self.boundary.apply_walls(I, v_new)
-                if drains and wet:
-                    w_new = (R1 + Q * v_new) / (A + Q)
-                    w_new = self.boundary.walls_except(I, w_new, self.f.drained_sides)
-                else:
+                else:  # impermeable: the box's walls project the water as the skeleton
                     w_new = self.boundary.walls_except(I, w_new, ())
-                w_new = self.boundary.water_at_planes(I, w_new, v_new)
+                if ti.static(self.f.has_planes):  # impermeable planes: w_n made v+'s
+                    w_new = self.boundary.water_at_planes(I, w_new, v_new)
             a = (v_new - v) / dt
             aw = (w_new - w) / dt
             w_end = w_new
