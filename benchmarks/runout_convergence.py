@@ -51,7 +51,7 @@ def moved_mass(solver, H):
     (``runout_10``, per grid column as the 2% front)."""
     import numpy as np
 
-    from timpm.studies.landslide import deposit_front
+    from timpm.model.geometry import deposit_front
 
     x0 = np.asarray(solver.model.positions)
     x, m = solver.positions(), solver.read("m")

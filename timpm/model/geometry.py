@@ -3,12 +3,14 @@ extruded along z (3D).  NumPy only.
 
 A shape gives ``dim``, ``bounds()`` and ``contains(points)``, as :class:`timpm.Box` does;
 a :class:`~timpm.Body` fills it with particles on a lattice of ``ppc`` per cell and axis.
+The other way round, :func:`deposit_front` reads the shape particles have slid into: the
+front of a deposit (the slope demo's run-out, timpm.studies.landslide).
 """
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Polygon", "Prism"]
+__all__ = ["Polygon", "Prism", "deposit_front"]
 
 
 def _orient(a, b, c):
@@ -205,3 +207,15 @@ class Prism:
         x = np.asarray(x, dtype=np.float64)
         # half-open along z as in the plane ([z0, z1)), as a Box: faces shared, filled once
         return _inside(self._v, x[..., :2]) & (x[..., 2] >= self.z[0]) & (x[..., 2] < self.z[1])
+
+
+def deposit_front(x, h, depth) -> float:
+    """The front of a deposit facing +x: the right edge of the last grid column (width
+    ``h``, counted from x = 0) where some particle of ``x`` (n, 2) stands ``depth`` high or
+    higher; 0 where none does."""
+    cols = np.floor(x[:, 0] / h).astype(int)
+    shift = min(int(cols.min()), 0)  # (columns left of x = 0 counted from the first)
+    top = np.zeros(int(cols.max()) - shift + 1)
+    np.maximum.at(top, cols - shift, x[:, 1])
+    standing = np.flatnonzero(top >= depth)
+    return float((standing.max() + 1 + shift) * h) if len(standing) else 0.0

@@ -452,7 +452,7 @@ class SlopeFailure(Demo):
         return 1.0
 
     def observe(self, solver, t) -> dict:
-        from ..studies.landslide import deposit_front
+        from ..model.geometry import deposit_front
 
         # the deposit's front: 2% of H thick
         return {"front": deposit_front(solver.positions(), solver.h, 0.02 * self.H)}

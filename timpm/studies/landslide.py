@@ -18,22 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Landslide", "deposit_front"]
+from ..model.geometry import deposit_front
+
+__all__ = ["Landslide"]
 
 #: the share of H that counts as soil standing (the front) and as moved (the scarp)
 SHARE = 0.02
-
-
-def deposit_front(x, h, depth) -> float:
-    """The front of a deposit facing +x: the right edge of the last grid column (width
-    ``h``, counted from x = 0) where some particle of ``x`` (n, 2) stands ``depth`` high or
-    higher; 0 where none does."""
-    cols = np.floor(x[:, 0] / h).astype(int)
-    shift = min(int(cols.min()), 0)  # (columns left of x = 0 counted from the first)
-    top = np.zeros(int(cols.max()) - shift + 1)
-    np.maximum.at(top, cols - shift, x[:, 1])
-    standing = np.flatnonzero(top >= depth)
-    return float((standing.max() + 1 + shift) * h) if len(standing) else 0.0
 
 
 @dataclass
