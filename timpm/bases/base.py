@@ -43,6 +43,10 @@ class Basis(metaclass=BasisType):
     #: node j stands at x = (j - offset) h, uniformly spaced: the node positions the affine
     #: transfers (APIC, MLS-MPM) take for x_i - x_p
     uniform_nodes = False
+    #: its functions are only continuous (C0): they reach the support's edge with a slope,
+    #: so (grad phi)^2 / phi grows without bound at a node the body barely reaches (the
+    #: coupled step floors its water's mass there: schemes/two_phase.py)
+    kinked = False
 
     @classmethod
     def n_nodes(cls, n_elements: int) -> int:

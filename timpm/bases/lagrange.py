@@ -20,6 +20,7 @@ class QuadraticLagrange(Basis):
     nodes_per_element = 2
     lumpable = False
     min_ppc = 2
+    kinked = True
 
     @classmethod
     def n_nodes(cls, n_elements: int) -> int:

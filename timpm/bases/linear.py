@@ -14,6 +14,7 @@ class Linear(Basis):
     support = 2
     nd = True
     uniform_nodes = True
+    kinked = True
 
     @classmethod
     def n_nodes(cls, n_elements: int) -> int:

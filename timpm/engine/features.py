@@ -20,6 +20,7 @@ from ..model.model import Model
 from ..model.walls import PLANE_TOLERANCE, SIDES
 from ..platform import runtime
 from ..schemes import INTEGRATORS, scheme_class
+from ..schemes.two_phase import WATER_FILL_FLOOR
 
 __all__ = ["FeatureSet", "Layout", "plan", "MODES", "GRIDS", "SCATTERS", "MIN_CPU_BLOCK",
            "auto_mode", "grid_window_refusal"]
@@ -97,6 +98,7 @@ class FeatureSet:
     drained_sides: tuple = ()    # side indices (SIDES) the pore water flows through
     side_pressure: type | None = None  # time-function class of the drained sides'
                                  # prescribed pore pressures (Water.side_pressure); None: none
+    water_floor: bool = False    # coupled on a kinked basis: the water's mass floored
     grid_window: bool = False    # node loops over the particles' active window (window.py)
     planes: tuple = ()           # per plane wall (model/walls.py: Plane) its (kind, drained);
                                  # its point, normal and mu are run-time values
@@ -464,6 +466,8 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
             SIDES.index(side) for side in model.water.drained_sides),
         side_pressure=(type(model.water.pressure_time) if model.water is not None
                        and model.water.pressured else None),
+        water_floor=(model.water is not None and model.water.analysis == "coupled"
+                     and basis.kinked),
         grid_window=window,
         planes=tuple((plane.kind, plane.drained) for plane in model.planes))
     if history_chunk is None:
@@ -499,6 +503,9 @@ def plan(scene, track=(), energies=True, mode="auto", serial_threshold=4096,
     if features.drained_sides:  # per drained side its edge node (as a wall's, wall_nodes)
         edges = [i for pair in model.wall_nodes() for i in pair]
         values.update(drained_nodes=tuple(edges[side] for side in features.drained_sides))
+    if features.water_floor:  # the least water a node's solve takes at face value
+        values.update(water_mass_floor=WATER_FILL_FLOOR * h ** dim * float(
+            np.max(model.water_arrays["rho_w"])))
     if features.has_side_pressure:  # (the nodal forces: a grid field, state.py)
         values.update(side_pressure_param=float(model.water.pressure_time.param))
     if features.phreatic:

@@ -64,6 +64,8 @@ def _param_spec(features, scheme_cls):
         spec.update(final_level="real", drawdown_time="real")
     if features.drained_sides:
         spec.update(drained_nodes=("int", len(features.drained_sides)))
+    if features.water_floor:
+        spec.update(water_mass_floor="real")
     if features.has_side_pressure:
         spec.update(side_pressure_param="real")
     if features.phreatic:

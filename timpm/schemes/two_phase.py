@@ -36,7 +36,9 @@ the strain from that velocity.  The water's volumetric strain is taken from its 
 at the step's end, w+, itself: remapped from the particles, the nodal field is a smoothed
 one, and consolidation ran slower than Terzaghi's series by a share growing as 1 / (rho_w
 h) (4% of the time factor at 64 elements; with w+, 0.0004 of u0 at 16 to 64 elements,
-docs/results.md).
+docs/results.md).  On the linear basis the water of a node the body barely fills is
+floored (``WATER_FILL_FLOOR``): its grad phi stays 1 / h where phi and with it M_w and Q
+vanish.
 """
 import taichi as ti
 
@@ -44,7 +46,19 @@ from ..platform.declare import Field
 from .musl import MUSL
 from .phases import Nodes, Particles, Scatter, Whole
 
-__all__ = ["TwoPhase"]
+__all__ = ["TwoPhase", "WATER_FILL_FLOOR"]
+
+#: on a kinked basis (linear: Basis.kinked) the water at a node the body fills to less
+#: than this share of a full node's water, rho_w h^dim, takes its force F_w scaled by
+#: M_w / that floor (as if its water and drag were the floor's).  F_w grows with grad phi
+#: where M_w and Q shrink with phi, so the water at a node the body barely reaches (a
+#: free top just above a node row: fill ~ t^2 / 2 for a layer t h thick) drained without
+#: bound and the step blew up, at fills of 0.005 and less (Terzaghi's column, ppc 10 and
+#: 20, the default step).  0.02 keeps the largest gain, about t / max(t^2 / 2, floor),
+#: below that of a fill of 0.011, measured stable; rows below the thin top layer then
+#: follow the series within 0.008 of u0 (0.004 aligned; tests/test_water.py), and the
+#: goldens keep their bits
+WATER_FILL_FLOOR = 0.02
 
 
 class TwoPhase(MUSL):
@@ -136,6 +150,9 @@ class TwoPhase(MUSL):
         Fw = self.scatter.merged("node_water_force", I)
         Pw = self.scatter.merged("node_water_momentum", I)
         dt = values.dt()
+        if ti.static(self.f.water_floor):  # the water's force at a barely filled node
+            if Mw < values.water_mass_floor():
+                Fw *= Mw / values.water_mass_floor()
         if ti.static(self.f.has_side_pressure):
             # the drained sides' pressures p_b: the traction -p_b n f(t) on the water, and
             # on the mixture (its total traction; the held skeleton's reaction the rest)
