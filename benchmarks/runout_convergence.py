@@ -2,7 +2,7 @@
 strength halved) on finer and finer grids, per basis: how the run-out converges and what
 each basis pays for it (issue 46, item 5's run-out half).
 
-    python benchmarks/runout_convergence.py [--cells 10 20 40 80] [--courant 0.5]
+    python benchmarks/runout_convergence.py [--cells 10 20 40 80] [--courant 0.5 [0.25 ...]]
         [--schemes linear:apic uniform-bspline2:apic uniform-bspline2:mls-mpm
                    uniform-bspline3:apic]
         [--json docs/runout_convergence.json] [--plot docs/runout_convergence.png]
@@ -11,7 +11,8 @@ each basis pays for it (issue 46, item 5's run-out half).
 
 Each row is `timpm demo slope --param cells_per_H=C --param basis=B --param transfer=T`
 --param courant=K (no rendering, 10 s of slide; one courant number for every scheme,
-0.5 by default: the demo's 0.8 is measured for MLS-MPM only): the run-out beyond the toe
+0.5 by default: the demo's 0.8 is measured for MLS-MPM only; several: each mesh at each,
+the time step's own share of the change): the run-out beyond the toe
 (the deposit's front where it is 2% of H thick, read per grid column), the particles,
 steps and the stepping's wall time on two threads; besides, what the slide moved, read
 from the particles (``moved_mass``): the mass that moved more than 2% of H and its
@@ -72,7 +73,7 @@ def main():
     ap.add_argument("--schemes", nargs="+", default=[
         "linear:apic", "uniform-bspline2:apic", "uniform-bspline2:mls-mpm",
         "uniform-bspline3:apic"])
-    ap.add_argument("--courant", type=float, default=0.5)
+    ap.add_argument("--courant", type=float, nargs="+", default=[0.5])
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--json", metavar="FILE")
     ap.add_argument("--plot", metavar="FILE.png")
@@ -81,7 +82,9 @@ def main():
     if args.replot:
         doc = json.loads(Path(args.replot).read_text())
         schemes = list(doc["richardson"])
-        plot(args.plot, schemes, doc["rows"], doc["reference_runout"])
+        first = doc["courant"][0] if isinstance(doc["courant"], list) else doc["courant"]
+        rows = [r for r in doc["rows"] if r.get("courant", first) == first]
+        plot(args.plot, schemes, rows, doc["reference_runout"])
         return
 
     import timpm
@@ -89,37 +92,43 @@ def main():
 
     timpm.init(threads=args.threads)
     rows = []
-    for scheme in args.schemes:
+    for scheme, courant, cells in ((s, k, c) for s in args.schemes for k in args.courant
+                               for c in args.cells):
         basis, transfer = scheme.split(":")
-        for cells in args.cells:
-            t = time.perf_counter()
-            r = run_demo("slope", frames=20, cells_per_H=cells, basis=basis,
-                         transfer=transfer, courant=args.courant)
-            row = {"basis": basis, "transfer": transfer, "cells_per_H": cells,
-                   "h": 10.0 / cells, "particles": r.particles, "steps": r.steps,
-                   "runout": r.summary["runout"], "stepping_seconds": r.simulation_seconds,
-                   "compile_seconds": r.compile_seconds,
-                   "end_to_end_seconds": time.perf_counter() - t,
-                   "simulated_per_wall_second": r.t_end / r.simulation_seconds,
-                   "energy_dissipated": r.summary["energy_dissipated"],
-                   "potential_energy_released": r.summary["potential_energy_released"],
-                   "work_on_the_soil": r.summary["work_on_the_soil"],
-                   **moved_mass(r.solver, 10.0)}
-            rows.append(row)
-            print(f"{basis} {transfer} cells_per_H = {cells}: run-out {row['runout']:.3f} m "
-                  f"(10% of H: {row['runout_10']}), centroid travel "
-                  f"{row.get('centroid_travel', float('nan')):.3f} m, moved mass "
-                  f"{row['moved_mass']:.4g} kg/m, "
-                  f"{row['particles']} particles, {row['steps']} steps, "
-                  f"{row['stepping_seconds']:.1f} s stepping", flush=True)
+        t = time.perf_counter()
+        r = run_demo("slope", frames=20, cells_per_H=cells, basis=basis,
+                     transfer=transfer, courant=courant)
+        row = {"basis": basis, "transfer": transfer, "cells_per_H": cells,
+               "courant": courant,
+               "h": 10.0 / cells, "particles": r.particles, "steps": r.steps,
+               "runout": r.summary["runout"], "stepping_seconds": r.simulation_seconds,
+               "compile_seconds": r.compile_seconds,
+               "end_to_end_seconds": time.perf_counter() - t,
+               "simulated_per_wall_second": r.t_end / r.simulation_seconds,
+               "energy_dissipated": r.summary["energy_dissipated"],
+               "potential_energy_released": r.summary["potential_energy_released"],
+               "work_on_the_soil": r.summary["work_on_the_soil"],
+               **moved_mass(r.solver, 10.0)}
+        rows.append(row)
+        print(f"{basis} {transfer} courant {courant} cells_per_H = {cells}: run-out "
+              f"{row['runout']:.3f} m (10% of H: {row['runout_10']}), centroid travel "
+              f"{row.get('centroid_travel', float('nan')):.3f} m, moved mass "
+              f"{row['moved_mass']:.4g} kg/m, "
+              f"{row['particles']} particles, {row['steps']} steps, "
+              f"{row['stepping_seconds']:.1f} s stepping", flush=True)
+    # the mesh sequences: the first courant number's rows (the others: the step's share)
+    all_rows, rows = rows, [r for r in rows if r["courant"] == args.courant[0]]
     summary = {}
     for scheme in args.schemes:
         basis, transfer = scheme.split(":")
         sel = [r for r in rows if (r["basis"], r["transfer"]) == (basis, transfer)]
         rich = richardson([r["runout"] for r in sel])
+        travel = richardson([r.get("centroid_travel", math.nan) for r in sel])
         summary[scheme] = {"order": None if rich is None else rich[0],
                            "extrapolated": None if rich is None else rich[1],
-                           "finest": sel[-1]["runout"]}
+                           "finest": sel[-1]["runout"],
+                           "travel_order": None if travel is None else travel[0],
+                           "travel_extrapolated": None if travel is None else travel[1]}
     # the reference: the extrapolations' scheme whose last refinement moved least
     candidates = [(abs(sel_last_change(rows, s)), s) for s in args.schemes
                   if summary[s]["extrapolated"] is not None]
@@ -139,7 +148,7 @@ def main():
     print(f"reference run-out: {reference}", flush=True)
     doc = {"command": "python benchmarks/runout_convergence.py " + " ".join(sys.argv[1:]),
            "date": time.strftime("%Y-%m-%d"), "threads": args.threads,
-           "courant": args.courant, "rows": rows,
+           "courant": args.courant, "rows": all_rows,
            "richardson": summary, "reference_runout": reference}
     if args.json:
         Path(args.json).write_text(json.dumps(doc, indent=1) + "\n")
