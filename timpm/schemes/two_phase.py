@@ -54,10 +54,10 @@ __all__ = ["TwoPhase", "WATER_FILL_FLOOR"]
 #: where M_w and Q shrink with phi, so the water at a node the body barely reaches (a
 #: free top just above a node row: fill ~ t^2 / 2 for a layer t h thick) drained without
 #: bound and the step blew up, at fills of 0.005 and less (Terzaghi's column, ppc 10 and
-#: 20, the default step).  0.02 keeps the largest gain, about t / max(t^2 / 2, floor),
-#: below that of a fill of 0.011, measured stable; rows below the thin top layer then
-#: follow the series within 0.008 of u0 (0.004 aligned; tests/test_water.py), and the
-#: goldens keep their bits
+#: 20, the default step).  0.02 keeps the largest gain, about t / max(t^2 / 2, floor)
+#: (at most 10), below that of the fill 0.011 (t = 0.15: 13), measured stable; rows below
+#: the thin top layer then follow the series within 0.008 of u0 at T = 0.05 and 0.0031 at
+#: T = 0.2 (aligned: 0.0033, 0.0011; tests/test_water.py), and the goldens keep their bits
 WATER_FILL_FLOOR = 0.02
 
 
