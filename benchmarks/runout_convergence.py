@@ -8,6 +8,8 @@ each basis pays for it (issue 46, item 5's run-out half).
         [--json docs/runout_convergence.json] [--plot docs/runout_convergence.png]
     python benchmarks/runout_convergence.py --replot docs/runout_convergence.json
         --plot docs/runout_convergence.png     # the plot again from a record, no runs
+    python benchmarks/runout_convergence.py --travel-plot docs/runout_musl.png
+        --records docs/runout_timestep.json docs/runout_musl_*.json   # the travel, no runs
 
 Each row is `timpm demo slope --param cells_per_H=C --param basis=B --param transfer=T`
 --param courant=K (no rendering, 10 s of slide; one courant number for every scheme,
@@ -78,7 +80,13 @@ def main():
     ap.add_argument("--json", metavar="FILE")
     ap.add_argument("--plot", metavar="FILE.png")
     ap.add_argument("--replot", metavar="FILE.json", help="draw --plot from this record")
+    ap.add_argument("--travel-plot", metavar="FILE.png", help="draw the centroid's travel "
+                    "against h and the particle-steps from --records, no runs")
+    ap.add_argument("--records", nargs="+", metavar="FILE.json", default=[])
     args = ap.parse_args()
+    if args.travel_plot:
+        travel_plot(args.travel_plot, args.records)
+        return
     if args.replot:
         doc = json.loads(Path(args.replot).read_text())
         schemes = list(doc["richardson"])
@@ -181,6 +189,56 @@ def plot(path, schemes, rows, reference):
     a2.set(xscale="log", xlabel="wall time, two cores (s)", title="run-out against cost")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+
+
+def travel_plot(path, records):
+    """The moved mass's centroid travel against h and against the particle-steps, per
+    scheme, from the records' first-courant rows (one row a scheme and mesh, records in
+    the order of their meshes), with the band between the Richardson extrapolations (the
+    last three meshes) of the schemes whose observed order is at least 0.5."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    series = {}
+    for record in records:
+        doc = json.loads(Path(record).read_text())
+        first = doc["courant"][0] if isinstance(doc.get("courant"), list) else doc.get(
+            "courant", 0.5)
+        for r in doc["rows"]:
+            if r.get("courant", first) != first:
+                continue
+            key = (r["basis"], r["transfer"])
+            cells = r.get("cells_per_H", r.get("cells"))
+            # (a scratch row keeps no steps: twice the half-resolution row's, dt ~ h)
+            steps = r.get("steps") or 2 * series[key][cells // 2][2]
+            particles = r.get("particles", 12 * cells ** 2)  # 3 H^2 of soil, 2 x 2 a cell
+            series.setdefault(key, {})[cells] = (r["centroid_travel"], steps * particles,
+                                                  steps)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
+    limits = []
+    for (basis, transfer), points in sorted(series.items()):
+        cells = sorted(points)
+        travel = [points[c][0] for c in cells]
+        rich = richardson(travel)
+        if rich is not None and rich[0] >= 0.5:  # a sequence that converges
+            limits.append(rich[1])
+        label = f"{basis}:{transfer}" + ("" if rich is None else
+                                          f" (order {rich[0]:.2f}, Richardson {rich[1]:.2f} m)")
+        a1.plot([10.0 / c for c in cells], travel, "o-", label=label)
+        a2.plot([points[c][1] for c in cells], travel, "o-", label=label)
+    for ax in (a1, a2):
+        if limits:
+            mid = 0.5 * (min(limits) + max(limits))
+            ax.axhspan(0.95 * mid, 1.05 * mid, color="0.9", label="5% of the extrapolations' mid")
+            ax.axhspan(min(limits), max(limits), color="0.75", label="the extrapolations")
+        ax.set_ylabel("centroid travel of the moved mass (m)")
+        ax.legend(fontsize=7)
+    a1.set(xscale="log", xlabel="h (m)", title="the slide's travel against the mesh")
+    a2.set(xscale="log", xlabel="particle-steps", title="against the cost")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    print(f"{path}: extrapolations {sorted(round(x, 3) for x in limits)}")
 
 
 def sel_last_change(rows, scheme):
