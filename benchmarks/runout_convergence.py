@@ -90,9 +90,7 @@ def main():
     if args.replot:
         doc = json.loads(Path(args.replot).read_text())
         schemes = list(doc["richardson"])
-        first = doc["courant"][0] if isinstance(doc["courant"], list) else doc["courant"]
-        rows = [r for r in doc["rows"] if r.get("courant", first) == first]
-        plot(args.plot, schemes, rows, doc["reference_runout"])
+        plot(args.plot, schemes, first_courant_rows(doc), doc["reference_runout"])
         return
 
     import timpm
@@ -183,10 +181,25 @@ def plot(path, schemes, rows, reference):
         if reference is not None:
             ax.axhspan(0.95 * reference, 1.05 * reference, color="0.85",
                        label="Richardson's value +- 5% (see results.md)")
-        ax.set_ylabel("run-out beyond the toe (m)")
+    _finish(path, fig, "run-out beyond the toe (m)", "run-out against the mesh",
+            "wall time, two cores (s)", "run-out against cost")
+
+
+def first_courant_rows(doc):
+    """A record's rows at its first courant number (a record of one courant: all)."""
+    courant = doc.get("courant", [None])
+    first = courant[0] if isinstance(courant, list) else courant
+    return [r for r in doc["rows"] if r.get("courant", first) == first]
+
+
+def _finish(path, fig, ylabel, mesh_title, cost_label, cost_title):
+    """Label both panels (against log h, and against the cost), legends, save."""
+    a1, a2 = fig.axes[:2]
+    for ax in (a1, a2):
+        ax.set_ylabel(ylabel)
         ax.legend(fontsize=7)
-    a1.set(xscale="log", xlabel="h (m)", title="run-out against the mesh")
-    a2.set(xscale="log", xlabel="wall time, two cores (s)", title="run-out against cost")
+    a1.set(xscale="log", xlabel="h (m)", title=mesh_title)
+    a2.set(xscale="log", xlabel=cost_label, title=cost_title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
@@ -202,12 +215,7 @@ def travel_plot(path, records):
 
     series = {}
     for record in records:
-        doc = json.loads(Path(record).read_text())
-        first = doc["courant"][0] if isinstance(doc.get("courant"), list) else doc.get(
-            "courant", 0.5)
-        for r in doc["rows"]:
-            if r.get("courant", first) != first:
-                continue
+        for r in first_courant_rows(json.loads(Path(record).read_text())):
             key = (r["basis"], r["transfer"])
             cells = r.get("cells_per_H", r.get("cells"))
             # (a scratch row keeps no steps: twice the half-resolution row's, dt ~ h)
@@ -232,12 +240,8 @@ def travel_plot(path, records):
             mid = 0.5 * (min(limits) + max(limits))
             ax.axhspan(0.95 * mid, 1.05 * mid, color="0.9", label="5% of the extrapolations' mid")
             ax.axhspan(min(limits), max(limits), color="0.75", label="the extrapolations")
-        ax.set_ylabel("centroid travel of the moved mass (m)")
-        ax.legend(fontsize=7)
-    a1.set(xscale="log", xlabel="h (m)", title="the slide's travel against the mesh")
-    a2.set(xscale="log", xlabel="particle-steps", title="against the cost")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _finish(path, fig, "centroid travel of the moved mass (m)",
+            "the slide's travel against the mesh", "particle-steps", "against the cost")
     print(f"{path}: extrapolations {sorted(round(x, 3) for x in limits)}")
 
 
