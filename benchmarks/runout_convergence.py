@@ -47,11 +47,12 @@ def richardson(values):
     return p, r3 + d2 / (2.0 ** p - 1.0)
 
 
-def moved_mass(solver, H):
+def moved_mass(solver, H, toe=None):
     """What the slide moved, read from the particles rather than the deposit's thin front:
     the mass that moved more than 2% of H (kg per metre of slope) and its centroid's travel
     along x and drop along y (m), and the front where the deposit stands 10% of H deep
-    (``runout_10``, per grid column as the 2% front)."""
+    beyond the ``toe`` (``runout_10``, per grid column as the 2% front; the toe at 4 H,
+    the slope demo's, unless given)."""
     import numpy as np
 
     from timpm.model.geometry import deposit_front
@@ -65,7 +66,7 @@ def moved_mass(solver, H):
         out["centroid_travel"] = float(w @ (x[moved, 0] - x0[moved, 0]))
         out["centroid_drop"] = float(w @ (x0[moved, 1] - x[moved, 1]))
     front = deposit_front(x, solver.h, 0.1 * H)
-    out["runout_10"] = front - 4.0 * H if front > 0.0 else None
+    out["runout_10"] = front - (4.0 * H if toe is None else toe) if front > 0.0 else None
     return out
 
 
@@ -219,7 +220,15 @@ def travel_plot(path, records):
             key = (r["basis"], r["transfer"])
             cells = r.get("cells_per_H", r.get("cells"))
             # (a scratch row keeps no steps: twice the half-resolution row's, dt ~ h)
-            steps = r.get("steps") or 2 * series[key][cells // 2][2]
+            steps = r.get("steps")
+            if not steps:
+                coarser = series.get(key, {}).get(cells // 2)
+                if coarser is None:
+                    raise SystemExit(f"{record}: the {r['basis']}:{r['transfer']} row at "
+                                     f"cells_per_H = {cells} keeps no steps, and no row at "
+                                     f"{cells // 2} came before it to infer them from (list "
+                                     "that row's record first in --records)")
+                steps = 2 * coarser[2]
             particles = r.get("particles", 12 * cells ** 2)  # 3 H^2 of soil, 2 x 2 a cell
             series.setdefault(key, {})[cells] = (r["centroid_travel"], steps * particles,
                                                   steps)
