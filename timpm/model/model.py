@@ -19,14 +19,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..bases import Basis, get_basis
-from ..platform.checks import check_size, positive, positive_int, vector
+from ..platform.checks import check_size, positive, positive_int, shown_point, vector
 from ..platform.declare import check_params
 from ..platform.errors import InputError, about
 from ..schemes import TRANSFERS as SCHEME_TRANSFERS, scheme_classes, scheme_params
 from .loads import BodyForce, field_function, time_function
 from ..materials import Material
 from .water import checked_water
-from .walls import (PLANE_KINDS, PLANE_TOLERANCE, SIDES, WALL_KINDS, Plane, Wall,
+from .walls import (PLANE_KINDS, SIDES, WALL_KINDS, Plane, Wall, checked_planes, plane_nodes,
                     walls_from)
 
 __all__ = ["Model", "Wall", "Plane", "PLANE_KINDS", "walls_from", "check_scheme", "pic_applies",
@@ -183,8 +183,8 @@ class Model:
     the defaults filled in): the musl transfer's ``pic_fraction`` b (``Model.pic_fraction``)
     blends the MUSL particle velocity update, v_p = (1 - b)(v_p + dt sum phi_i a_i) + b sum
     phi_i (v_i + dt a_i) (0: FLIP, the study's; 1: PIC, which damps the particle-velocity
-    modes the grid cannot see); the builders take it on its own too.  ``integrator`` the time integration
-    (``INTEGRATORS``; ``"rk4"`` and ``"midpoint"`` for laws whose stress is a function
+    modes the grid cannot see); the builders take it on its own too.  ``integrator`` the
+    time integration (``INTEGRATORS``; ``"rk4"`` and ``"midpoint"`` for laws whose stress is a function
     of F, with roller and sticky walls only, no damping, tractions or prescribed motion).
     ``velocity`` is an (n, dim) array or a function v0(X) of the (n, dim) positions.
     ``displacement`` a function u0(X) (vectorised like v0): the body starts deformed, its
@@ -293,7 +293,7 @@ class Model:
             object.__setattr__(self, "pore_water", pores)
             object.__setattr__(self, "water_arrays", arrays)
         with about("planes"):
-            self._check_planes(dim)
+            object.__setattr__(self, "planes", checked_planes(self, dim))
 
     # ---- checks ----------------------------------------------------------------------
     def _check_particles(self, dim):
@@ -312,7 +312,7 @@ class Model:
         finite = np.all(np.isfinite(x), axis=1)
         if not finite.all():
             bad = int(np.flatnonzero(~finite)[0])
-            raise ValueError(f"particle {bad} has a non-finite position {_point(x[bad])!r}")
+            raise ValueError(f"particle {bad} has a non-finite position {shown_point(x[bad])!r}")
         lo = np.array(self.origin)
         hi = lo + np.array(self.elements) * self.h
         outside = np.flatnonzero(np.any((x < lo) | (x > hi), axis=1))
@@ -320,7 +320,7 @@ class Model:
             p = int(outside[0])
             where = (f"[{lo[0]}, {hi[0]}]" if dim == 1 else
                      f"[{tuple(float(v) for v in lo)}, {tuple(float(v) for v in hi)}]")
-            raise ValueError(f"particle {p} at x = {_point(x[p])!r} lies outside the grid "
+            raise ValueError(f"particle {p} at x = {shown_point(x[p])!r} lies outside the grid "
                              f"{where} ({len(outside)} particle(s) outside)")
         vol = np.array(self.volume, dtype=np.float64).ravel()
         if vol.shape != (n,):
@@ -375,14 +375,15 @@ class Model:
         bad = np.flatnonzero(~(det > 0))
         if len(bad):
             p = int(bad[0])
-            raise ValueError(f"{what} inverts particle {p} at X = {_point(X[p])!r}: "
+            raise ValueError(f"{what} inverts particle {p} at X = {shown_point(X[p])!r}: "
                              f"det(I + grad u0) = {det[p]:g} ({len(bad)} particle(s))")
         x = X + u0
         outside = np.flatnonzero(np.any((x < lo) | (x > hi), axis=1))
         if len(outside):
             p = int(outside[0])
-            raise ValueError(f"{what} moves particle {p} from X = {_point(X[p])!r} to "
-                             f"{_point(x[p])!r}, outside the grid ({len(outside)} particle(s))")
+            raise ValueError(f"{what} moves particle {p} from X = {shown_point(X[p])!r} to "
+                             f"{shown_point(x[p])!r}, outside the grid ({len(outside)} "
+                             "particle(s))")
         for key, arr in (("initial_displacement", u0), ("initial_gradient", grad)):
             arr.setflags(write=False)
             set_(key, arr)
@@ -651,69 +652,6 @@ class Model:
                 raise ValueError(f"traction particle {self.traction.particle} does not exist "
                                  f"({n} particles)")
 
-    def _check_planes(self, dim):
-        """``planes``: Plane walls of the scene's dimension (2D, 3D), every particle on
-        their material side, mu and drained where they apply; each error's key the
-        plane's (``planes[k]``, ``planes[k].normal`` ...)."""
-        given = self.planes
-        if given is None:
-            given = ()
-        elif isinstance(given, Plane):
-            given = (given,)
-        if isinstance(given, (str, bytes, dict)):
-            raise InputError(f"planes must be a list of timpm.Plane walls, got {given!r}",
-                             "planes")
-        try:
-            planes = tuple(given)
-        except TypeError:
-            raise InputError(f"planes must be a list of timpm.Plane walls, got {given!r}",
-                             "planes") from None
-        object.__setattr__(self, "planes", planes)
-        if not planes:
-            return
-        for k, plane in enumerate(planes):
-            if not isinstance(plane, Plane):
-                raise InputError(f"planes[{k}] must be a timpm.Plane (point, normal, kind), "
-                                 f"got {plane!r}", f"planes[{k}]")
-        if dim == 1:
-            raise InputError("plane walls stand in 2D and 3D scenes: a 1D bar's ends are its "
-                             "walls (walls=, fixed_nodes=)", "planes")
-        x = self.positions  # where the particles start: displaced, if they are
-        if self.initial_displacement is not None:
-            x = x + self.initial_displacement
-        coupled = self.water is not None and self.water.analysis == "coupled"
-        for k, plane in enumerate(planes):
-            label = f"plane {k} (point {plane.point}, normal " \
-                    f"{tuple(round(c, 6) for c in plane.normal)})"
-            if plane.dim != dim:
-                raise InputError(f"{label}: a {plane.dim}D plane in a {dim}D scene",
-                                 f"planes[{k}].point")
-            if plane.drained and not coupled:
-                scene = "the scene is dry" if self.water is None else \
-                    f"the scene's analysis is {self.water.analysis}"
-                raise InputError(f"{label}: drained lets the pore water flow through the "
-                                 f"plane, in a coupled analysis (Water(analysis='coupled')): "
-                                 f"{scene}", f"planes[{k}].drained")
-            if self.periodic and plane.normal[0] != 0.0:
-                raise InputError(f"{label}: x is periodic, and a plane that is not parallel "
-                                 "to x would not be (give its normal no x component)",
-                                 f"planes[{k}].normal")
-            if plane.kind in ("slip", "friction") and self.integrator != "euler-cromer":
-                raise InputError(f"{label}: the {self.integrator} integrator takes roller "
-                                 f"and sticky planes only (linear constraints), not "
-                                 f"{plane.kind}", f"planes[{k}].kind")
-            if plane.kind in ("slip", "friction") and self.mass_matrix != "lumped":
-                raise InputError(f"{label}: with the consistent mass the planes must be "
-                                 f"roller or sticky (constraints of the solve), not "
-                                 f"{plane.kind}", f"planes[{k}].kind")
-            beyond = np.flatnonzero(plane.distance(x) > PLANE_TOLERANCE * self.h)
-            if len(beyond):
-                p = int(beyond[0])
-                raise InputError(f"{label}: {len(beyond)} of {len(x)} particles start beyond "
-                                 f"it, in the wall (particle {p} at {_point(x[p])}, "
-                                 f"{plane.distance(x[p:p + 1])[0]:.4g} m beyond): the normal "
-                                 "points out of the material, into the wall", f"planes[{k}]")
-
     # ---- derived -----------------------------------------------------------------------
     @property
     def pic_fraction(self) -> float:
@@ -783,19 +721,7 @@ class Model:
         nodes' shape: those on or beyond it, (x_i - p) . n >= -PLANE_TOLERANCE h with x_i
         the node's position (basis.node_coordinates: the control points of the clamped
         B-splines), as the kernels find them (timpm/engine/grid.py)."""
-        held = np.zeros(self.nodes, dtype=bool)
-        chosen = self.planes if k is None else (self.planes[k],)
-        if not chosen:
-            return held
-        axes = []
-        for k_axis, e in enumerate(self.elements):
-            xi = self.basis.node_coordinates(e)[:self.nodes[k_axis]]
-            axes.append(self.origin[k_axis] + self.h * xi)
-        X = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-        for plane in chosen:
-            held |= plane.distance(X.reshape(-1, self.dim)).reshape(self.nodes) >= \
-                -PLANE_TOLERANCE * self.h
-        return held
+        return plane_nodes(self, k)
 
     def wall_nodes(self) -> tuple:
         """Per axis the last node at or below the lower wall and the first node at or
@@ -810,6 +736,3 @@ class Model:
                         else len(x)))
         return tuple(out)
 
-
-def _point(x):
-    return float(x[0]) if len(x) == 1 else tuple(float(c) for c in x)

@@ -45,11 +45,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..platform.checks import vector
+from ..platform.checks import shown_point, vector
 from ..platform.errors import InputError
 
 __all__ = ["Wall", "walls_from", "SIDES", "WALL_KINDS", "Plane", "PLANE_KINDS",
-           "PLANE_TOLERANCE"]
+           "PLANE_TOLERANCE", "checked_planes", "plane_nodes"]
 
 #: the sides of a box, two per axis: x, then y, then z
 SIDES = ("left", "right", "bottom", "top", "back", "front")
@@ -201,3 +201,88 @@ class Plane:
         """The signed distance (x - point) . normal of the points ``x`` (n, dim): > 0
         beyond the plane (in the wall)."""
         return (np.asarray(x, dtype=np.float64) - np.array(self.point)) @ np.array(self.normal)
+
+
+def checked_planes(model, dim) -> tuple:
+    """``model.planes`` checked (:class:`~timpm.model.Model` calls it on construction),
+    as a tuple: Plane walls of the scene's dimension (2D, 3D), every particle on their
+    material side, mu and drained where they apply; each error's key the plane's
+    (``planes[k]``, ``planes[k].normal`` ...)."""
+    given = model.planes
+    if given is None:
+        given = ()
+    elif isinstance(given, Plane):
+        given = (given,)
+    if isinstance(given, (str, bytes, dict)):
+        raise InputError(f"planes must be a list of timpm.Plane walls, got {given!r}",
+                         "planes")
+    try:
+        planes = tuple(given)
+    except TypeError:
+        raise InputError(f"planes must be a list of timpm.Plane walls, got {given!r}",
+                         "planes") from None
+    if not planes:
+        return planes
+    for k, plane in enumerate(planes):
+        if not isinstance(plane, Plane):
+            raise InputError(f"planes[{k}] must be a timpm.Plane (point, normal, kind), "
+                             f"got {plane!r}", f"planes[{k}]")
+    if dim == 1:
+        raise InputError("plane walls stand in 2D and 3D scenes: a 1D bar's ends are its "
+                         "walls (walls=, fixed_nodes=)", "planes")
+    x = model.positions  # where the particles start: displaced, if they are
+    if model.initial_displacement is not None:
+        x = x + model.initial_displacement
+    coupled = model.water is not None and model.water.analysis == "coupled"
+    for k, plane in enumerate(planes):
+        label = f"plane {k} (point {plane.point}, normal " \
+                f"{tuple(round(c, 6) for c in plane.normal)})"
+        if plane.dim != dim:
+            raise InputError(f"{label}: a {plane.dim}D plane in a {dim}D scene",
+                             f"planes[{k}].point")
+        if plane.drained and not coupled:
+            scene = "the scene is dry" if model.water is None else \
+                f"the scene's analysis is {model.water.analysis}"
+            raise InputError(f"{label}: drained lets the pore water flow through the "
+                             f"plane, in a coupled analysis (Water(analysis='coupled')): "
+                             f"{scene}", f"planes[{k}].drained")
+        if model.periodic and plane.normal[0] != 0.0:
+            raise InputError(f"{label}: x is periodic, and a plane that is not parallel "
+                             "to x would not be (give its normal no x component)",
+                             f"planes[{k}].normal")
+        if plane.kind in ("slip", "friction") and model.integrator != "euler-cromer":
+            raise InputError(f"{label}: the {model.integrator} integrator takes roller "
+                             f"and sticky planes only (linear constraints), not "
+                             f"{plane.kind}", f"planes[{k}].kind")
+        if plane.kind in ("slip", "friction") and model.mass_matrix != "lumped":
+            raise InputError(f"{label}: with the consistent mass the planes must be "
+                             f"roller or sticky (constraints of the solve), not "
+                             f"{plane.kind}", f"planes[{k}].kind")
+        beyond = np.flatnonzero(plane.distance(x) > PLANE_TOLERANCE * model.h)
+        if len(beyond):
+            p = int(beyond[0])
+            raise InputError(f"{label}: {len(beyond)} of {len(x)} particles start beyond "
+                             f"it, in the wall (particle {p} at {shown_point(x[p])}, "
+                             f"{plane.distance(x[p:p + 1])[0]:.4g} m beyond): the normal "
+                             "points out of the material, into the wall", f"planes[{k}]")
+    return planes
+
+
+def plane_nodes(model, k=None) -> np.ndarray:
+    """The grid nodes plane ``k`` holds (all planes: None), a boolean array of the
+    nodes' shape: those on or beyond it, (x_i - p) . n >= -PLANE_TOLERANCE h with x_i
+    the node's position (basis.node_coordinates: the control points of the clamped
+    B-splines), as the kernels find them (timpm/engine/grid.py)."""
+    held = np.zeros(model.nodes, dtype=bool)
+    chosen = model.planes if k is None else (model.planes[k],)
+    if not chosen:
+        return held
+    axes = []
+    for k_axis, e in enumerate(model.elements):
+        xi = model.basis.node_coordinates(e)[:model.nodes[k_axis]]
+        axes.append(model.origin[k_axis] + model.h * xi)
+    X = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    for plane in chosen:
+        held |= plane.distance(X.reshape(-1, model.dim)).reshape(model.nodes) >= \
+            -PLANE_TOLERANCE * model.h
+    return held

@@ -215,3 +215,8 @@ def check_size(what: str, particles, nodes, dim: int) -> None:
             f"{what}: {particles:.3g} particles and {nodes:.3g} grid nodes need at least "
             f"{_size(need)} ({8 * (dim + 2) ** 2} B a particle, {8 * (dim + 2)} B a node), "
             f"more than the {_size(free)} of memory available")
+
+
+def shown_point(x):
+    """A point for a message: a float in 1D, a tuple of floats beyond."""
+    return float(x[0]) if len(x) == 1 else tuple(float(c) for c in x)
