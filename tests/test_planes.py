@@ -196,6 +196,35 @@ def test_a_block_on_an_oblique_plane_in_3d():
         assert abs(v @ across) < 1e-3 and abs(v @ up) < 0.05
 
 
+def test_a_movie_draws_the_ground_beyond_each_plane(tmp_path):
+    """The GIF of a scene with planes shades the empty pixels beyond each plane in its
+    kind's colour (rough: friction, sticky) and keeps the particles drawn over it: the
+    block on the 30 degree plane, a friction plane, with a slip plane along the right."""
+    from PIL import Image
+
+    from timpm.output.render import PLANE_COLOR, ROUGH_PLANE_COLOR, Movie
+
+    world, down, up = _block_on_slope(20, "friction", 0.3)
+    world = dataclasses.replace(world, planes=[*world.planes,
+                                               timpm.Plane((1.8, 0.0), (1.0, 0.0), "slip")])
+    movie = Movie(tmp_path / "block.gif", width=320)
+    movie.start(world)
+    movie.add(world.model.positions, t=0.0)
+    movie.close()
+    frame = np.asarray(Image.open(tmp_path / "block.gif").convert("RGB"))
+    x0, y0, pw, ph = movie.layout.plot_box
+    plot = frame[y0:y0 + ph, x0:x0 + pw]
+
+    def pixel(x, y):  # the plot's pixel at (x, y) m (domain 2 x 1.5 m, rows from the top)
+        return tuple(plot[int((1.5 - y) / 1.5 * ph), int(x / 2.0 * pw)])
+
+    assert pixel(1.0, 0.05) == ROUGH_PLANE_COLOR      # below the inclined plane
+    assert pixel(1.95, 1.4) == PLANE_COLOR            # beyond the slip plane on the right
+    assert pixel(0.3, 1.4) == (255, 255, 255)         # the open air above the slope
+    centre = np.array((0.0, 1.0)) + 0.5 * down + 0.1 * up  # the block's centre: drawn
+    assert pixel(*centre) not in (ROUGH_PLANE_COLOR, PLANE_COLOR, (255, 255, 255))
+
+
 # ---- the pore water: a rotated Terzaghi column ---------------------------------------------
 def _rotated_column(drained, angle=30.0, cells=16, width=0.5):
     """Terzaghi's layer (timpm/problems/terzaghi.py: H = 1 m, E_oed = 1 MPa, k = 1e-3 m/s,

@@ -393,6 +393,24 @@ def check_image(width: int, height: int, frames: int = 0) -> None:
 
 #: the sea below a still-water level, behind the particles
 WATER_COLOR = (205, 226, 245)
+#: the ground beyond a plane wall (2D), behind the particles: smooth (slip, roller) and
+#: rough (friction, sticky) planes: a slate and a sand, apart from the palette's greys (Pillow
+#: maps a colour within a few levels of a grey of the ramp onto that grey)
+PLANE_COLOR = (170, 175, 185)
+ROUGH_PLANE_COLOR = (215, 185, 150)
+
+
+def plane_pixels(planes, lo, hi, width, height):
+    """The pixels of a (``height``, ``width``) plot of the box ``lo``..``hi`` (2D, rows top
+    to bottom) whose centres lie beyond a plane wall, as an (height, width) array of the
+    index of the first such plane (-1: none)."""
+    xs = lo[0] + (np.arange(width) + 0.5) * (hi[0] - lo[0]) / width
+    ys = hi[1] - (np.arange(height) + 0.5) * (hi[1] - lo[1]) / height
+    centres = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    which = np.full(len(centres), -1)
+    for k, plane in reversed(list(enumerate(planes))):  # the first plane's over the others
+        which[plane.distance(centres) > 0.0] = k
+    return which.reshape(height, width)
 
 
 class Movie:
@@ -401,7 +419,8 @@ class Movie:
     second, each frame also as PNG in ``png_dir`` when given).
 
     ``start(world, color, value_range, label, unit)`` lays the frame out around the
-    world's domain (axes in metres, its walls, a colour bar from ``value_range`` =
+    world's domain (axes in metres, its walls, in 2D the sea below its water level and the
+    ground beyond its plane walls, a colour bar from ``value_range`` =
     (vmin, vmax), fixed for the whole run; the colour ``body`` gets a diverging colormap)
     and fits a :class:`Renderer` into its plot; ``add(positions, values, t)`` renders
     and appends one frame with the simulated time ``t``; ``close`` writes the GIF;
@@ -440,10 +459,20 @@ class Movie:
                                  radius=max(1.0, 0.8 * pw / world.cells / 2))
         self.water_row = (None if level is None else  # the first pixel row below the level
                           max(0, int(round(ph * (1.0 - level / hi[1])))))
+        # the ground beyond the plane walls (2D; in 3D a half-space seen along z has no
+        # outline to draw), in each plane's colour
+        planes = tuple(getattr(world, "planes", ()) or ()) if world.dim == 2 else ()
+        self.plane_fill = None
+        if planes:
+            which = plane_pixels(planes, lo, hi, pw, ph)
+            colours = np.array([ROUGH_PLANE_COLOR if q.kind in ("friction", "sticky")
+                                else PLANE_COLOR for q in planes], dtype=np.uint8)
+            self.plane_fill = (which >= 0, colours[np.maximum(which, 0)])
         self.value_range = self.layout.value_range
         shades = (1.0,) if world.dim == 2 else (1.0, 1.0 - DEPTH_SHADE / 2, 1.0 - DEPTH_SHADE)
         extras = [self.renderer.background, self.renderer.color, NAN_COLOR, TEXT_COLOR, WALL_COLOR,
-                  ROUGH_WALL_COLOR, OPEN_SIDE_COLOR, WATER_COLOR]
+                  ROUGH_WALL_COLOR, OPEN_SIDE_COLOR, WATER_COLOR, PLANE_COLOR,
+                  ROUGH_PLANE_COLOR]
         self.writer.palette = gif_palette(lut, extras, shades)
         self._seconds += time.perf_counter() - t0
 
@@ -457,10 +486,12 @@ class Movie:
                              "Movie.start(world, color, value_range=(vmin, vmax))")
         vmin, vmax = self.value_range if values is not None else (None, None)
         plot = self.renderer.frame(positions, values, vmin=vmin, vmax=vmax)
+        empty = np.all(plot == self.renderer.background, axis=-1)
         if self.water_row is not None:  # the sea: the empty pixels below the level
-            below = plot[self.water_row:]
-            empty = np.all(below == self.renderer.background, axis=-1)
-            below[empty] = WATER_COLOR
+            plot[self.water_row:][empty[self.water_row:]] = WATER_COLOR
+        if self.plane_fill is not None:  # the ground beyond the planes, over the sea
+            beyond, colours = self.plane_fill
+            plot[empty & beyond] = colours[empty & beyond]
         t0 = time.perf_counter()
         frame = self.layout.frame(plot, t)
         self._seconds += time.perf_counter() - t0
