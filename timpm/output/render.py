@@ -471,8 +471,9 @@ class Movie:
         self.value_range = self.layout.value_range
         shades = (1.0,) if world.dim == 2 else (1.0, 1.0 - DEPTH_SHADE / 2, 1.0 - DEPTH_SHADE)
         extras = [self.renderer.background, self.renderer.color, NAN_COLOR, TEXT_COLOR, WALL_COLOR,
-                  ROUGH_WALL_COLOR, OPEN_SIDE_COLOR, WATER_COLOR, PLANE_COLOR,
-                  ROUGH_PLANE_COLOR]
+                  ROUGH_WALL_COLOR, OPEN_SIDE_COLOR, WATER_COLOR]
+        if planes:  # (a scene without planes keeps its colour table's every entry)
+            extras += [PLANE_COLOR, ROUGH_PLANE_COLOR]
         self.writer.palette = gif_palette(lut, extras, shades)
         self._seconds += time.perf_counter() - t0
 
