@@ -40,6 +40,8 @@ def main():
     ap.add_argument("--records", nargs="+", metavar="FILE.json", default=[])
     args = ap.parse_args()
     if args.records:
+        if not args.plot:
+            ap.error("--records draws a plot: give --plot FILE.png")
         plot(args.plot, args.records)
         return
 
@@ -135,8 +137,8 @@ def plot(path, records):
 
 
 def extrapolate(values):
-    """(p, F*) of the last three values of a halving sequence falling at a falling rate,
-    else None (the module's Richardson)."""
+    """(p, F*) of the last three values of a halving sequence that changes monotonically
+    at a falling rate, else None (the module's Richardson)."""
     if len(values) < 3:
         return None
     F1, F2, F3 = values[-3:]

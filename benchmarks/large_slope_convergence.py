@@ -166,8 +166,9 @@ def runout_row(args, basis, cells):
 
 
 def at_rest(solver):
-    """Whether the slide has stopped by the end: the kinetic energy at the end and its
-    peak (J per m of slope), and the largest particle speed at the end (m/s)."""
+    """The deposit's motion at the end: the kinetic energy then and at its peak (J per m
+    of slope) and the largest particle speed then (m/s); whether the slide has stopped is
+    read from its centroid (:func:`runout_row`)."""
     import numpy as np
 
     kinetic = solver.energies()["kinetic"]
