@@ -26,6 +26,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from runout_convergence import richardson  # noqa: E402 (one Richardson for the benchmarks)
 
 
 def main():
@@ -75,7 +78,7 @@ def main():
         mine = sorted((r for r in rows if r["basis"] == basis), key=lambda r: -r["h"])
         if len(mine) >= 3 and all(abs(a["h"] / b["h"] - 2.0) < 1e-9
                                   for a, b in zip(mine[-3:], mine[-2:])):
-            rich = extrapolate([r["factor_of_safety"] for r in mine])
+            rich = richardson([r["factor_of_safety"] for r in mine])
             if rich is not None:
                 p = rich[0]
                 extrapolated[basis] = {"order": p, "factor_of_safety": rich[1]}
@@ -110,7 +113,7 @@ def plot(path, records):
     for basis, by_h in sorted(points.items()):
         hs = sorted(by_h, reverse=True)
         F = [by_h[h][0] for h in hs]
-        rich = extrapolate(F)
+        rich = richardson(F)
         if rich is not None:
             limits.append((abs(F[-1] - F[-2]), rich[1]))
         label = basis + ("" if rich is None else
@@ -134,18 +137,6 @@ def plot(path, records):
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     print(f"wrote {path}")
-
-
-def extrapolate(values):
-    """(p, F*) of the last three values of a halving sequence that changes monotonically
-    at a falling rate, else None (the module's Richardson)."""
-    if len(values) < 3:
-        return None
-    F1, F2, F3 = values[-3:]
-    if not ((F1 - F2) * (F2 - F3) > 0 and abs(F1 - F2) > abs(F2 - F3)):
-        return None
-    p = math.log2((F1 - F2) / (F2 - F3))
-    return p, F3 - (F2 - F3) / (2 ** p - 1)
 
 
 if __name__ == "__main__":

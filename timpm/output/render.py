@@ -487,7 +487,8 @@ class Movie:
                              "Movie.start(world, color, value_range=(vmin, vmax))")
         vmin, vmax = self.value_range if values is not None else (None, None)
         plot = self.renderer.frame(positions, values, vmin=vmin, vmax=vmax)
-        empty = np.all(plot == self.renderer.background, axis=-1)
+        if self.water_row is not None or self.plane_fill is not None:
+            empty = np.all(plot == self.renderer.background, axis=-1)
         if self.water_row is not None:  # the sea: the empty pixels below the level
             plot[self.water_row:][empty[self.water_row:]] = WATER_COLOR
         if self.plane_fill is not None:  # the ground beyond the planes, over the sea
